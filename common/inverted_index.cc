@@ -1,0 +1,85 @@
+// InvertedIndex implementation.
+#include "common/inverted_index.h"
+
+#include <stdexcept>
+
+namespace texfree {
+
+InvertedIndex::InvertedIndex(int log2_buckets)
+    : shift_(64 - log2_buckets), heads_(size_t{1} << log2_buckets, kNil) {}
+
+uint32_t InvertedIndex::Allocate() {
+  if (free_ != kNil) {
+    const uint32_t e = free_;
+    free_ = pool_[e].next;
+    return e;
+  }
+  if (pool_.size() >= kNil - 1) throw std::length_error("inverted index is full (4G entries)");
+  pool_.push_back({});
+  return static_cast<uint32_t>(pool_.size() - 1);
+}
+
+void InvertedIndex::Add(uint32_t document, const std::vector<uint64_t>& hashes, int per_point) {
+  for (size_t i = 0; i < hashes.size(); ++i) {
+    const uint64_t h = hashes[i];
+    if (h == 0) continue;
+    const uint32_t e = Allocate();
+    const size_t b = Bucket(h);
+    pool_[e] = {document, static_cast<uint16_t>(i / per_point), Check(h), heads_[b]};
+    heads_[b] = e;
+    ++live_;
+  }
+}
+
+bool InvertedIndex::AddIfAbsent(uint64_t hash, uint32_t document, uint16_t keypoint) {
+  if (hash == 0) return false;
+  const size_t b = Bucket(hash);
+  for (uint32_t e = heads_[b]; e != kNil; e = pool_[e].next) {
+    const Entry& x = pool_[e];
+    if (x.check == Check(hash) && x.document == document && x.keypoint == keypoint) return false;
+  }
+  const uint32_t e = Allocate();
+  pool_[e] = {document, keypoint, Check(hash), heads_[b]};
+  heads_[b] = e;
+  ++live_;
+  return true;
+}
+
+size_t InvertedIndex::Remove(uint32_t document, const std::vector<uint64_t>& hashes,
+                             int per_point) {
+  size_t removed = 0;
+  for (size_t i = 0; i < hashes.size(); ++i) {
+    const uint64_t h = hashes[i];
+    if (h == 0) continue;
+    const uint16_t kp = static_cast<uint16_t>(i / per_point);
+    uint32_t* link = &heads_[Bucket(h)];
+    while (*link != kNil) {
+      Entry& x = pool_[*link];
+      if (x.document == document && x.keypoint == kp && x.check == Check(h)) {
+        const uint32_t e = *link;
+        *link = x.next;
+        pool_[e].next = free_;
+        free_ = e;
+        --live_;
+        ++removed;
+        break;  // Add() made exactly one entry per hash slot
+      }
+      link = &x.next;
+    }
+  }
+  return removed;
+}
+
+int InvertedIndex::Count(uint64_t hash, int limit) const {
+  int n = 0;
+  for (uint32_t e = heads_[Bucket(hash)]; e != kNil && n < limit; e = pool_[e].next) {
+    if (pool_[e].check == Check(hash)) ++n;
+  }
+  return n;
+}
+
+size_t InvertedIndex::MemoryBytes() const {
+  return heads_.capacity() * sizeof(uint32_t) + pool_.capacity() * sizeof(Entry);
+}
+
+}  // namespace texfree

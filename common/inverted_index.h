@@ -1,0 +1,70 @@
+// InvertedIndex: LLAH hash table from descriptor to (document, keypoint) entries.
+//
+// Buckets are heads of singly linked lists threaded through one pooled entry array, so
+// memory is proportional to the number of entries (12 bytes each), not to documents x
+// H_size; a deleted document's entries go to a free list and are reused. Each entry keeps
+// 16 bits of the descriptor hash beyond the bucket number, which rejects almost every
+// collision between different descriptors sharing a bucket.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+namespace texfree {
+
+// Not thread-safe: callers serialise writers against readers (LlahRetriever does).
+class InvertedIndex {
+ public:
+  // 2^log2_buckets list heads (4 bytes each).
+  explicit InvertedIndex(int log2_buckets = 22);
+
+  // Adds an entry for every non-zero hash; hashes[i * per_point + j] belongs to keypoint i.
+  void Add(uint32_t document, const std::vector<uint64_t>& hashes, int per_point);
+
+  // Adds one entry unless this (document, keypoint) already sits under that descriptor.
+  // Returns true when added.
+  bool AddIfAbsent(uint64_t hash, uint32_t document, uint16_t keypoint);
+
+  // Removes the entries Add() made for these hashes. Returns how many were removed.
+  size_t Remove(uint32_t document, const std::vector<uint64_t>& hashes, int per_point);
+
+  // Calls f(document, keypoint) for each entry whose full hash check matches.
+  template <typename F>
+  void ForEach(uint64_t hash, F&& f) const {
+    for (uint32_t e = heads_[Bucket(hash)]; e != kNil; e = pool_[e].next) {
+      const Entry& entry = pool_[e];
+      if (entry.check == Check(hash)) f(entry.document, entry.keypoint);
+    }
+  }
+
+  // Number of entries under a hash (with the check), stopping at `limit`.
+  int Count(uint64_t hash, int limit) const;
+
+  // Pre-allocates room for `entries` entries (start-up rebuild knows the total).
+  void Reserve(size_t entries) { pool_.reserve(entries); }
+
+  size_t entries() const { return live_; }
+  size_t MemoryBytes() const;
+
+ private:
+  struct Entry {
+    uint32_t document;
+    uint16_t keypoint;
+    uint16_t check;
+    uint32_t next;
+  };
+  static constexpr uint32_t kNil = 0xFFFFFFFFu;
+
+  size_t Bucket(uint64_t hash) const { return static_cast<size_t>(hash >> shift_); }
+  static uint16_t Check(uint64_t hash) { return static_cast<uint16_t>(hash & 0xFFFF); }
+  uint32_t Allocate();
+
+  int shift_;
+  std::vector<uint32_t> heads_;
+  std::vector<Entry> pool_;
+  uint32_t free_ = kNil;
+  size_t live_ = 0;
+};
+
+}  // namespace texfree

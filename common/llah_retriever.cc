@@ -1,0 +1,341 @@
+// LlahRetriever implementation: voting, candidate selection, RANSAC and guided refinement.
+#include "common/llah_retriever.h"
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <mutex>
+#include <thread>
+
+#include <opencv2/calib3d.hpp>
+
+#include "absl/strings/str_cat.h"
+#include "common/neighbor_grid.h"
+#include "common/planar_pose.h"
+
+namespace texfree {
+
+absl::Status RetrievalOptions::Validate() const {
+  if (max_hits_per_descriptor < 1)
+    return absl::InvalidArgumentError("max_hits_per_descriptor must be >= 1");
+  if (min_votes < 4) return absl::InvalidArgumentError("min_votes must be >= 4");
+  if (candidate_vote_ratio < 0 || candidate_vote_ratio > 1)
+    return absl::InvalidArgumentError("candidate_vote_ratio must be in [0, 1]");
+  if (max_candidates < 1) return absl::InvalidArgumentError("max_candidates must be >= 1");
+  if (ransac_threshold_px < 0) return absl::InvalidArgumentError("ransac_threshold_px < 0");
+  if (ransac_iterations < 10) return absl::InvalidArgumentError("ransac_iterations must be >= 10");
+  if (min_inliers < 6)
+    return absl::InvalidArgumentError(
+        absl::StrCat("min_inliers must be >= 6 (a homography has 4 points of freedom), got ",
+                     min_inliers));
+  if (max_results < 0) return absl::InvalidArgumentError("max_results must be >= 0");
+  return absl::OkStatus();
+}
+
+LlahRetriever::LlahRetriever(LlahOptions options, InvariantQuantizer quantizer, int log2_buckets)
+    : describer_(options, std::move(quantizer)), index_(log2_buckets) {}
+
+absl::Status LlahRetriever::AddDocument(DocumentKeypoints document) {
+  if (document.keypoints.size() > 65535)
+    return absl::InvalidArgumentError(absl::StrCat("document has ", document.keypoints.size(),
+                                                   " keypoints; at most 65535 are indexed"));
+  std::vector<uint64_t> hashes;
+  describer_.Describe(document.keypoints, &hashes);
+  auto model = std::make_shared<Model>(Model{std::move(document.keypoints), document.size});
+  std::unique_lock lock(mutex_);
+  if (models_.count(document.id))
+    return absl::AlreadyExistsError(absl::StrCat("document ", document.id, " is already indexed"));
+  index_.Add(document.id, hashes, describer_.descriptors_per_point());
+  models_.emplace(document.id, std::move(model));
+  return absl::OkStatus();
+}
+
+absl::Status LlahRetriever::AddDocuments(std::vector<DocumentKeypoints> documents, int threads,
+                                         const std::function<void(size_t, size_t)>& progress) {
+  const size_t total = documents.size();
+  size_t total_points = 0;
+  for (const auto& d : documents) {
+    if (d.keypoints.size() > 65535)
+      return absl::InvalidArgumentError(absl::StrCat("document ", d.id, " has too many keypoints"));
+    total_points += d.keypoints.size();
+  }
+  {
+    std::unique_lock lock(mutex_);
+    index_.Reserve(index_.entries() + total_points * describer_.descriptors_per_point());
+  }
+  // Workers compute descriptors; the index is filled in order under the lock, in batches.
+  std::atomic<size_t> next{0}, done{0};
+  std::mutex insert_mutex;
+  absl::Status status;
+  auto work = [&]() {
+    std::vector<uint64_t> hashes;
+    while (true) {
+      const size_t i = next.fetch_add(1);
+      if (i >= total) return;
+      DocumentKeypoints& d = documents[i];
+      describer_.Describe(d.keypoints, &hashes);
+      auto model = std::make_shared<Model>(Model{std::move(d.keypoints), d.size});
+      {
+        std::unique_lock lock(mutex_);
+        if (models_.count(d.id)) {
+          std::lock_guard g(insert_mutex);
+          status = absl::AlreadyExistsError(absl::StrCat("document ", d.id, " indexed twice"));
+          continue;
+        }
+        index_.Add(d.id, hashes, describer_.descriptors_per_point());
+        models_.emplace(d.id, std::move(model));
+      }
+      const size_t n = done.fetch_add(1) + 1;
+      if (progress && (n % 500 == 0 || n == total)) {
+        std::lock_guard g(insert_mutex);
+        progress(n, total);
+      }
+    }
+  };
+  std::vector<std::thread> pool;
+  for (int t = 1; t < std::max(1, threads); ++t) pool.emplace_back(work);
+  work();
+  for (auto& t : pool) t.join();
+  return status;
+}
+
+bool LlahRetriever::RemoveDocument(uint32_t id) {
+  std::shared_ptr<const Model> model;
+  {
+    std::shared_lock lock(mutex_);
+    auto it = models_.find(id);
+    if (it == models_.end()) return false;
+    model = it->second;
+  }
+  std::vector<uint64_t> hashes;  // deterministic: the same hashes Add() inserted
+  describer_.Describe(model->keypoints, &hashes);
+  std::unique_lock lock(mutex_);
+  if (!models_.erase(id)) return false;
+  index_.Remove(id, hashes, describer_.descriptors_per_point());
+  return true;
+}
+
+bool LlahRetriever::Contains(uint32_t id) const {
+  std::shared_lock lock(mutex_);
+  return models_.count(id) > 0;
+}
+
+std::vector<cv::Point2f> LlahRetriever::Keypoints(uint32_t id) const {
+  std::shared_lock lock(mutex_);
+  auto it = models_.find(id);
+  return it == models_.end() ? std::vector<cv::Point2f>{} : it->second->keypoints;
+}
+
+size_t LlahRetriever::documents() const {
+  std::shared_lock lock(mutex_);
+  return models_.size();
+}
+
+size_t LlahRetriever::entries() const {
+  std::shared_lock lock(mutex_);
+  return index_.entries();
+}
+
+size_t LlahRetriever::MemoryBytes() const {
+  std::shared_lock lock(mutex_);
+  size_t bytes = index_.MemoryBytes();
+  for (const auto& [id, m] : models_)
+    bytes += sizeof(Model) + m->keypoints.capacity() * sizeof(cv::Point2f) + 64;
+  return bytes;
+}
+
+namespace {
+
+struct Hit {
+  uint32_t document;
+  int query;
+  uint16_t reference;
+  bool operator<(const Hit& o) const {
+    if (document != o.document) return document < o.document;
+    if (query != o.query) return query < o.query;
+    return reference < o.reference;
+  }
+};
+
+// Plausibility of a page homography: orientation kept (no mirror), finite, the local
+// scale at the inliers' centre within a sane range, all inliers in front of the camera.
+bool PlausibleHomography(const cv::Matx33d& H, const std::vector<cv::Point2f>& ref) {
+  for (int i = 0; i < 9; ++i)
+    if (!std::isfinite(H.val[i])) return false;
+  cv::Point2d c(0, 0);
+  for (const auto& p : ref) {
+    const double w = H(2, 0) * p.x + H(2, 1) * p.y + H(2, 2);
+    if (w <= 1e-9) return false;
+    c += cv::Point2d(p.x, p.y);
+  }
+  c *= 1.0 / std::max<size_t>(1, ref.size());
+  const cv::Point2d p0 = ApplyHomography(H, c), px = ApplyHomography(H, c + cv::Point2d(1, 0)),
+                    py = ApplyHomography(H, c + cv::Point2d(0, 1));
+  const cv::Point2d ex = px - p0, ey = py - p0;
+  const double det = ex.x * ey.y - ex.y * ey.x;
+  if (!(det > 0)) return false;
+  const double scale = std::sqrt(det);
+  return scale > 1.0 / 40 && scale < 40;
+}
+
+}  // namespace
+
+std::vector<DocumentHit> LlahRetriever::Retrieve(const std::vector<cv::Point2f>& query,
+                                                 double query_char_height,
+                                                 const RetrievalOptions& o) const {
+  std::vector<DocumentHit> results;
+  if (query.size() < 8) return results;
+  std::vector<uint64_t> hashes;
+  describer_.Describe(query, &hashes);
+  const int per = describer_.descriptors_per_point();
+
+  std::vector<Hit> hits;
+  hits.reserve(query.size() * per * 2);
+  std::unordered_map<uint32_t, std::shared_ptr<const Model>> candidates_models;
+  std::vector<std::pair<int, uint32_t>> ranked;  // (votes, document)
+  {
+    std::shared_lock lock(mutex_);
+    for (size_t q = 0; q < query.size(); ++q) {
+      for (int j = 0; j < per; ++j) {
+        const uint64_t h = hashes[q * per + j];
+        if (h == 0) continue;
+        if (index_.Count(h, o.max_hits_per_descriptor + 1) > o.max_hits_per_descriptor) continue;
+        index_.ForEach(h, [&](uint32_t doc, uint16_t kp) {
+          hits.push_back({doc, static_cast<int>(q), kp});
+        });
+      }
+    }
+    std::sort(hits.begin(), hits.end());
+    // Votes: distinct query keypoints per document.
+    for (size_t i = 0; i < hits.size();) {
+      size_t j = i;
+      int votes = 0, last_query = -1;
+      while (j < hits.size() && hits[j].document == hits[i].document) {
+        if (hits[j].query != last_query) ++votes, last_query = hits[j].query;
+        ++j;
+      }
+      if (votes >= o.min_votes) ranked.emplace_back(votes, hits[i].document);
+      i = j;
+    }
+    std::sort(ranked.begin(), ranked.end(), std::greater<>());
+    if (!ranked.empty()) {
+      const double floor = o.candidate_vote_ratio * ranked.front().first;
+      while (!ranked.empty() && ranked.back().first < floor) ranked.pop_back();
+    }
+    if (static_cast<int>(ranked.size()) > o.max_candidates) ranked.resize(o.max_candidates);
+    for (const auto& [votes, doc] : ranked) {
+      auto it = models_.find(doc);
+      if (it != models_.end()) candidates_models[doc] = it->second;
+    }
+  }
+
+  const double threshold =
+      o.ransac_threshold_px > 0 ? o.ransac_threshold_px
+                                : std::clamp(0.45 * query_char_height, 2.5, 12.0);
+  std::vector<char> used(query.size(), 0);
+  NeighborGrid query_grid(query);
+  std::vector<int> nearest;
+  for (const auto& [votes, doc] : ranked) {
+    auto mit = candidates_models.find(doc);
+    if (mit == candidates_models.end()) continue;
+    const Model& model = *mit->second;
+    // Best reference keypoint per query keypoint: the one it hit most often.
+    auto range = std::equal_range(hits.begin(), hits.end(), Hit{doc, -1, 0},
+                                  [](const Hit& a, const Hit& b) { return a.document < b.document; });
+    std::vector<cv::Point2f> ref_pts, query_pts;
+    std::vector<std::pair<int, int>> pairs;
+    for (auto it = range.first; it != range.second;) {
+      auto end = it;
+      int best_ref = -1, best_count = 0;
+      while (end != range.second && end->query == it->query) {
+        auto run = end;
+        while (run != range.second && run->query == it->query && run->reference == end->reference)
+          ++run;
+        const int count = static_cast<int>(run - end);
+        if (count > best_count) best_count = count, best_ref = end->reference;
+        end = run;
+      }
+      if (!used[it->query] && best_ref >= 0 && best_ref < static_cast<int>(model.keypoints.size())) {
+        ref_pts.push_back(model.keypoints[best_ref]);
+        query_pts.push_back(query[it->query]);
+        pairs.emplace_back(it->query, best_ref);
+      }
+      it = end;
+    }
+    if (static_cast<int>(pairs.size()) < o.min_inliers) continue;
+    std::vector<uchar> mask;
+    cv::Mat Hm = cv::findHomography(ref_pts, query_pts, cv::RANSAC, threshold, mask,
+                                    o.ransac_iterations, 0.995);
+    if (Hm.empty()) continue;
+    cv::Matx33d H(Hm);
+    std::vector<cv::Point2f> inlier_ref;
+    std::vector<std::pair<int, int>> inlier_pairs;
+    for (size_t i = 0; i < mask.size(); ++i) {
+      if (mask[i]) {
+        inlier_ref.push_back(ref_pts[i]);
+        inlier_pairs.push_back(pairs[i]);
+      }
+    }
+    if (static_cast<int>(inlier_pairs.size()) < o.min_inliers) continue;
+    if (!PlausibleHomography(H, inlier_ref)) continue;
+
+    // Guided refinement: every reference keypoint projected by H takes the nearest free
+    // query keypoint within the threshold; the homography is refitted on those matches.
+    // (The decision above rests on LLAH correspondences only: projected text lands near
+    // some word by chance too often to count as evidence.)
+    std::vector<std::pair<int, int>> guided;
+    for (int round = 0; round < 2; ++round) {
+      std::vector<int> owner(query.size(), -1);
+      std::vector<float> owner_d(query.size(), 0.f);
+      for (int r = 0; r < static_cast<int>(model.keypoints.size()); ++r) {
+        const cv::Point2d p = ApplyHomography(H, model.keypoints[r]);
+        if (!std::isfinite(p.x) || !std::isfinite(p.y)) continue;
+        query_grid.NearestTo(cv::Point2f(static_cast<float>(p.x), static_cast<float>(p.y)), 1,
+                             -1, &nearest);
+        if (nearest.empty() || used[nearest[0]]) continue;
+        const float d = static_cast<float>(cv::norm(cv::Point2d(query[nearest[0]]) - p));
+        if (d > threshold) continue;
+        if (owner[nearest[0]] < 0 || d < owner_d[nearest[0]]) {
+          owner[nearest[0]] = r;
+          owner_d[nearest[0]] = d;
+        }
+      }
+      guided.clear();
+      std::vector<cv::Point2f> gr, gq;
+      for (int q = 0; q < static_cast<int>(query.size()); ++q) {
+        if (owner[q] < 0) continue;
+        guided.emplace_back(q, owner[q]);
+        gr.push_back(model.keypoints[owner[q]]);
+        gq.push_back(query[q]);
+      }
+      if (guided.size() < inlier_pairs.size() || guided.size() < 8) {
+        guided = inlier_pairs;
+        break;
+      }
+      cv::Mat refined = cv::findHomography(gr, gq, 0);
+      if (refined.empty() || !PlausibleHomography(cv::Matx33d(refined), gr)) break;
+      H = cv::Matx33d(refined);
+    }
+    // Re-count LLAH inliers under the final homography.
+    int inliers = 0;
+    for (size_t i = 0; i < pairs.size(); ++i) {
+      const cv::Point2d p = ApplyHomography(H, ref_pts[i]);
+      if (cv::norm(p - cv::Point2d(query_pts[i])) <= threshold) ++inliers;
+    }
+    if (inliers < o.min_inliers) continue;
+    DocumentHit hit;
+    hit.document = doc;
+    hit.homography = H * (1.0 / H(2, 2));
+    hit.inliers = inliers;
+    hit.votes = votes;
+    hit.matches = std::move(guided);
+    for (const auto& [q, r] : hit.matches) used[q] = 1;
+    results.push_back(std::move(hit));
+    if (o.max_results > 0 && static_cast<int>(results.size()) >= o.max_results) break;
+  }
+  std::sort(results.begin(), results.end(),
+            [](const DocumentHit& a, const DocumentHit& b) { return a.inliers > b.inliers; });
+  return results;
+}
+
+}  // namespace texfree

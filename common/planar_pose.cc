@@ -1,0 +1,92 @@
+// Planar pose estimation.
+#include "common/planar_pose.h"
+
+#include <cmath>
+
+#include <opencv2/calib3d.hpp>
+
+#include "absl/strings/str_cat.h"
+
+namespace texfree {
+
+absl::Status CameraModel::Validate() const {
+  if (!(K(0, 0) > 0) || !(K(1, 1) > 0))
+    return absl::InvalidArgumentError("camera focal lengths fx, fy must be positive");
+  if (!std::isfinite(K(0, 2)) || !std::isfinite(K(1, 2)))
+    return absl::InvalidArgumentError("camera principal point must be finite");
+  if (!distortion.empty() && distortion.size() != 4 && distortion.size() != 5 &&
+      distortion.size() != 8 && distortion.size() != 12 && distortion.size() != 14)
+    return absl::InvalidArgumentError(absl::StrCat(
+        "distortion has ", distortion.size(), " coefficients; OpenCV takes 4, 5, 8, 12 or 14"));
+  for (double d : distortion)
+    if (!std::isfinite(d)) return absl::InvalidArgumentError("distortion must be finite");
+  return absl::OkStatus();
+}
+
+bool CameraModel::has_distortion() const {
+  for (double d : distortion)
+    if (d != 0) return true;
+  return false;
+}
+
+absl::StatusOr<PlanarPose> PoseFromHomography(const cv::Matx33d& H, const cv::Matx33d& K) {
+  const cv::Matx33d M = K.inv() * H;
+  cv::Vec3d c1(M(0, 0), M(1, 0), M(2, 0)), c2(M(0, 1), M(1, 1), M(2, 1)),
+      c3(M(0, 2), M(1, 2), M(2, 2));
+  const double n1 = cv::norm(c1), n2 = cv::norm(c2);
+  if (!(n1 > 1e-12) || !(n2 > 1e-12) || !std::isfinite(n1 + n2))
+    return absl::InvalidArgumentError("degenerate homography: cannot recover a pose");
+  double lambda = 2.0 / (n1 + n2);
+  if (c3[2] * lambda < 0) lambda = -lambda;  // the plane's origin in front of the camera
+  const cv::Vec3d r1 = c1 * lambda, r2 = c2 * lambda, r3 = r1.cross(r2);
+  cv::Matx33d Q(r1[0], r2[0], r3[0], r1[1], r2[1], r3[1], r1[2], r2[2], r3[2]);
+  cv::SVD svd(Q);
+  cv::Mat R = svd.u * svd.vt;
+  if (cv::determinant(R) < 0) return absl::InvalidArgumentError("homography mirrors the plane");
+  PlanarPose pose;
+  pose.R = cv::Matx33d(R);
+  pose.t = c3 * lambda;
+  return pose;
+}
+
+absl::StatusOr<PlanarPose> EstimatePlanarPose(const std::vector<cv::Point2f>& plane,
+                                              const std::vector<cv::Point2f>& pixels,
+                                              const CameraModel& camera) {
+  if (plane.size() != pixels.size() || plane.size() < 4)
+    return absl::InvalidArgumentError("planar pose needs at least 4 correspondences");
+  std::vector<cv::Point3f> object;
+  object.reserve(plane.size());
+  for (const auto& p : plane) object.emplace_back(p.x, p.y, 0.f);
+  cv::Mat rvec, tvec;
+  const cv::Mat K(camera.K);
+  const cv::Mat dist = camera.distortion.empty() ? cv::Mat() : cv::Mat(camera.distortion);
+  bool ok = false;
+  try {
+    ok = cv::solvePnP(object, pixels, K, dist, rvec, tvec, false, cv::SOLVEPNP_IPPE);
+    if (ok) cv::solvePnPRefineLM(object, pixels, K, dist, rvec, tvec);
+  } catch (const cv::Exception& e) {
+    return absl::InvalidArgumentError(absl::StrCat("pose estimation failed: ", e.what()));
+  }
+  if (!ok) return absl::InvalidArgumentError("pose estimation did not converge");
+  cv::Mat R;
+  cv::Rodrigues(rvec, R);
+  PlanarPose pose;
+  pose.R = cv::Matx33d(R);
+  pose.t = cv::Vec3d(tvec.at<double>(0), tvec.at<double>(1), tvec.at<double>(2));
+  return pose;
+}
+
+cv::Matx33d HomographyFromPose(const PlanarPose& pose, const cv::Matx33d& K) {
+  const cv::Matx33d Rt(pose.R(0, 0), pose.R(0, 1), pose.t[0], pose.R(1, 0), pose.R(1, 1),
+                       pose.t[1], pose.R(2, 0), pose.R(2, 1), pose.t[2]);
+  cv::Matx33d H = K * Rt;
+  return H * (1.0 / H(2, 2));
+}
+
+cv::Point2d ApplyHomography(const cv::Matx33d& H, const cv::Point2d& p) {
+  const double w = H(2, 0) * p.x + H(2, 1) * p.y + H(2, 2);
+  return {(H(0, 0) * p.x + H(0, 1) * p.y + H(0, 2)) / w,
+          (H(1, 0) * p.x + H(1, 1) * p.y + H(1, 2)) / w};
+}
+
+}  // namespace texfree

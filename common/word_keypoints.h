@@ -1,0 +1,65 @@
+// WordKeypointExtractor: keypoints of printed text pages = centroids of word blobs.
+//
+// The seed (2.3, 5.5) thresholds with a fixed filter, which fails when the camera is far
+// from or close to the page. Here every size is derived from the image itself:
+//   1. adaptive mean threshold (window from the image size) -> ink mask; uneven light is
+//      absorbed by the local mean;
+//   2. connected components of the ink -> character height h (robust median) and the text
+//      line direction (dominant direction to each character's nearest neighbour);
+//   3. a second threshold with a window of a few h, then a closing with a line-shaped kernel
+//      of length ~gap_factor * h along the text direction, which joins letters of a word but
+//      neither words nor lines;
+//   4. word components filtered by size relative to h; components cut by the image border
+//      are dropped since their centroids move with the frame.
+#pragma once
+
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "absl/status/status.h"
+
+namespace texfree {
+
+struct WordKeypointOptions {
+  // Offset below the local mean for ink, in gray levels. 8 keeps JPEG/noise speckle out
+  // on white paper while faint text (contrast 30+) still passes.
+  double threshold_offset = 8.0;
+  // Letters closer than gap_factor * character height along the line are one word.
+  double gap_factor = 0.55;
+  // Character heights outside [min_char_height, max_char_height] pixels are not text.
+  double min_char_height = 2.5;
+  double max_char_height = 200.0;
+  // Word blobs smaller than min_word_area_factor * h^2 are dots or noise.
+  double min_word_area_factor = 0.35;
+  // Blobs longer than max_word_length_factor * h are rules, frames or figures.
+  double max_word_length_factor = 30.0;
+  // Blobs with more ink than max_word_length_factor * max_word_height_factor * h^2 are figures.
+  double max_word_height_factor = 3.5;
+  // Drop blobs touching the image border (their centroids are unstable).
+  bool drop_border_blobs = true;
+  // Upper bound of keypoints returned (largest blobs kept).
+  int max_keypoints = 20000;
+
+  absl::Status Validate() const;
+};
+
+struct WordKeypoints {
+  std::vector<cv::Point2f> points;
+  double char_height = 0;     // estimated character height, pixels
+  double text_angle_rad = 0;  // dominant text line direction
+};
+
+// Thread-compatible: const methods may be called concurrently.
+class WordKeypointExtractor {
+ public:
+  explicit WordKeypointExtractor(WordKeypointOptions options = {});
+  // gray: CV_8UC1, dark text on light paper.
+  WordKeypoints Extract(const cv::Mat& gray) const;
+  const WordKeypointOptions& options() const { return options_; }
+
+ private:
+  WordKeypointOptions options_;
+};
+
+}  // namespace texfree
