@@ -1,0 +1,306 @@
+// DocumentRegistry implementation.
+#include "server/document_registry.h"
+
+#include <chrono>
+#include <sstream>
+
+#include <spdlog/spdlog.h>
+
+#include "absl/strings/numbers.h"
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_join.h"
+#include "absl/strings/str_split.h"
+#include "common/status_macros.h"
+
+namespace texfree::server {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double MsSince(Clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
+
+constexpr const char* kLlahOptionsKey = "llah.options";
+constexpr const char* kQuantizerKey = "llah.quantizer";
+
+std::string FormatOptions(const LlahOptions& o) { return absl::StrCat(o.n, ",", o.m, ",", o.k); }
+
+absl::StatusOr<LlahOptions> ParseOptions(const std::string& s) {
+  std::vector<std::string> parts = absl::StrSplit(s, ',');
+  LlahOptions o;
+  if (parts.size() != 3 || !absl::SimpleAtoi(parts[0], &o.n) || !absl::SimpleAtoi(parts[1], &o.m) ||
+      !absl::SimpleAtoi(parts[2], &o.k))
+    return absl::DataLossError(absl::StrCat("stored LLAH options '", s, "' are malformed"));
+  RETURN_IF_ERROR(o.Validate());
+  return o;
+}
+
+std::string FormatThresholds(const std::vector<float>& t) {
+  std::ostringstream out;
+  out.precision(9);
+  for (size_t i = 0; i < t.size(); ++i) out << (i ? "," : "") << t[i];
+  return out.str();
+}
+
+absl::StatusOr<InvariantQuantizer> ParseThresholds(const std::string& s, int k) {
+  std::vector<float> t;
+  for (absl::string_view part : absl::StrSplit(s, ',')) {
+    float v;
+    if (!absl::SimpleAtof(part, &v)) return absl::DataLossError("stored LLAH thresholds are malformed");
+    t.push_back(v);
+  }
+  if (static_cast<int>(t.size()) != k - 1)
+    return absl::DataLossError("stored LLAH thresholds do not match the stored level count");
+  return InvariantQuantizer(std::move(t));
+}
+
+}  // namespace
+
+absl::Status DocumentRegistryOptions::Validate() const {
+  RETURN_IF_ERROR(keypoints.Validate());
+  RETURN_IF_ERROR(llah.Validate());
+  RETURN_IF_ERROR(retrieval.Validate());
+  if (min_keypoints < llah.n + 1)
+    return absl::InvalidArgumentError(absl::StrCat("min_keypoints must exceed LLAH n = ", llah.n));
+  if (duplicate_min_inliers < retrieval.min_inliers)
+    return absl::InvalidArgumentError("duplicate_min_inliers must be >= retrieval.min_inliers");
+  if (log2_buckets < 10 || log2_buckets > 30)
+    return absl::InvalidArgumentError("log2_buckets must be in [10, 30]");
+  if (rebuild_threads < 1) return absl::InvalidArgumentError("rebuild_threads must be >= 1");
+  return absl::OkStatus();
+}
+
+DocumentRegistry::DocumentRegistry(std::unique_ptr<DocumentStore> store,
+                                   DocumentRegistryOptions options)
+    : options_(std::move(options)), store_(std::move(store)), extractor_(options_.keypoints) {}
+
+absl::StatusOr<std::unique_ptr<DocumentRegistry>> DocumentRegistry::Open(
+    std::unique_ptr<DocumentStore> store, DocumentRegistryOptions options) {
+  RETURN_IF_ERROR(options.Validate());
+  std::unique_ptr<DocumentRegistry> registry(
+      new DocumentRegistry(std::move(store), std::move(options)));
+  RETURN_IF_ERROR(registry->LoadIndex());
+  return registry;
+}
+
+absl::Status DocumentRegistry::LoadIndex() {
+  const auto t0 = Clock::now();
+  ASSIGN_OR_RETURN(auto stored_options, store_->GetSetting(kLlahOptionsKey));
+  ASSIGN_OR_RETURN(auto stored_thresholds, store_->GetSetting(kQuantizerKey));
+  if (!stored_options || !stored_thresholds) {
+    spdlog::info("document index: empty database, quantisation is learned from the first page");
+    return absl::OkStatus();
+  }
+  ASSIGN_OR_RETURN(LlahOptions llah, ParseOptions(*stored_options));
+  if (llah.n != options_.llah.n || llah.m != options_.llah.m || llah.k != options_.llah.k) {
+    spdlog::warn("document index: the database was built with LLAH n,m,k = {}; keeping it",
+                 *stored_options);
+  }
+  options_.llah = llah;
+  ASSIGN_OR_RETURN(InvariantQuantizer quantizer, ParseThresholds(*stored_thresholds, llah.k));
+  auto retriever = std::make_shared<LlahRetriever>(llah, std::move(quantizer), options_.log2_buckets);
+
+  std::vector<DocumentKeypoints> documents;
+  RETURN_IF_ERROR(store_->ForEachKeypoints(
+      [&](const DocumentSummary& s, std::vector<cv::Point2f> points) {
+        summaries_[s.index_id] = s;
+        documents.push_back({s.index_id, std::move(points), s.size});
+      }));
+  const double read_ms = MsSince(t0);
+  const size_t n = documents.size();
+  RETURN_IF_ERROR(retriever->AddDocuments(std::move(documents), options_.rebuild_threads,
+                                          [](size_t done, size_t total) {
+                                            spdlog::info("document index: rebuilt {}/{} pages",
+                                                         done, total);
+                                          }));
+  retriever_ = std::move(retriever);
+  spdlog::info(
+      "document index: {} pages, {} entries, {:.1f} MiB, read {:.0f} ms, rebuilt in {:.0f} ms",
+      n, retriever_->entries(), retriever_->MemoryBytes() / 1048576.0, read_ms, MsSince(t0));
+  return absl::OkStatus();
+}
+
+absl::Status DocumentRegistry::CreateRetriever(const std::vector<cv::Point2f>& training_points) {
+  // Thresholds at the quantiles of this page's invariants: every level equally used.
+  LlahDescriber sampler(options_.llah, InvariantQuantizer());
+  std::vector<float> samples;
+  sampler.CollectInvariants(training_points, &samples);
+  ASSIGN_OR_RETURN(InvariantQuantizer quantizer,
+                   InvariantQuantizer::Learn(std::move(samples), options_.llah.k));
+  RETURN_IF_ERROR(store_->PutSetting(kQuantizerKey, FormatThresholds(quantizer.thresholds())));
+  RETURN_IF_ERROR(store_->PutSetting(kLlahOptionsKey, FormatOptions(options_.llah)));
+  spdlog::info("document index: learned {} quantisation levels: {}", options_.llah.k,
+               FormatThresholds(quantizer.thresholds()));
+  std::unique_lock lock(mutex_);
+  retriever_ = std::make_shared<LlahRetriever>(options_.llah, std::move(quantizer),
+                                               options_.log2_buckets);
+  return absl::OkStatus();
+}
+
+std::optional<DocumentSummary> DocumentRegistry::Summary(uint32_t index_id) const {
+  std::shared_lock lock(mutex_);
+  auto it = summaries_.find(index_id);
+  if (it == summaries_.end()) return std::nullopt;
+  return it->second;
+}
+
+absl::StatusOr<DocumentRecord> DocumentRegistry::Register(
+    const cv::Mat& gray, std::string title, std::vector<AnnotationRecord> annotations) {
+  const auto t0 = Clock::now();
+  for (size_t i = 0; i < annotations.size(); ++i) {
+    if (absl::Status s = annotations[i].Validate(gray.size()); !s.ok())
+      return absl::InvalidArgumentError(absl::StrCat("annotation ", i, ": ", s.message()));
+  }
+  if (title.size() > 1024) return absl::InvalidArgumentError("title is over 1024 bytes");
+  WordKeypoints kp = extractor_.Extract(gray);
+  if (static_cast<int>(kp.points.size()) < options_.min_keypoints) {
+    return absl::FailedPreconditionError(absl::StrCat(
+        "found ", kp.points.size(), " word keypoints in the ", gray.cols, "x", gray.rows,
+        " image, at least ", options_.min_keypoints,
+        " are needed: register a page of text, in focus, seen from above"));
+  }
+  const double extract_ms = MsSince(t0);
+
+  std::lock_guard registering(register_mutex_);
+  std::shared_ptr<LlahRetriever> retriever;
+  {
+    std::shared_lock lock(mutex_);
+    retriever = retriever_;
+  }
+  if (retriever) {
+    RetrievalOptions check = options_.retrieval;
+    check.max_results = 1;
+    const auto hits = retriever->Retrieve(kp.points, kp.char_height, check);
+    if (!hits.empty() && hits[0].inliers >= options_.duplicate_min_inliers) {
+      const auto existing = Summary(hits[0].document);
+      return absl::AlreadyExistsError(absl::StrCat(
+          "this page is already registered as document '", existing ? existing->id : "?",
+          "' (\"", existing ? existing->title : "", "\", ", hits[0].inliers,
+          " matching keypoints); delete it first to register it again"));
+    }
+  } else {
+    RETURN_IF_ERROR(CreateRetriever(kp.points));
+    std::shared_lock lock(mutex_);
+    retriever = retriever_;
+  }
+
+  DocumentRecord record;
+  record.title = std::move(title);
+  record.size = gray.size();
+  record.keypoints = kp.points;
+  record.annotations = std::move(annotations);
+  ASSIGN_OR_RETURN(record, store_->Insert(std::move(record)));
+  if (absl::Status s = retriever->AddDocument({record.index_id, kp.points, gray.size()}); !s.ok()) {
+    store_->Delete(record.id).IgnoreError();  // keep database and index in step
+    return s;
+  }
+  {
+    std::unique_lock lock(mutex_);
+    summaries_[record.index_id] = {record.index_id, record.id, record.title, record.size,
+                                   static_cast<int>(record.keypoints.size()),
+                                   record.created_unix_ms};
+  }
+  spdlog::info("registered document {} \"{}\": {}x{}, {} keypoints, {} annotations "
+               "(extract {:.1f} ms, total {:.1f} ms)",
+               record.id, record.title, gray.cols, gray.rows, record.keypoints.size(),
+               record.annotations.size(), extract_ms, MsSince(t0));
+  return record;
+}
+
+absl::Status DocumentRegistry::Delete(const std::string& id) {
+  const auto t0 = Clock::now();
+  std::lock_guard registering(register_mutex_);
+  ASSIGN_OR_RETURN(uint32_t index_id, store_->Delete(id));
+  std::shared_ptr<LlahRetriever> retriever;
+  {
+    std::unique_lock lock(mutex_);
+    summaries_.erase(index_id);
+    retriever = retriever_;
+  }
+  if (retriever) retriever->RemoveDocument(index_id);
+  spdlog::info("deleted document {} in {:.1f} ms", id, MsSince(t0));
+  return absl::OkStatus();
+}
+
+absl::StatusOr<RetrievalResult> DocumentRegistry::Retrieve(
+    const cv::Mat& gray, const std::optional<CameraModel>& camera, int max_results) const {
+  RetrievalResult result;
+  auto t = Clock::now();
+  WordKeypoints kp = extractor_.Extract(gray);
+  result.timings.Add("extract", MsSince(t));
+  result.query_keypoints = static_cast<int>(kp.points.size());
+  std::shared_ptr<LlahRetriever> retriever;
+  {
+    std::shared_lock lock(mutex_);
+    retriever = retriever_;
+  }
+  if (!retriever) return result;
+  t = Clock::now();
+  RetrievalOptions ro = options_.retrieval;
+  ro.max_results = max_results;
+  std::vector<DocumentHit> hits = retriever->Retrieve(kp.points, kp.char_height, ro);
+  result.timings.Add("match", MsSince(t));
+
+  t = Clock::now();
+  for (const DocumentHit& hit : hits) {
+    auto summary = Summary(hit.document);
+    if (!summary) continue;  // deleted meanwhile
+    RetrievedDocument doc;
+    doc.document = *summary;
+    doc.homography = hit.homography;
+    doc.inliers = hit.inliers;
+    doc.votes = hit.votes;
+    if (camera) {
+      const std::vector<cv::Point2f> reference = retriever->Keypoints(hit.document);
+      std::vector<cv::Point2f> plane, pixels;
+      for (const auto& [q, r] : hit.matches) {
+        if (r < static_cast<int>(reference.size())) {
+          plane.push_back(reference[r]);
+          pixels.push_back(kp.points[q]);
+        }
+      }
+      auto pose = EstimatePlanarPose(plane, pixels, *camera);
+      if (pose.ok()) doc.pose = *pose;
+    }
+    ASSIGN_OR_RETURN(doc.annotations, store_->Annotations(hit.document));
+    result.documents.push_back(std::move(doc));
+  }
+  result.timings.Add("pose", MsSince(t));
+  return result;
+}
+
+absl::StatusOr<DocumentRecord> DocumentRegistry::Get(const std::string& id) const {
+  return store_->Get(id);
+}
+
+absl::StatusOr<std::vector<DocumentSummary>> DocumentRegistry::List(uint32_t after_index_id,
+                                                                    int limit) const {
+  return store_->List(after_index_id, limit);
+}
+
+absl::StatusOr<int64_t> DocumentRegistry::Count() const { return store_->Count(); }
+
+absl::StatusOr<AnnotationRecord> DocumentRegistry::AddAnnotation(const std::string& id,
+                                                                 AnnotationRecord annotation) {
+  ASSIGN_OR_RETURN(DocumentRecord doc, store_->Get(id));
+  RETURN_IF_ERROR(annotation.Validate(doc.size));
+  return store_->AddAnnotation(id, std::move(annotation));
+}
+
+absl::Status DocumentRegistry::DeleteAnnotation(const std::string& id,
+                                                const std::string& annotation_id) {
+  return store_->DeleteAnnotation(id, annotation_id);
+}
+
+size_t DocumentRegistry::index_memory_bytes() const {
+  std::shared_lock lock(mutex_);
+  return retriever_ ? retriever_->MemoryBytes() : 0;
+}
+
+size_t DocumentRegistry::index_entries() const {
+  std::shared_lock lock(mutex_);
+  return retriever_ ? retriever_->entries() : 0;
+}
+
+}  // namespace texfree::server

@@ -1,0 +1,102 @@
+// DocumentRegistry: the document use cases (register, delete, retrieve, annotate) on top
+// of DocumentStore (persistence) and LlahRetriever (in-memory index). Plain C++ types in
+// and out; the gRPC layer converts.
+#pragma once
+
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <shared_mutex>
+#include <string>
+#include <unordered_map>
+#include <utility>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "absl/status/statusor.h"
+#include "common/llah.h"
+#include "common/llah_retriever.h"
+#include "common/planar_pose.h"
+#include "common/word_keypoints.h"
+#include "server/document_store.h"
+
+namespace texfree::server {
+
+struct DocumentRegistryOptions {
+  WordKeypointOptions keypoints;
+  // Used for a new database; an existing one keeps the settings it was built with.
+  LlahOptions llah;
+  RetrievalOptions retrieval;
+  // A page with fewer word keypoints cannot be recognised reliably.
+  int min_keypoints = 30;
+  // Registering a page that retrieves a registered one with this many inliers is refused.
+  int duplicate_min_inliers = 16;
+  // Index hash table size: 2^log2_buckets heads (16 MiB at 22).
+  int log2_buckets = 22;
+  // Threads computing descriptors during the start-up rebuild.
+  int rebuild_threads = 2;
+
+  absl::Status Validate() const;
+};
+
+struct StageTimes {
+  std::vector<std::pair<std::string, double>> stages;  // name, milliseconds
+  void Add(std::string name, double ms) { stages.emplace_back(std::move(name), ms); }
+};
+
+struct RetrievedDocument {
+  DocumentSummary document;
+  cv::Matx33d homography;  // registration pixels -> query pixels
+  int inliers = 0;
+  int votes = 0;
+  std::optional<PlanarPose> pose;  // with a camera model
+  std::vector<AnnotationRecord> annotations;
+};
+
+struct RetrievalResult {
+  std::vector<RetrievedDocument> documents;
+  int query_keypoints = 0;
+  StageTimes timings;
+};
+
+// Thread-safe. Registrations are serialised (so the duplicate check cannot race);
+// retrievals run concurrently with each other.
+class DocumentRegistry {
+ public:
+  static absl::StatusOr<std::unique_ptr<DocumentRegistry>> Open(
+      std::unique_ptr<DocumentStore> store, DocumentRegistryOptions options);
+
+  absl::StatusOr<DocumentRecord> Register(const cv::Mat& gray, std::string title,
+                                          std::vector<AnnotationRecord> annotations);
+  absl::Status Delete(const std::string& id);
+  absl::StatusOr<RetrievalResult> Retrieve(const cv::Mat& gray,
+                                           const std::optional<CameraModel>& camera,
+                                           int max_results) const;
+  absl::StatusOr<DocumentRecord> Get(const std::string& id) const;
+  absl::StatusOr<std::vector<DocumentSummary>> List(uint32_t after_index_id, int limit) const;
+  absl::StatusOr<int64_t> Count() const;
+  absl::StatusOr<AnnotationRecord> AddAnnotation(const std::string& id,
+                                                 AnnotationRecord annotation);
+  absl::Status DeleteAnnotation(const std::string& id, const std::string& annotation_id);
+
+  size_t index_memory_bytes() const;
+  size_t index_entries() const;
+  const DocumentRegistryOptions& options() const { return options_; }
+
+ private:
+  DocumentRegistry(std::unique_ptr<DocumentStore> store, DocumentRegistryOptions options);
+  absl::Status LoadIndex();
+  absl::Status CreateRetriever(const std::vector<cv::Point2f>& training_points);
+  std::optional<DocumentSummary> Summary(uint32_t index_id) const;
+
+  DocumentRegistryOptions options_;
+  std::unique_ptr<DocumentStore> store_;
+  WordKeypointExtractor extractor_;
+  std::mutex register_mutex_;
+  mutable std::shared_mutex mutex_;  // guards retriever_ (pointer) and summaries_
+  std::shared_ptr<LlahRetriever> retriever_;
+  std::unordered_map<uint32_t, DocumentSummary> summaries_;
+};
+
+}  // namespace texfree::server

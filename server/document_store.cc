@@ -1,0 +1,345 @@
+// DocumentStore implementation: schema, migrations and queries.
+#include "server/document_store.h"
+
+#include <chrono>
+#include <cstring>
+#include <random>
+
+#include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
+#include "common/status_macros.h"
+
+namespace texfree::server {
+namespace {
+
+// Migrations, in order: entry i brings the schema from version i to i + 1.
+const char* const kMigrations[] = {
+    R"sql(
+CREATE TABLE settings (
+  key TEXT PRIMARY KEY,
+  value BLOB NOT NULL
+);
+CREATE TABLE documents (
+  index_id INTEGER PRIMARY KEY,
+  public_id TEXT NOT NULL UNIQUE,
+  title TEXT NOT NULL,
+  width INTEGER NOT NULL CHECK (width > 0),
+  height INTEGER NOT NULL CHECK (height > 0),
+  created_unix_ms INTEGER NOT NULL,
+  keypoint_count INTEGER NOT NULL,
+  keypoints BLOB NOT NULL
+);
+CREATE TABLE annotations (
+  annotation_row INTEGER PRIMARY KEY,
+  public_id TEXT NOT NULL UNIQUE,
+  document INTEGER NOT NULL REFERENCES documents(index_id) ON DELETE CASCADE,
+  kind INTEGER NOT NULL,
+  text TEXT NOT NULL DEFAULT '',
+  x REAL NOT NULL DEFAULT 0, y REAL NOT NULL DEFAULT 0,
+  width REAL NOT NULL DEFAULT 0, height REAL NOT NULL DEFAULT 0,
+  font_size REAL NOT NULL DEFAULT 0,
+  rgba INTEGER NOT NULL DEFAULT 0,
+  opacity REAL NOT NULL DEFAULT 1,
+  uri TEXT NOT NULL DEFAULT '',
+  mime_type TEXT NOT NULL DEFAULT '',
+  data BLOB
+);
+CREATE INDEX annotations_by_document ON annotations(document);
+)sql",
+};
+
+int64_t NowUnixMs() {
+  return std::chrono::duration_cast<std::chrono::milliseconds>(
+             std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
+
+std::string PackPoints(const std::vector<cv::Point2f>& points) {
+  std::string out(points.size() * 2 * sizeof(float), '\0');
+  if (!points.empty()) std::memcpy(out.data(), points.data(), out.size());
+  return out;
+}
+
+std::vector<cv::Point2f> UnpackPoints(const std::string& blob) {
+  std::vector<cv::Point2f> points(blob.size() / (2 * sizeof(float)));
+  if (!points.empty()) std::memcpy(points.data(), blob.data(), points.size() * 2 * sizeof(float));
+  return points;
+}
+
+uint32_t PackRgba(const Rgba& c) {
+  return (uint32_t{c.r} << 24) | (uint32_t{c.g} << 16) | (uint32_t{c.b} << 8) | c.a;
+}
+
+Rgba UnpackRgba(int64_t v) {
+  const uint32_t u = static_cast<uint32_t>(v);
+  return {static_cast<uint8_t>(u >> 24), static_cast<uint8_t>(u >> 16),
+          static_cast<uint8_t>(u >> 8), static_cast<uint8_t>(u)};
+}
+
+constexpr const char* kAnnotationColumns =
+    "public_id, kind, text, x, y, width, height, font_size, rgba, opacity, uri, mime_type, data";
+
+AnnotationRecord ReadAnnotation(const SqliteStatement& s) {
+  AnnotationRecord a;
+  a.id = s.ColumnText(0);
+  a.kind = static_cast<AnnotationRecord::Kind>(s.ColumnInt(1));
+  a.text = s.ColumnText(2);
+  a.position = {s.ColumnDouble(3), s.ColumnDouble(4)};
+  a.rect = {s.ColumnDouble(3), s.ColumnDouble(4), s.ColumnDouble(5), s.ColumnDouble(6)};
+  a.font_size_px = s.ColumnDouble(7);
+  a.color = UnpackRgba(s.ColumnInt(8));
+  a.opacity = s.ColumnDouble(9);
+  a.uri = s.ColumnText(10);
+  a.mime_type = s.ColumnText(11);
+  a.data = s.ColumnBlob(12);
+  return a;
+}
+
+}  // namespace
+
+std::string NewPublicId() {
+  thread_local std::mt19937_64 rng{std::random_device{}() ^
+                                   static_cast<uint64_t>(NowUnixMs()) << 20};
+  return absl::StrFormat("%016x", rng());
+}
+
+absl::StatusOr<std::unique_ptr<DocumentStore>> DocumentStore::Open(const std::string& path) {
+  ASSIGN_OR_RETURN(auto db, SqliteDb::Open(path));
+  std::unique_ptr<DocumentStore> store(new DocumentStore(std::move(db)));
+  RETURN_IF_ERROR(store->Migrate());
+  return store;
+}
+
+absl::Status DocumentStore::Migrate() {
+  std::lock_guard lock(mutex_);
+  ASSIGN_OR_RETURN(auto version_stmt, db_->Prepare("PRAGMA user_version"));
+  ASSIGN_OR_RETURN(auto has_row, version_stmt.Step());
+  const int version = has_row ? static_cast<int>(version_stmt.ColumnInt(0)) : 0;
+  constexpr int kKnown = sizeof(kMigrations) / sizeof(kMigrations[0]);
+  static_assert(kKnown == kSchemaVersion);
+  if (version > kKnown) {
+    return absl::FailedPreconditionError(absl::StrCat(
+        "database schema version ", version, " is newer than this server understands (",
+        kKnown, "); upgrade texfree-server"));
+  }
+  for (int v = version; v < kKnown; ++v) {
+    SqliteTransaction tx(db_.get());
+    RETURN_IF_ERROR(tx.Begin());
+    RETURN_IF_ERROR(db_->Exec(kMigrations[v]));
+    RETURN_IF_ERROR(db_->Exec(absl::StrCat("PRAGMA user_version = ", v + 1)));
+    RETURN_IF_ERROR(tx.Commit());
+  }
+  return absl::OkStatus();
+}
+
+absl::Status DocumentStore::InsertAnnotationLocked(uint32_t index_id, AnnotationRecord* a) {
+  if (a->id.empty()) a->id = NewPublicId();
+  ASSIGN_OR_RETURN(auto s, db_->Prepare(absl::StrCat("INSERT INTO annotations (document, ",
+                                                kAnnotationColumns,
+                                                ") VALUES (?,?,?,?,?,?,?,?,?,?,?,?,?,?)")));
+  const bool is_text = a->kind == AnnotationRecord::Kind::kText;
+  RETURN_IF_ERROR(s.BindInt(1, index_id));
+  RETURN_IF_ERROR(s.BindText(2, a->id));
+  RETURN_IF_ERROR(s.BindInt(3, static_cast<int>(a->kind)));
+  RETURN_IF_ERROR(s.BindText(4, a->text));
+  RETURN_IF_ERROR(s.BindDouble(5, is_text ? a->position.x : a->rect.x));
+  RETURN_IF_ERROR(s.BindDouble(6, is_text ? a->position.y : a->rect.y));
+  RETURN_IF_ERROR(s.BindDouble(7, is_text ? 0 : a->rect.width));
+  RETURN_IF_ERROR(s.BindDouble(8, is_text ? 0 : a->rect.height));
+  RETURN_IF_ERROR(s.BindDouble(9, a->font_size_px));
+  RETURN_IF_ERROR(s.BindInt(10, PackRgba(a->color)));
+  RETURN_IF_ERROR(s.BindDouble(11, a->opacity));
+  RETURN_IF_ERROR(s.BindText(12, a->uri));
+  RETURN_IF_ERROR(s.BindText(13, a->mime_type));
+  if (a->data.empty()) {
+    RETURN_IF_ERROR(s.BindNull(14));
+  } else {
+    RETURN_IF_ERROR(s.BindBlob(14, a->data.data(), a->data.size()));
+  }
+  return s.Run();
+}
+
+absl::StatusOr<DocumentRecord> DocumentStore::Insert(DocumentRecord record) {
+  std::lock_guard lock(mutex_);
+  if (record.id.empty()) record.id = NewPublicId();
+  record.created_unix_ms = NowUnixMs();
+  SqliteTransaction tx(db_.get());
+  RETURN_IF_ERROR(tx.Begin());
+  {
+    ASSIGN_OR_RETURN(auto s, db_->Prepare(
+                            "INSERT INTO documents (public_id, title, width, height, "
+                            "created_unix_ms, keypoint_count, keypoints) VALUES (?,?,?,?,?,?,?)"));
+    const std::string blob = PackPoints(record.keypoints);
+    RETURN_IF_ERROR(s.BindText(1, record.id));
+    RETURN_IF_ERROR(s.BindText(2, record.title));
+    RETURN_IF_ERROR(s.BindInt(3, record.size.width));
+    RETURN_IF_ERROR(s.BindInt(4, record.size.height));
+    RETURN_IF_ERROR(s.BindInt(5, record.created_unix_ms));
+    RETURN_IF_ERROR(s.BindInt(6, static_cast<int64_t>(record.keypoints.size())));
+    RETURN_IF_ERROR(s.BindBlob(7, blob.data(), blob.size()));
+    RETURN_IF_ERROR(s.Run());
+  }
+  record.index_id = static_cast<uint32_t>(db_->LastInsertRowId());
+  for (AnnotationRecord& a : record.annotations) {
+    RETURN_IF_ERROR(InsertAnnotationLocked(record.index_id, &a));
+  }
+  RETURN_IF_ERROR(tx.Commit());
+  return record;
+}
+
+absl::StatusOr<uint32_t> DocumentStore::IndexIdLocked(const std::string& id) {
+  ASSIGN_OR_RETURN(auto s, db_->Prepare("SELECT index_id FROM documents WHERE public_id = ?"));
+  RETURN_IF_ERROR(s.BindText(1, id));
+  ASSIGN_OR_RETURN(auto row, s.Step());
+  if (!row) return absl::NotFoundError(absl::StrCat("document '", id, "' does not exist"));
+  return static_cast<uint32_t>(s.ColumnInt(0));
+}
+
+absl::StatusOr<uint32_t> DocumentStore::Delete(const std::string& id) {
+  std::lock_guard lock(mutex_);
+  SqliteTransaction tx(db_.get());
+  RETURN_IF_ERROR(tx.Begin());
+  ASSIGN_OR_RETURN(auto index_id, IndexIdLocked(id));
+  {
+    ASSIGN_OR_RETURN(auto a, db_->Prepare("DELETE FROM annotations WHERE document = ?"));
+    RETURN_IF_ERROR(a.BindInt(1, index_id));
+    RETURN_IF_ERROR(a.Run());
+    ASSIGN_OR_RETURN(auto d, db_->Prepare("DELETE FROM documents WHERE index_id = ?"));
+    RETURN_IF_ERROR(d.BindInt(1, index_id));
+    RETURN_IF_ERROR(d.Run());
+  }
+  RETURN_IF_ERROR(tx.Commit());
+  return index_id;
+}
+
+absl::StatusOr<DocumentRecord> DocumentStore::Get(const std::string& id, bool with_keypoints) {
+  DocumentRecord r;
+  {
+    std::lock_guard lock(mutex_);
+    ASSIGN_OR_RETURN(auto s, db_->Prepare(absl::StrCat(
+                            "SELECT index_id, public_id, title, width, height, created_unix_ms",
+                            with_keypoints ? ", keypoints" : "",
+                            " FROM documents WHERE public_id = ?")));
+    RETURN_IF_ERROR(s.BindText(1, id));
+    ASSIGN_OR_RETURN(auto row, s.Step());
+    if (!row) return absl::NotFoundError(absl::StrCat("document '", id, "' does not exist"));
+    r.index_id = static_cast<uint32_t>(s.ColumnInt(0));
+    r.id = s.ColumnText(1);
+    r.title = s.ColumnText(2);
+    r.size = {static_cast<int>(s.ColumnInt(3)), static_cast<int>(s.ColumnInt(4))};
+    r.created_unix_ms = s.ColumnInt(5);
+    if (with_keypoints) r.keypoints = UnpackPoints(s.ColumnBlob(6));
+  }
+  ASSIGN_OR_RETURN(auto annotations, Annotations(r.index_id));
+  r.annotations = std::move(annotations);
+  return r;
+}
+
+absl::StatusOr<std::vector<AnnotationRecord>> DocumentStore::Annotations(uint32_t index_id) {
+  std::lock_guard lock(mutex_);
+  ASSIGN_OR_RETURN(auto s, db_->Prepare(absl::StrCat("SELECT ", kAnnotationColumns,
+                                                " FROM annotations WHERE document = ? "
+                                                "ORDER BY annotation_row")));
+  RETURN_IF_ERROR(s.BindInt(1, index_id));
+  std::vector<AnnotationRecord> out;
+  while (true) {
+    ASSIGN_OR_RETURN(auto row, s.Step());
+    if (!row) break;
+    out.push_back(ReadAnnotation(s));
+  }
+  return out;
+}
+
+absl::StatusOr<std::vector<DocumentSummary>> DocumentStore::List(uint32_t after_index_id,
+                                                                 int limit) {
+  std::lock_guard lock(mutex_);
+  ASSIGN_OR_RETURN(auto s, db_->Prepare(
+                          "SELECT index_id, public_id, title, width, height, keypoint_count, "
+                          "created_unix_ms FROM documents WHERE index_id > ? "
+                          "ORDER BY index_id LIMIT ?"));
+  RETURN_IF_ERROR(s.BindInt(1, after_index_id));
+  RETURN_IF_ERROR(s.BindInt(2, limit));
+  std::vector<DocumentSummary> out;
+  while (true) {
+    ASSIGN_OR_RETURN(auto row, s.Step());
+    if (!row) break;
+    out.push_back({static_cast<uint32_t>(s.ColumnInt(0)), s.ColumnText(1), s.ColumnText(2),
+                   cv::Size(static_cast<int>(s.ColumnInt(3)), static_cast<int>(s.ColumnInt(4))),
+                   static_cast<int>(s.ColumnInt(5)), s.ColumnInt(6)});
+  }
+  return out;
+}
+
+absl::StatusOr<int64_t> DocumentStore::Count() {
+  std::lock_guard lock(mutex_);
+  ASSIGN_OR_RETURN(auto s, db_->Prepare("SELECT COUNT(*) FROM documents"));
+  ASSIGN_OR_RETURN(auto row, s.Step());
+  return row ? s.ColumnInt(0) : 0;
+}
+
+absl::StatusOr<AnnotationRecord> DocumentStore::AddAnnotation(const std::string& document_id,
+                                                              AnnotationRecord annotation) {
+  std::lock_guard lock(mutex_);
+  SqliteTransaction tx(db_.get());
+  RETURN_IF_ERROR(tx.Begin());
+  ASSIGN_OR_RETURN(auto index_id, IndexIdLocked(document_id));
+  annotation.id.clear();
+  RETURN_IF_ERROR(InsertAnnotationLocked(index_id, &annotation));
+  RETURN_IF_ERROR(tx.Commit());
+  return annotation;
+}
+
+absl::Status DocumentStore::DeleteAnnotation(const std::string& document_id,
+                                             const std::string& annotation_id) {
+  std::lock_guard lock(mutex_);
+  SqliteTransaction tx(db_.get());
+  RETURN_IF_ERROR(tx.Begin());
+  ASSIGN_OR_RETURN(auto index_id, IndexIdLocked(document_id));
+  ASSIGN_OR_RETURN(auto s, db_->Prepare("DELETE FROM annotations WHERE document = ? AND public_id = ?"));
+  RETURN_IF_ERROR(s.BindInt(1, index_id));
+  RETURN_IF_ERROR(s.BindText(2, annotation_id));
+  RETURN_IF_ERROR(s.Run());
+  if (db_->Changes() == 0) {
+    return absl::NotFoundError(absl::StrCat("annotation '", annotation_id,
+                                            "' does not exist on document '", document_id, "'"));
+  }
+  return tx.Commit();
+}
+
+absl::Status DocumentStore::ForEachKeypoints(
+    const std::function<void(const DocumentSummary&, std::vector<cv::Point2f>)>& f) {
+  std::lock_guard lock(mutex_);
+  ASSIGN_OR_RETURN(auto s, db_->Prepare(
+                          "SELECT index_id, public_id, title, width, height, keypoint_count, "
+                          "created_unix_ms, keypoints FROM documents ORDER BY index_id"));
+  while (true) {
+    ASSIGN_OR_RETURN(auto row, s.Step());
+    if (!row) break;
+    DocumentSummary d{static_cast<uint32_t>(s.ColumnInt(0)), s.ColumnText(1), s.ColumnText(2),
+                      cv::Size(static_cast<int>(s.ColumnInt(3)), static_cast<int>(s.ColumnInt(4))),
+                      static_cast<int>(s.ColumnInt(5)), s.ColumnInt(6)};
+    f(d, UnpackPoints(s.ColumnBlob(7)));
+  }
+  return absl::OkStatus();
+}
+
+absl::StatusOr<std::optional<std::string>> DocumentStore::GetSetting(const std::string& key) {
+  std::lock_guard lock(mutex_);
+  ASSIGN_OR_RETURN(auto s, db_->Prepare("SELECT value FROM settings WHERE key = ?"));
+  RETURN_IF_ERROR(s.BindText(1, key));
+  ASSIGN_OR_RETURN(auto row, s.Step());
+  if (!row) return std::optional<std::string>();
+  return std::optional<std::string>(s.ColumnBlob(0));
+}
+
+absl::Status DocumentStore::PutSetting(const std::string& key, const std::string& value) {
+  std::lock_guard lock(mutex_);
+  ASSIGN_OR_RETURN(auto s, db_->Prepare(
+                          "INSERT INTO settings (key, value) VALUES (?, ?) "
+                          "ON CONFLICT(key) DO UPDATE SET value = excluded.value"));
+  RETURN_IF_ERROR(s.BindText(1, key));
+  RETURN_IF_ERROR(s.BindBlob(2, value.data(), value.size()));
+  return s.Run();
+}
+
+}  // namespace texfree::server

@@ -1,0 +1,47 @@
+// Plain C++ types of the document registry (no proto, no SQL): documents and annotations.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "absl/status/status.h"
+
+namespace texfree::server {
+
+struct Rgba {
+  uint8_t r = 0, g = 0, b = 0, a = 255;
+};
+
+// Coordinates are registration-image pixels.
+struct AnnotationRecord {
+  enum class Kind { kText, kHighlight, kLink, kMedia };
+  std::string id;  // assigned by the store
+  Kind kind = Kind::kText;
+  std::string text;            // kText
+  cv::Point2d position;        // kText: baseline start
+  double font_size_px = 0;     // kText
+  cv::Rect2d rect;             // kHighlight, kLink, kMedia
+  Rgba color;                  // kText, kHighlight
+  double opacity = 1.0;        // kHighlight
+  std::string uri;             // kLink: URL; kMedia: URI (or empty with data)
+  std::string mime_type;       // kMedia
+  std::string data;            // kMedia inline bytes
+
+  // Checks the fields this kind needs against the page size; the message names the field.
+  absl::Status Validate(const cv::Size& page) const;
+};
+
+struct DocumentRecord {
+  uint32_t index_id = 0;  // internal, dense key of the LLAH index
+  std::string id;         // public id
+  std::string title;
+  cv::Size size;
+  int64_t created_unix_ms = 0;
+  std::vector<cv::Point2f> keypoints;
+  std::vector<AnnotationRecord> annotations;
+};
+
+}  // namespace texfree::server

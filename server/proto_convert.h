@@ -1,0 +1,40 @@
+// Conversions between texfree.v1 proto messages and the plain C++ types of the server,
+// and absl::Status -> grpc::Status. Proto types stop here.
+#pragma once
+
+#include <optional>
+
+#include <grpcpp/support/status.h>
+
+#include "absl/status/statusor.h"
+#include "common/image_io.h"
+#include "common/planar_pose.h"
+#include "server/document_registry.h"
+#include "server/document_types.h"
+#include "texfree/v1/common.pb.h"
+#include "texfree/v1/document.pb.h"
+
+namespace texfree::server {
+
+// One-to-one mapping of absl status codes to gRPC codes, message kept.
+grpc::Status ToGrpcStatus(const absl::Status& status);
+
+// Decodes an Image message to 8-bit gray (or BGR when `gray` is false).
+absl::StatusOr<cv::Mat> ImageFromProto(const v1::Image& image, const ImageLimits& limits,
+                                       bool gray = true);
+
+// nullopt when the message is absent or all zero; INVALID_ARGUMENT when half-filled.
+absl::StatusOr<std::optional<CameraModel>> CameraFromProto(const v1::CameraIntrinsics& intrinsics);
+
+absl::StatusOr<AnnotationRecord> AnnotationFromProto(const v1::Annotation& annotation);
+void AnnotationToProto(const AnnotationRecord& a, v1::Annotation* out);
+void DocumentToProto(const DocumentRecord& d, v1::Document* out);
+void SummaryToProto(const DocumentSummary& d, v1::Document* out);
+
+void HomographyToProto(const cv::Matx33d& H, v1::Homography* out);
+void PoseToProto(const PlanarPose& pose, v1::Pose* out);
+
+// Places a document's annotations and outline in the query image with its homography.
+void MatchToProto(const RetrievedDocument& doc, v1::DocumentMatch* out);
+
+}  // namespace texfree::server

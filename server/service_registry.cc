@@ -1,0 +1,62 @@
+// ServiceRegistry: opens storage under the data directory and creates every service.
+#include "server/service_registry.h"
+
+#include <filesystem>
+
+#include <spdlog/spdlog.h>
+
+#include "absl/strings/str_cat.h"
+#include "common/status_macros.h"
+#include "server/document_registry.h"
+#include "server/document_service.h"
+#include "server/document_store.h"
+#include "server/unimplemented_services.h"
+
+namespace texfree::server {
+
+struct ServiceRegistry::Impl {
+  std::unique_ptr<DocumentRegistry> documents;
+  std::unique_ptr<DocumentServiceImpl> document_service;
+  std::vector<std::unique_ptr<grpc::Service>> pending;
+};
+
+ServiceRegistry::~ServiceRegistry() = default;
+
+absl::StatusOr<std::unique_ptr<ServiceRegistry>> ServiceRegistry::Create(
+    const ServerConfig& config) {
+  std::error_code ec;
+  std::filesystem::create_directories(config.data_dir, ec);
+  if (ec) {
+    return absl::UnavailableError(
+        absl::StrCat("cannot create data directory '", config.data_dir, "': ", ec.message()));
+  }
+  const std::string db_path = (std::filesystem::path(config.data_dir) / "texfree.db").string();
+  ASSIGN_OR_RETURN(auto store, DocumentStore::Open(db_path));
+  spdlog::info("database {}", db_path);
+  ASSIGN_OR_RETURN(auto documents, DocumentRegistry::Open(std::move(store), {}));
+
+  std::unique_ptr<ServiceRegistry> registry(new ServiceRegistry());
+  registry->impl_ = std::make_unique<Impl>();
+  ImageLimits limits;
+  limits.max_pixels = config.max_image_pixels;
+  RETURN_IF_ERROR(limits.Validate());
+  registry->impl_->document_service =
+      std::make_unique<DocumentServiceImpl>(documents.get(), limits);
+  registry->impl_->documents = std::move(documents);
+  registry->impl_->pending = MakeNotYetImplementedServices();
+  return registry;
+}
+
+void ServiceRegistry::RegisterAll(grpc::ServerBuilder& builder) {
+  builder.RegisterService(impl_->document_service.get());
+  for (auto& service : impl_->pending) builder.RegisterService(service.get());
+}
+
+void ServiceRegistry::Close() {
+  if (!impl_) return;
+  impl_->document_service.reset();
+  impl_->documents.reset();  // closes the database
+  spdlog::info("storage closed");
+}
+
+}  // namespace texfree::server
