@@ -1,0 +1,72 @@
+// Synthetic camera photographs of a page: pinhole projection with an exact
+// ground-truth homography and pose, then lens blur, uneven light, sensor noise
+// and JPEG compression.
+//
+// Camera model: world = page plane Z = 0 in page pixel units (x right, y
+// down); the camera z axis points into the page. An untilted, unrolled camera
+// shows the page upright. H = K [r1 r2 t] maps page pixels to image pixels,
+// pixel centres at integer coordinates in both.
+#ifndef TEXFREE_TESTS_DATA_CAMERA_VIEW_H_
+#define TEXFREE_TESTS_DATA_CAMERA_VIEW_H_
+
+#include <cstdint>
+#include <opencv2/core.hpp>
+#include <random>
+#include <string>
+
+namespace texfree::testdata {
+
+struct CameraViewOptions {
+  cv::Size image_size{640, 480};
+  double horizontal_fov_deg = 60;     // sets fx = fy
+  double tilt_deg = 0;                // angle between optical axis and normal
+  double tilt_azimuth_deg = 0;        // direction of the tilt in the page plane
+  double roll_deg = 0;                // in-plane rotation around the axis
+  double scale = 1.0;                 // image px per page px at image centre
+  cv::Point2d look_at{-1, -1};        // page point at the image centre;
+                                      // (-1,-1) = page centre
+  double blur_sigma = 0;              // lens defocus (Gaussian or disk), px
+  double noise_sigma = 0;             // additive Gaussian noise, gray levels
+  double illumination_gradient = 0;   // 0..0.7: uneven light strength (linear
+                                      // ramp + vignette + soft shadow)
+  int jpeg_quality = 0;               // 0 = no JPEG round trip, else 1..100
+  cv::Scalar background{60, 70, 80};  // desk colour around the page
+};
+
+struct CameraView {
+  cv::Mat image;              // CV_8UC3, image_size
+  cv::Matx33d homography;     // page pixels -> image pixels (exact)
+  cv::Matx33d camera_matrix;  // K
+  cv::Matx33d rotation;       // world->camera, world = page plane Z=0
+  cv::Vec3d translation;      // world->camera, page pixel units
+};
+
+// The pinhole geometry alone (K, R, t, H) for the options and a page size.
+CameraView ComputeCameraGeometry(const cv::Size& page_size,
+                                 const CameraViewOptions& options);
+
+// Renders the page as seen by a pinhole camera with the given pose, then
+// applies blur, uneven light, noise and JPEG in that order. Deterministic for
+// (page, options, seed).
+CameraView RenderCameraView(const cv::Mat& page,
+                            const CameraViewOptions& options, uint64_t seed);
+
+// Random view in the ranges the benchmark uses: tilt uniform in
+// [0, max_tilt_deg], random azimuth, roll uniform in [-180, 180], scale uniform
+// in [min_scale, max_scale], look_at inside the page's middle region, blur
+// 0..1.5, noise 0..6, gradient 0..0.5, JPEG quality 60..95, random desk colour
+// and field of view 50..70 degrees. Portable: uses no std distributions.
+CameraViewOptions RandomViewOptions(std::mt19937_64& rng,
+                                    const cv::Size& page_size,
+                                    double max_tilt_deg = 40,
+                                    double min_scale = 0.6,
+                                    double max_scale = 1.3);
+
+// Ground truth as JSON text (homography, K, R, t, options) for writing beside
+// an image.
+std::string CameraViewGroundTruthJson(const CameraView& view,
+                                      const CameraViewOptions& options);
+
+}  // namespace texfree::testdata
+
+#endif  // TEXFREE_TESTS_DATA_CAMERA_VIEW_H_
