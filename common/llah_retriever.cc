@@ -206,15 +206,29 @@ std::vector<DocumentHit> LlahRetriever::Retrieve(const std::vector<cv::Point2f>&
       }
     }
     std::sort(hits.begin(), hits.end());
-    // Votes: distinct query keypoints per document.
+    // Votes per document. A query keypoint whose descriptors agree on one reference
+    // keypoint (two or more hits on it) is strong evidence; a single hit is often chance
+    // (text is regular, so some arrangements recur on every page). Rank by strong votes,
+    // then by all votes.
     for (size_t i = 0; i < hits.size();) {
       size_t j = i;
-      int votes = 0, last_query = -1;
+      int votes = 0, strong = 0;
       while (j < hits.size() && hits[j].document == hits[i].document) {
-        if (hits[j].query != last_query) ++votes, last_query = hits[j].query;
-        ++j;
+        const int query_kp = hits[j].query;
+        int best = 0;
+        while (j < hits.size() && hits[j].document == hits[i].document &&
+               hits[j].query == query_kp) {
+          size_t run = j;
+          while (run < hits.size() && hits[run].document == hits[j].document &&
+                 hits[run].query == query_kp && hits[run].reference == hits[j].reference)
+            ++run;
+          best = std::max(best, static_cast<int>(run - j));
+          j = run;
+        }
+        ++votes;
+        if (best >= 2) ++strong;
       }
-      if (votes >= o.min_votes) ranked.emplace_back(votes, hits[i].document);
+      if (votes >= o.min_votes) ranked.emplace_back(strong * 1024 + std::min(votes, 1023), hits[i].document);
       i = j;
     }
     std::sort(ranked.begin(), ranked.end(), std::greater<>());
@@ -244,6 +258,7 @@ std::vector<DocumentHit> LlahRetriever::Retrieve(const std::vector<cv::Point2f>&
                                   [](const Hit& a, const Hit& b) { return a.document < b.document; });
     std::vector<cv::Point2f> ref_pts, query_pts;
     std::vector<std::pair<int, int>> pairs;
+    std::vector<int> strength;
     for (auto it = range.first; it != range.second;) {
       auto end = it;
       int best_ref = -1, best_count = 0;
@@ -259,19 +274,34 @@ std::vector<DocumentHit> LlahRetriever::Retrieve(const std::vector<cv::Point2f>&
         ref_pts.push_back(model.keypoints[best_ref]);
         query_pts.push_back(query[it->query]);
         pairs.emplace_back(it->query, best_ref);
+        strength.push_back(best_count);
       }
       it = end;
     }
     if (static_cast<int>(pairs.size()) < o.min_inliers) continue;
+    // RANSAC on the strong correspondences when there are enough of them: a far higher
+    // inlier ratio than all of them, so far fewer iterations.
+    std::vector<cv::Point2f> sample_ref, sample_query;
+    for (size_t i = 0; i < pairs.size(); ++i) {
+      if (strength[i] >= 2) {
+        sample_ref.push_back(ref_pts[i]);
+        sample_query.push_back(query_pts[i]);
+      }
+    }
+    if (sample_ref.size() < 10) {
+      sample_ref = ref_pts;
+      sample_query = query_pts;
+    }
     std::vector<uchar> mask;
-    cv::Mat Hm = cv::findHomography(ref_pts, query_pts, cv::RANSAC, threshold, mask,
+    cv::Mat Hm = cv::findHomography(sample_ref, sample_query, cv::RANSAC, threshold, mask,
                                     o.ransac_iterations, 0.995);
     if (Hm.empty()) continue;
     cv::Matx33d H(Hm);
     std::vector<cv::Point2f> inlier_ref;
     std::vector<std::pair<int, int>> inlier_pairs;
-    for (size_t i = 0; i < mask.size(); ++i) {
-      if (mask[i]) {
+    for (size_t i = 0; i < pairs.size(); ++i) {
+      const cv::Point2d p = ApplyHomography(H, ref_pts[i]);
+      if (cv::norm(p - cv::Point2d(query_pts[i])) <= threshold) {
         inlier_ref.push_back(ref_pts[i]);
         inlier_pairs.push_back(pairs[i]);
       }
@@ -327,7 +357,7 @@ std::vector<DocumentHit> LlahRetriever::Retrieve(const std::vector<cv::Point2f>&
     hit.document = doc;
     hit.homography = H * (1.0 / H(2, 2));
     hit.inliers = inliers;
-    hit.votes = votes;
+    hit.votes = votes % 1024;
     hit.matches = std::move(guided);
     for (const auto& [q, r] : hit.matches) used[q] = 1;
     results.push_back(std::move(hit));

@@ -23,14 +23,14 @@ struct RetrievalOptions {
   // Descriptors found under more than this many entries are too common to vote (stop words).
   int max_hits_per_descriptor = 24;
   // A document needs this many query keypoints voting for it to be verified.
-  int min_votes = 6;
+  int min_votes = 12;
   // ...and at least this share of the best document's votes.
   double candidate_vote_ratio = 0.05;
   // At most this many documents are verified per query (RANSAC is the costly step).
-  int max_candidates = 8;
+  int max_candidates = 5;
   // RANSAC inlier distance in query pixels; 0 = derived from the query's character height.
   double ransac_threshold_px = 0;
-  int ransac_iterations = 2000;
+  int ransac_iterations = 1000;
   // A document is visible when at least this many LLAH correspondences agree with one
   // homography.
   int min_inliers = 12;

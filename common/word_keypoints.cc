@@ -24,55 +24,83 @@ cv::Mat InkMask(const cv::Mat& smooth, int block, double offset) {
   return ink;
 }
 
-struct CharStats {
-  double height = 0;
-  double angle = 0;
-  bool ok = false;
+struct Blob {
+  float short_side, long_side, angle;  // minimum-area rectangle, angle of the long side
+  cv::Point2f center;
 };
 
-// Character height and line direction from ink components.
-CharStats EstimateCharacters(const cv::Mat& ink, const WordKeypointOptions& o) {
-  cv::Mat labels, stats, centroids;
-  const int n = cv::connectedComponentsWithStats(ink, labels, stats, centroids, 8, CV_32S);
-  std::vector<float> heights;
-  std::vector<cv::Point2f> centers;
-  heights.reserve(n);
-  for (int i = 1; i < n; ++i) {
-    const int w = stats.at<int>(i, cv::CC_STAT_WIDTH);
-    const int h = stats.at<int>(i, cv::CC_STAT_HEIGHT);
-    const int area = stats.at<int>(i, cv::CC_STAT_AREA);
-    if (h < o.min_char_height || h > o.max_char_height) continue;
-    if (w > 4 * h || h > 4 * w + 2) continue;  // rules, frames, stray lines
-    if (area < 0.15 * w * h) continue;          // hollow frames
-    heights.push_back(static_cast<float>(h));
-    centers.emplace_back(static_cast<float>(centroids.at<double>(i, 0)),
-                         static_cast<float>(centroids.at<double>(i, 1)));
+// Minimum-area rectangles of the ink's outer contours: rotation-invariant sizes.
+std::vector<Blob> Blobs(const cv::Mat& mask, double min_side) {
+  std::vector<std::vector<cv::Point>> contours;
+  cv::findContours(mask, contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_SIMPLE);
+  std::vector<Blob> out;
+  out.reserve(contours.size());
+  for (const auto& c : contours) {
+    if (c.size() < 3) continue;
+    const cv::RotatedRect r = cv::minAreaRect(c);
+    float a = r.size.width, b = r.size.height;
+    float angle = r.angle * static_cast<float>(CV_PI / 180.0);
+    if (b > a) {
+      std::swap(a, b);
+      angle += static_cast<float>(CV_PI / 2);
+    }
+    if (b < min_side) continue;
+    out.push_back({b, a, angle, r.center});
   }
-  CharStats out;
-  if (heights.size() < 8) return out;
-  std::vector<float> sorted = heights;
-  // Upper-middle quantile: letters with ascenders dominate word height, small marks do not.
-  const size_t q = sorted.size() * 6 / 10;
-  std::nth_element(sorted.begin(), sorted.begin() + q, sorted.end());
-  out.height = sorted[q];
-  // Direction to each character's nearest neighbour, folded to [0, pi), doubled-angle mean.
+  return out;
+}
+
+// Direction from each letter-sized blob to its nearest neighbour: letters of a word are
+// closest along the line. Doubled-angle mean, so opposite directions agree.
+double NeighborDirection(const std::vector<Blob>& blobs, double size) {
+  std::vector<cv::Point2f> centers;
+  for (const Blob& b : blobs)
+    if (b.short_side > 0.4 * size && b.short_side < 2.5 * size) centers.push_back(b.center);
+  if (centers.size() < 3) return 0;
   NeighborGrid grid(centers);
   std::vector<int> nn;
   double sx = 0, sy = 0;
   for (size_t i = 0; i < centers.size(); ++i) {
-    if (std::abs(heights[i] - out.height) > 0.5 * out.height) continue;
     grid.Nearest(static_cast<int>(i), 1, &nn);
     if (nn.empty()) continue;
     const cv::Point2f d = centers[nn[0]] - centers[i];
     const double len = std::hypot(d.x, d.y);
-    if (len > 2.0 * out.height || len < 1e-3) continue;
+    if (len < 1e-3 || len > 4.0 * size) continue;
     const double a = 2.0 * std::atan2(d.y, d.x);
     sx += std::cos(a);
     sy += std::sin(a);
   }
-  out.angle = 0.5 * std::atan2(sy, sx);
-  out.ok = true;
-  return out;
+  return 0.5 * std::atan2(sy, sx);
+}
+
+double Quantile(std::vector<float> v, double q) {
+  if (v.empty()) return 0;
+  const size_t i = std::min(v.size() - 1, static_cast<size_t>(q * v.size()));
+  std::nth_element(v.begin(), v.begin() + i, v.end());
+  return v[i];
+}
+
+// Short side of elongated blobs (words, or letters fused into words): a text size that is
+// the same whether or not letters touch at this resolution.
+bool WordHeight(const std::vector<Blob>& blobs, double elongation, double* height) {
+  std::vector<float> sides;
+  for (const Blob& b : blobs)
+    if (b.long_side >= elongation * b.short_side) sides.push_back(b.short_side);
+  if (sides.size() < 8) return false;
+  *height = Quantile(sides, 0.5);
+  return true;
+}
+
+// Text line direction: length-weighted doubled-angle mean of elongated blobs near the
+// typical height.
+double LineDirection(const std::vector<Blob>& blobs, double height) {
+  double sx = 0, sy = 0;
+  for (const Blob& b : blobs) {
+    if (b.long_side < 1.8 * b.short_side || b.short_side > 2.0 * height) continue;
+    sx += b.long_side * std::cos(2.0 * b.angle);
+    sy += b.long_side * std::sin(2.0 * b.angle);
+  }
+  return 0.5 * std::atan2(sy, sx);
 }
 
 // A 1-pixel-wide line of the given length and angle, as a structuring element.
@@ -117,31 +145,39 @@ WordKeypoints WordKeypointExtractor::Extract(const cv::Mat& gray) const {
   cv::Mat smooth;
   cv::GaussianBlur(gray, smooth, cv::Size(3, 3), 0.7);
 
-  // Pass 1: window from the image size, only to measure the characters.
+  // Pass 1: window from the image size, only to measure the text.
   const int block1 = OddAtLeast(std::min(gray.cols, gray.rows) / 20.0, 15);
-  CharStats chars = EstimateCharacters(InkMask(smooth, block1, o.threshold_offset), o);
-  if (!chars.ok) return result;
-  // Pass 2: window matched to the characters (a few heights wide, so a letter's inside is
-  // compared against paper, not against other ink).
-  const int block2 = OddAtLeast(3.0 * chars.height, 7);
-  cv::Mat ink = block2 == block1 ? InkMask(smooth, block1, o.threshold_offset)
-                                 : InkMask(smooth, block2, o.threshold_offset);
-  const CharStats refined = EstimateCharacters(ink, o);
-  if (refined.ok) chars = refined;
-  const double h = chars.height;
-  result.char_height = h;
-  result.text_angle_rad = chars.angle;
-
+  const cv::Mat ink1 = InkMask(smooth, block1, o.threshold_offset);
+  std::vector<Blob> blobs = Blobs(ink1, o.min_char_height * 0.5);
+  if (blobs.size() < 8) return result;
+  std::vector<float> sides;
+  for (const Blob& b : blobs) sides.push_back(b.short_side);
+  // Letters (short side ~ letter width) or fused words (short side ~ word height).
+  const double s0 = std::max(o.min_char_height, Quantile(sides, 0.5));
+  double angle = NeighborDirection(blobs, s0);
+  // Provisional words: close gaps of 0.45 s0 along the line, then measure word height.
   cv::Mat words;
-  cv::morphologyEx(ink, words, cv::MORPH_CLOSE, LineKernel(o.gap_factor * h, chars.angle));
+  cv::morphologyEx(ink1, words, cv::MORPH_CLOSE, LineKernel(0.45 * s0, angle));
+  double h = 0;
+  std::vector<Blob> word_blobs = Blobs(words, o.min_char_height);
+  if (!WordHeight(word_blobs, 1.6, &h)) return result;
+  if (h < o.min_char_height || h > o.max_char_height) return result;
+  angle = LineDirection(word_blobs, h);
+
+  // Pass 2: window matched to the text (a few word heights), final closing.
+  const int block2 = OddAtLeast(3.0 * h, 7);
+  const cv::Mat ink = block2 == block1 ? ink1 : InkMask(smooth, block2, o.threshold_offset);
+  cv::morphologyEx(ink, words, cv::MORPH_CLOSE, LineKernel(o.gap_factor * h, angle));
+  result.char_height = h;
+  result.text_angle_rad = angle;
 
   cv::Mat labels, stats, centroids;
   const int n = cv::connectedComponentsWithStats(words, labels, stats, centroids, 8, CV_32S);
-  struct Blob {
+  struct Word {
     cv::Point2f c;
     int area;
   };
-  std::vector<Blob> blobs;
+  std::vector<Word> found;
   blobs.reserve(n);
   const double min_area = o.min_word_area_factor * h * h;
   for (int i = 1; i < n; ++i) {
@@ -156,17 +192,17 @@ WordKeypoints WordKeypointExtractor::Extract(const cv::Mat& gray) const {
     if (o.drop_border_blobs &&
         (x <= 1 || y <= 1 || x + w >= gray.cols - 1 || y + bh >= gray.rows - 1))
       continue;
-    blobs.push_back({cv::Point2f(static_cast<float>(centroids.at<double>(i, 0)),
+    found.push_back({cv::Point2f(static_cast<float>(centroids.at<double>(i, 0)),
                                  static_cast<float>(centroids.at<double>(i, 1))),
                      area});
   }
-  if (static_cast<int>(blobs.size()) > o.max_keypoints) {
-    std::nth_element(blobs.begin(), blobs.begin() + o.max_keypoints, blobs.end(),
-                     [](const Blob& a, const Blob& b) { return a.area > b.area; });
-    blobs.resize(o.max_keypoints);
+  if (static_cast<int>(found.size()) > o.max_keypoints) {
+    std::nth_element(found.begin(), found.begin() + o.max_keypoints, found.end(),
+                     [](const Word& a, const Word& b) { return a.area > b.area; });
+    found.resize(o.max_keypoints);
   }
-  result.points.reserve(blobs.size());
-  for (const Blob& b : blobs) result.points.push_back(b.c);
+  result.points.reserve(found.size());
+  for (const Word& w : found) result.points.push_back(w.c);
   return result;
 }
 

@@ -4,13 +4,15 @@
 // from or close to the page. Here every size is derived from the image itself:
 //   1. adaptive mean threshold (window from the image size) -> ink mask; uneven light is
 //      absorbed by the local mean;
-//   2. connected components of the ink -> character height h (robust median) and the text
-//      line direction (dominant direction to each character's nearest neighbour);
-//   3. a second threshold with a window of a few h, then a closing with a line-shaped kernel
-//      of length ~gap_factor * h along the text direction, which joins letters of a word but
-//      neither words nor lines;
-//   4. word components filtered by size relative to h; components cut by the image border
-//      are dropped since their centroids move with the frame.
+//   2. minimum-area rectangles of the ink blobs -> a provisional size s0 and the text line
+//      direction (from each letter to its nearest neighbour); a closing along the line
+//      joins letters, and the short side of the elongated blobs gives the word height h,
+//      which is the same whether letters touch at this resolution or not;
+//   3. a second threshold with a window of 3 h, then a closing with a line-shaped kernel of
+//      gap_factor * h along the text direction: letters of a word join, words and lines
+//      do not;
+//   4. word blobs filtered by size relative to h; blobs cut by the image border are
+//      dropped since their centroids move with the frame.
 #pragma once
 
 #include <vector>
@@ -22,11 +24,12 @@
 namespace texfree {
 
 struct WordKeypointOptions {
-  // Offset below the local mean for ink, in gray levels. 8 keeps JPEG/noise speckle out
-  // on white paper while faint text (contrast 30+) still passes.
-  double threshold_offset = 8.0;
-  // Letters closer than gap_factor * character height along the line are one word.
-  double gap_factor = 0.55;
+  // Offset below the local mean for ink, in gray levels: high enough that blur and JPEG
+  // haze between words stays paper, low enough for faint text (contrast 40+).
+  double threshold_offset = 17.0;
+  // Letters closer than gap_factor * word height along the line are one word (letter
+  // gaps are ~0.13, word spaces ~0.4 word heights in common fonts).
+  double gap_factor = 0.25;
   // Character heights outside [min_char_height, max_char_height] pixels are not text.
   double min_char_height = 2.5;
   double max_char_height = 200.0;

@@ -180,6 +180,7 @@ absl::StatusOr<DocumentRecord> DocumentStore::Insert(DocumentRecord record) {
     RETURN_IF_ERROR(s.Run());
   }
   record.index_id = static_cast<uint32_t>(db_->LastInsertRowId());
+  record.keypoint_count = static_cast<int>(record.keypoints.size());
   for (AnnotationRecord& a : record.annotations) {
     RETURN_IF_ERROR(InsertAnnotationLocked(record.index_id, &a));
   }
@@ -217,7 +218,7 @@ absl::StatusOr<DocumentRecord> DocumentStore::Get(const std::string& id, bool wi
   {
     std::lock_guard lock(mutex_);
     ASSIGN_OR_RETURN(auto s, db_->Prepare(absl::StrCat(
-                            "SELECT index_id, public_id, title, width, height, created_unix_ms",
+                            "SELECT index_id, public_id, title, width, height, created_unix_ms, keypoint_count",
                             with_keypoints ? ", keypoints" : "",
                             " FROM documents WHERE public_id = ?")));
     RETURN_IF_ERROR(s.BindText(1, id));
@@ -228,7 +229,8 @@ absl::StatusOr<DocumentRecord> DocumentStore::Get(const std::string& id, bool wi
     r.title = s.ColumnText(2);
     r.size = {static_cast<int>(s.ColumnInt(3)), static_cast<int>(s.ColumnInt(4))};
     r.created_unix_ms = s.ColumnInt(5);
-    if (with_keypoints) r.keypoints = UnpackPoints(s.ColumnBlob(6));
+    r.keypoint_count = static_cast<int>(s.ColumnInt(6));
+    if (with_keypoints) r.keypoints = UnpackPoints(s.ColumnBlob(7));
   }
   ASSIGN_OR_RETURN(auto annotations, Annotations(r.index_id));
   r.annotations = std::move(annotations);

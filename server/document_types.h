@@ -40,6 +40,7 @@ struct DocumentRecord {
   std::string title;
   cv::Size size;
   int64_t created_unix_ms = 0;
+  int keypoint_count = 0;  // stored count (keypoints may be left unloaded)
   std::vector<cv::Point2f> keypoints;
   std::vector<AnnotationRecord> annotations;
 };

@@ -190,7 +190,7 @@ void DocumentToProto(const DocumentRecord& d, v1::Document* out) {
   out->set_title(d.title);
   out->set_width(d.size.width);
   out->set_height(d.size.height);
-  out->set_keypoints(static_cast<uint32_t>(d.keypoints.size()));
+  out->set_keypoints(static_cast<uint32_t>(d.keypoint_count));
   out->set_created_unix_ms(d.created_unix_ms);
   for (const auto& a : d.annotations) AnnotationToProto(a, out->add_annotations());
 }
