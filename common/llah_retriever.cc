@@ -228,7 +228,7 @@ std::vector<DocumentHit> LlahRetriever::Retrieve(const std::vector<cv::Point2f>&
         ++votes;
         if (best >= 2) ++strong;
       }
-      if (votes >= o.min_votes) ranked.emplace_back(strong * 1024 + std::min(votes, 1023), hits[i].document);
+      if (votes >= o.min_votes && strong >= o.min_strong_votes) ranked.emplace_back(strong * 1024 + std::min(votes, 1023), hits[i].document);
       i = j;
     }
     std::sort(ranked.begin(), ranked.end(), std::greater<>());

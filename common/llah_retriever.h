@@ -24,6 +24,8 @@ struct RetrievalOptions {
   int max_hits_per_descriptor = 24;
   // A document needs this many query keypoints voting for it to be verified.
   int min_votes = 12;
+  // ...of which this many agree on one reference keypoint with two or more descriptors.
+  int min_strong_votes = 4;
   // ...and at least this share of the best document's votes.
   double candidate_vote_ratio = 0.05;
   // At most this many documents are verified per query (RANSAC is the costly step).
