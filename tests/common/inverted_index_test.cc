@@ -1,0 +1,186 @@
+// Tests of InvertedIndex: adding, looking up, counting and removing (document, keypoint)
+// entries under 64-bit descriptor hashes, including bucket collisions and entry reuse.
+#include "common/inverted_index.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <map>
+#include <random>
+#include <set>
+#include <utility>
+#include <vector>
+
+namespace texfree {
+namespace {
+
+using Entry = std::pair<uint32_t, uint16_t>;
+
+std::multiset<Entry> Lookup(const InvertedIndex& index, uint64_t hash) {
+  std::multiset<Entry> out;
+  index.ForEach(hash, [&](uint32_t doc, uint16_t kp) { out.emplace(doc, kp); });
+  return out;
+}
+
+// Random non-zero hashes, `per_point` per keypoint.
+std::vector<uint64_t> RandomHashes(std::mt19937_64& rng, int points, int per_point) {
+  std::vector<uint64_t> h(static_cast<size_t>(points) * per_point);
+  for (auto& x : h) {
+    do {
+      x = rng();
+    } while (x == 0);
+  }
+  return h;
+}
+
+TEST(InvertedIndexTest, AddThenForEachFindsEveryEntry) {
+  std::mt19937_64 rng(1);
+  InvertedIndex index(16);
+  const int per = 7;
+  std::map<uint32_t, std::vector<uint64_t>> docs;
+  for (uint32_t d = 1; d <= 5; ++d) {
+    docs[d] = RandomHashes(rng, 200, per);
+    index.Add(d, docs[d], per);
+  }
+  EXPECT_EQ(index.entries(), 5u * 200 * per);
+  for (const auto& [d, hashes] : docs) {
+    for (size_t i = 0; i < hashes.size(); ++i) {
+      const auto found = Lookup(index, hashes[i]);
+      EXPECT_EQ(found.count({d, static_cast<uint16_t>(i / per)}), 1u) << d << " " << i;
+    }
+  }
+}
+
+TEST(InvertedIndexTest, SameHashFromSeveralDocumentsAndKeypoints) {
+  InvertedIndex index(10);
+  const uint64_t h = 0x0123456789ABCDEFull;
+  index.Add(3, {h, 5, h}, 1);  // keypoints 0 and 2 of document 3
+  index.Add(9, {7, 8, h}, 3);  // keypoint 0 of document 9 (slot 2 / 3 per point)
+  EXPECT_EQ(Lookup(index, h), (std::multiset<Entry>{{3, 0}, {3, 2}, {9, 0}}));
+  EXPECT_EQ(index.Count(h, 100), 3);
+  EXPECT_EQ(Lookup(index, 5), (std::multiset<Entry>{{3, 1}}));
+  EXPECT_TRUE(Lookup(index, 6).empty());
+}
+
+TEST(InvertedIndexTest, ZeroHashesAreSkipped) {
+  InvertedIndex index(10);
+  index.Add(1, {0, 0, 42, 0}, 2);
+  EXPECT_EQ(index.entries(), 1u);
+  EXPECT_EQ(Lookup(index, 42), (std::multiset<Entry>{{1, 1}}));
+  EXPECT_FALSE(index.AddIfAbsent(0, 1, 0));
+  EXPECT_EQ(index.entries(), 1u);
+}
+
+TEST(InvertedIndexTest, CheckBitsSeparateHashesSharingABucket) {
+  // Bucket = top log2_buckets bits; check = low 16 bits. Same bucket, different check.
+  InvertedIndex index(8);
+  const uint64_t a = 0xAB00000000001111ull, b = 0xAB00000000002222ull;
+  index.Add(1, {a}, 1);
+  index.Add(2, {b}, 1);
+  EXPECT_EQ(Lookup(index, a), (std::multiset<Entry>{{1, 0}}));
+  EXPECT_EQ(Lookup(index, b), (std::multiset<Entry>{{2, 0}}));
+  EXPECT_EQ(index.Count(a, 10), 1);
+  // A different bucket with the same check bits finds nothing.
+  EXPECT_TRUE(Lookup(index, 0xAC00000000001111ull).empty());
+}
+
+TEST(InvertedIndexTest, RemoveOneDocumentLeavesOthersIntact) {
+  std::mt19937_64 rng(2);
+  InvertedIndex index(14);
+  const int per = 7;
+  const auto h1 = RandomHashes(rng, 150, per), h2 = RandomHashes(rng, 150, per);
+  auto h3 = RandomHashes(rng, 150, per);
+  // Document 3 shares some descriptors with document 2: removing 2 must not take 3's.
+  for (size_t i = 0; i < h3.size(); i += 5) h3[i] = h2[i];
+  index.Add(1, h1, per);
+  index.Add(2, h2, per);
+  const size_t before = index.entries();
+  index.Add(3, h3, per);
+  const size_t with_three = index.entries();
+  EXPECT_EQ(with_three, before + h3.size());
+
+  EXPECT_EQ(index.Remove(3, h3, per), h3.size());
+  EXPECT_EQ(index.entries(), before);
+  for (size_t i = 0; i < h3.size(); ++i) {
+    for (const auto& [d, kp] : Lookup(index, h3[i])) EXPECT_NE(d, 3u);
+  }
+  for (size_t i = 0; i < h2.size(); ++i)
+    EXPECT_EQ(Lookup(index, h2[i]).count({2, static_cast<uint16_t>(i / per)}), 1u) << i;
+  for (size_t i = 0; i < h1.size(); ++i)
+    EXPECT_EQ(Lookup(index, h1[i]).count({1, static_cast<uint16_t>(i / per)}), 1u) << i;
+
+  // Removing again finds nothing; re-adding reuses the freed entries.
+  EXPECT_EQ(index.Remove(3, h3, per), 0u);
+  const size_t memory = index.MemoryBytes();
+  index.Add(3, h3, per);
+  EXPECT_EQ(index.entries(), with_three);
+  EXPECT_EQ(index.MemoryBytes(), memory) << "freed entries should be reused";
+  for (size_t i = 0; i < h3.size(); ++i)
+    EXPECT_EQ(Lookup(index, h3[i]).count({3, static_cast<uint16_t>(i / per)}), 1u) << i;
+}
+
+TEST(InvertedIndexTest, RemoveUnknownDocumentRemovesNothing) {
+  std::mt19937_64 rng(3);
+  InvertedIndex index(12);
+  const auto h = RandomHashes(rng, 50, 3);
+  index.Add(1, h, 3);
+  EXPECT_EQ(index.Remove(2, h, 3), 0u);
+  EXPECT_EQ(index.entries(), h.size());
+}
+
+TEST(InvertedIndexTest, AddIfAbsentRefusesDuplicate) {
+  InvertedIndex index(10);
+  const uint64_t h = 0xDEADBEEFCAFEF00Dull;
+  EXPECT_TRUE(index.AddIfAbsent(h, 4, 17));
+  EXPECT_FALSE(index.AddIfAbsent(h, 4, 17));
+  EXPECT_EQ(index.entries(), 1u);
+  EXPECT_TRUE(index.AddIfAbsent(h, 4, 18));      // other keypoint
+  EXPECT_TRUE(index.AddIfAbsent(h, 5, 17));      // other document
+  EXPECT_TRUE(index.AddIfAbsent(h ^ 1, 4, 17));  // other descriptor, same bucket
+  EXPECT_EQ(index.entries(), 4u);
+  EXPECT_EQ(Lookup(index, h), (std::multiset<Entry>{{4, 17}, {4, 18}, {5, 17}}));
+  // An entry made by Add() counts as present too.
+  index.Add(6, {h}, 1);
+  EXPECT_FALSE(index.AddIfAbsent(h, 6, 0));
+}
+
+TEST(InvertedIndexTest, CountStopsAtLimit) {
+  InvertedIndex index(10);
+  const uint64_t h = 0x5555AAAA5555AAAAull;
+  for (uint16_t kp = 0; kp < 30; ++kp) index.AddIfAbsent(h, 1, kp);
+  index.AddIfAbsent(h ^ 0x1, 2, 0);  // same bucket, other check: not counted
+  EXPECT_EQ(index.Count(h, 100), 30);
+  EXPECT_EQ(index.Count(h, 30), 30);
+  EXPECT_EQ(index.Count(h, 25), 25);
+  EXPECT_EQ(index.Count(h, 1), 1);
+  EXPECT_EQ(index.Count(h, 0), 0);
+  EXPECT_EQ(index.Count(0x1234, 100), 0);
+}
+
+TEST(InvertedIndexTest, MemoryGrowsWithEntries) {
+  std::mt19937_64 rng(4);
+  InvertedIndex index(12);
+  const size_t empty = index.MemoryBytes();
+  EXPECT_GE(empty, (size_t{1} << 12) * sizeof(uint32_t));
+  index.Add(1, RandomHashes(rng, 1000, 7), 7);
+  const size_t one = index.MemoryBytes();
+  EXPECT_GE(one, empty + 7000 * 12);
+  index.Add(2, RandomHashes(rng, 1000, 7), 7);
+  const size_t two = index.MemoryBytes();
+  EXPECT_GE(two, one + 7000 * 12 / 2);  // vector growth may have reserved some already
+  EXPECT_GE(two, empty + 14000 * 12);
+  // Proportional to entries: no more than ~2x (vector growth) of 12 bytes per entry.
+  EXPECT_LE(two, empty + 14000 * 12 * 2 + 64);
+}
+
+TEST(InvertedIndexTest, ReserveDoesNotChangeContents) {
+  InvertedIndex index(10);
+  index.Add(1, {11, 22}, 1);
+  index.Reserve(10000);
+  EXPECT_EQ(index.entries(), 2u);
+  EXPECT_GE(index.MemoryBytes(), size_t{10000} * 12);
+  EXPECT_EQ(Lookup(index, 22), (std::multiset<Entry>{{1, 1}}));
+}
+
+}  // namespace
+}  // namespace texfree

@@ -1,0 +1,202 @@
+// Tests of planar pose recovery: PoseFromHomography / HomographyFromPose on exact synthetic
+// cameras, EstimatePlanarPose with lens distortion and pixel noise, CameraModel checks.
+#include "common/planar_pose.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <opencv2/calib3d.hpp>
+#include <random>
+#include <vector>
+
+namespace texfree {
+namespace {
+
+constexpr double kDeg = 3.14159265358979323846 / 180.0;
+
+const cv::Matx33d kK(800, 0, 320, 0, 800, 240, 0, 0, 1);
+
+cv::Matx33d Rotation(const cv::Vec3d& axis_angle) {
+  cv::Matx33d R;
+  cv::Rodrigues(axis_angle, R);
+  return R;
+}
+
+// A camera looking at the plane Z = 0 from distance `distance` along its axis, with the
+// optical axis tilted by `tilt_deg` about an in-plane axis at `azimuth_deg`, and rolled by
+// `roll_deg`. The plane point (cx, cy, 0) is on the optical axis.
+PlanarPose Camera(double tilt_deg, double azimuth_deg, double roll_deg, double distance,
+                  const cv::Point2d& centre = {300, 200}) {
+  const double az = azimuth_deg * kDeg;
+  const cv::Matx33d cam_to_world =
+      Rotation(cv::Vec3d(-std::sin(az), std::cos(az), 0) * tilt_deg * kDeg) *
+      Rotation(cv::Vec3d(0, 0, roll_deg * kDeg));
+  PlanarPose pose;
+  pose.R = cam_to_world.t();
+  const cv::Vec3d axis(cam_to_world(0, 2), cam_to_world(1, 2), cam_to_world(2, 2));
+  const cv::Vec3d position = cv::Vec3d(centre.x, centre.y, 0) - distance * axis;
+  pose.t = -(pose.R * position);
+  return pose;
+}
+
+std::vector<PlanarPose> Cameras() {
+  std::vector<PlanarPose> out;
+  for (double tilt : {0.0, 15.0, 40.0, 70.0})
+    for (double roll : {0.0, 35.0, -70.0, 170.0})
+      out.push_back(Camera(tilt, roll * 0.7 + 20, roll, 900 + 10 * tilt));
+  return out;
+}
+
+double RotationErrorDeg(const cv::Matx33d& a, const cv::Matx33d& b) {
+  cv::Vec3d r;
+  cv::Rodrigues(a.t() * b, r);
+  return cv::norm(r) / kDeg;
+}
+
+double MaxAbs(const cv::Matx33d& a) {
+  double m = 0;
+  for (double v : a.val) m = std::max(m, std::abs(v));
+  return m;
+}
+
+TEST(PlanarPoseTest, SyntheticCamerasAreValidRotations) {
+  for (const PlanarPose& p : Cameras()) {
+    EXPECT_LT(MaxAbs(p.R * p.R.t() - cv::Matx33d::eye()), 1e-12);
+    EXPECT_NEAR(cv::determinant(p.R), 1.0, 1e-12);
+    EXPECT_GT(p.t[2], 0) << "the plane origin must be in front of the camera";
+  }
+}
+
+TEST(PlanarPoseTest, PoseFromHomographyRecoversPoseForAnyScale) {
+  for (const PlanarPose& truth : Cameras()) {
+    const cv::Matx33d Rt(truth.R(0, 0), truth.R(0, 1), truth.t[0], truth.R(1, 0), truth.R(1, 1),
+                         truth.t[1], truth.R(2, 0), truth.R(2, 1), truth.t[2]);
+    const cv::Matx33d H = kK * Rt;
+    for (double scale : {1.0, 1e-3, 37.5, -1.0, -0.02, -250.0}) {
+      auto pose = PoseFromHomography(H * scale, kK);
+      ASSERT_TRUE(pose.ok()) << pose.status();
+      EXPECT_LT(MaxAbs(pose->R - truth.R), 1e-6) << "scale " << scale;
+      EXPECT_LT(cv::norm(pose->t - truth.t), 1e-6 * cv::norm(truth.t)) << "scale " << scale;
+      EXPECT_NEAR(cv::determinant(pose->R), 1.0, 1e-9);
+    }
+  }
+}
+
+TEST(PlanarPoseTest, HomographyFromPoseRoundTrip) {
+  for (const PlanarPose& truth : Cameras()) {
+    const cv::Matx33d H = HomographyFromPose(truth, kK);
+    EXPECT_DOUBLE_EQ(H(2, 2), 1.0);
+    // Projects plane points where the pinhole model does.
+    for (const cv::Point2d& X :
+         {cv::Point2d(0, 0), cv::Point2d(300, 200), cv::Point2d(-150, 420)}) {
+      const cv::Vec3d c = truth.R * cv::Vec3d(X.x, X.y, 0) + truth.t;
+      const cv::Vec3d x = kK * c;
+      const cv::Point2d expected(x[0] / x[2], x[1] / x[2]);
+      EXPECT_LT(cv::norm(ApplyHomography(H, X) - expected), 1e-9);
+    }
+    auto pose = PoseFromHomography(H, kK);
+    ASSERT_TRUE(pose.ok()) << pose.status();
+    EXPECT_LT(MaxAbs(pose->R - truth.R), 1e-6);
+    EXPECT_LT(cv::norm(pose->t - truth.t), 1e-6 * cv::norm(truth.t));
+    EXPECT_LT(MaxAbs(HomographyFromPose(*pose, kK) - H), 1e-6 * MaxAbs(H));
+  }
+}
+
+TEST(PlanarPoseTest, PoseFromHomographyRejectsDegenerate) {
+  EXPECT_EQ(PoseFromHomography(cv::Matx33d::zeros(), kK).status().code(),
+            absl::StatusCode::kInvalidArgument);
+  const cv::Matx33d nan(NAN, 0, 0, 0, 1, 0, 0, 0, 1);
+  EXPECT_FALSE(PoseFromHomography(nan, kK).ok());
+}
+
+TEST(PlanarPoseTest, ApplyHomographyDividesByW) {
+  const cv::Matx33d H(2, 0, 1, 0, 3, -2, 0.5, 0, 2);
+  const cv::Point2d p = ApplyHomography(H, {2, 4});
+  EXPECT_DOUBLE_EQ(p.x, 5.0 / 3.0);
+  EXPECT_DOUBLE_EQ(p.y, 10.0 / 3.0);
+}
+
+TEST(PlanarPoseTest, EstimatePlanarPoseWithDistortionAndNoise) {
+  CameraModel camera;
+  camera.K = kK;
+  camera.distortion = {-0.2, 0.05, 0, 0, 0};
+  camera.size = {640, 480};
+  ASSERT_TRUE(camera.Validate().ok());
+  ASSERT_TRUE(camera.has_distortion());
+  std::mt19937 rng(5);
+  std::normal_distribution<double> noise(0, 0.3);
+  int tested = 0;
+  for (const PlanarPose& truth : Cameras()) {
+    // A 600 x 400 grid of plane points around the looked-at point, kept where visible.
+    std::vector<cv::Point3f> object;
+    for (int y = 0; y <= 400; y += 40)
+      for (int x = 0; x <= 600; x += 40) object.emplace_back(x, y, 0);
+    cv::Vec3d rvec;
+    cv::Rodrigues(truth.R, rvec);
+    std::vector<cv::Point2f> projected;
+    cv::projectPoints(object, rvec, truth.t, cv::Mat(kK), cv::Mat(camera.distortion), projected);
+    std::vector<cv::Point2f> plane, pixels;
+    for (size_t i = 0; i < object.size(); ++i) {
+      const cv::Point2f& p = projected[i];
+      if (p.x < 0 || p.y < 0 || p.x > 639 || p.y > 479) continue;
+      plane.emplace_back(object[i].x, object[i].y);
+      pixels.emplace_back(static_cast<float>(p.x + noise(rng)),
+                          static_cast<float>(p.y + noise(rng)));
+    }
+    if (plane.size() < 30) continue;
+    ++tested;
+    auto pose = EstimatePlanarPose(plane, pixels, camera);
+    ASSERT_TRUE(pose.ok()) << pose.status();
+    EXPECT_LT(RotationErrorDeg(pose->R, truth.R), 0.5);
+    EXPECT_LT(cv::norm(pose->t - truth.t), 0.01 * cv::norm(truth.t));
+  }
+  EXPECT_GE(tested, 12);
+}
+
+TEST(PlanarPoseTest, EstimatePlanarPoseNeedsFourPoints) {
+  CameraModel camera;
+  camera.K = kK;
+  const std::vector<cv::Point2f> plane = {{0, 0}, {100, 0}, {0, 100}};
+  const std::vector<cv::Point2f> pixels = {{300, 200}, {400, 200}, {300, 300}};
+  EXPECT_EQ(EstimatePlanarPose(plane, pixels, camera).status().code(),
+            absl::StatusCode::kInvalidArgument);
+  // Mismatched sizes too.
+  const std::vector<cv::Point2f> plane4 = {{0, 0}, {100, 0}, {0, 100}, {100, 100}};
+  EXPECT_EQ(EstimatePlanarPose(plane4, pixels, camera).status().code(),
+            absl::StatusCode::kInvalidArgument);
+}
+
+TEST(CameraModelTest, ValidateRejectsBadModels) {
+  CameraModel ok;
+  ok.K = kK;
+  EXPECT_TRUE(ok.Validate().ok());
+  EXPECT_FALSE(ok.has_distortion());
+  ok.distortion = {0, 0, 0, 0};
+  EXPECT_TRUE(ok.Validate().ok());
+  EXPECT_FALSE(ok.has_distortion());
+
+  CameraModel bad = ok;
+  bad.K(0, 0) = 0;
+  EXPECT_EQ(bad.Validate().code(), absl::StatusCode::kInvalidArgument);
+  bad = ok;
+  bad.K(1, 1) = -800;
+  EXPECT_EQ(bad.Validate().code(), absl::StatusCode::kInvalidArgument);
+  bad = ok;
+  bad.K(0, 0) = NAN;
+  EXPECT_EQ(bad.Validate().code(), absl::StatusCode::kInvalidArgument);
+  bad = ok;
+  bad.distortion = {-0.2, 0.05, 0.001};
+  const absl::Status s = bad.Validate();
+  EXPECT_EQ(s.code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(s.message().find("3"), std::string::npos) << s;
+  bad.distortion = {-0.2, 0.05, 0, 0, INFINITY};
+  EXPECT_EQ(bad.Validate().code(), absl::StatusCode::kInvalidArgument);
+  for (size_t n : {4u, 5u, 8u, 12u, 14u}) {
+    CameraModel m = ok;
+    m.distortion.assign(n, 0.0);
+    EXPECT_TRUE(m.Validate().ok()) << n;
+  }
+}
+
+}  // namespace
+}  // namespace texfree

@@ -1,0 +1,220 @@
+// Tests of WordKeypointExtractor on rendered text pages with ground-truth word boxes:
+// keypoints land on words, words get keypoints, and the keypoints are stable under uneven
+// light, scale changes and rotation; a blank page gives none.
+#include "common/word_keypoints.h"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <opencv2/imgproc.hpp>
+#include <string>
+#include <vector>
+
+#include "common/image_io.h"
+#include "common/neighbor_grid.h"
+#include "tests/data/page_renderer.h"
+
+namespace texfree {
+namespace {
+
+// Rendered once per seed for the whole binary (rendering is the slow part).
+const testdata::RenderedPage& Page(uint64_t seed) {
+  static std::map<uint64_t, testdata::RenderedPage>* pages =
+      new std::map<uint64_t, testdata::RenderedPage>();
+  auto it = pages->find(seed);
+  if (it == pages->end()) it = pages->emplace(seed, testdata::RenderTextPage(seed)).first;
+  return it->second;
+}
+
+cv::Mat Gray(uint64_t seed) { return ToGray(Page(seed).image); }
+
+constexpr uint64_t kSeeds[] = {1, 2};
+
+// Fraction of `reference` points that have a `moved` point within `tolerance`, each moved
+// point used once at most (greedy by distance).
+double MatchedFraction(const std::vector<cv::Point2f>& reference,
+                       const std::vector<cv::Point2f>& moved, double tolerance) {
+  if (reference.empty()) return 0;
+  NeighborGrid grid(moved);
+  std::vector<char> taken(moved.size(), 0);
+  std::vector<int> near;
+  int matched = 0;
+  for (const auto& p : reference) {
+    grid.NearestTo(p, 3, -1, &near);
+    for (int j : near) {
+      if (taken[j]) continue;
+      if (cv::norm(moved[j] - p) <= tolerance) {
+        taken[j] = 1;
+        ++matched;
+      }
+      break;
+    }
+  }
+  return static_cast<double>(matched) / reference.size();
+}
+
+bool Inside(const cv::Rect& box, const cv::Point2f& p, float margin) {
+  return p.x >= box.x - margin && p.x <= box.x + box.width + margin && p.y >= box.y - margin &&
+         p.y <= box.y + box.height + margin;
+}
+
+TEST(WordKeypointsTest, KeypointsLieOnWordsAndWordsGetKeypoints) {
+  const WordKeypointExtractor extractor;
+  for (uint64_t seed : kSeeds) {
+    SCOPED_TRACE("seed " + std::to_string(seed));
+    const auto& page = Page(seed);
+    const WordKeypoints kp = extractor.Extract(Gray(seed));
+    ASSERT_GT(kp.points.size(), page.word_boxes.size() / 3);
+    EXPECT_GT(kp.char_height, 4);
+    EXPECT_LT(kp.char_height, 60);
+    EXPECT_NEAR(kp.text_angle_rad, 0, 0.05) << "upright page";
+
+    int on_word = 0;
+    for (const auto& p : kp.points) {
+      for (const auto& box : page.word_boxes) {
+        if (Inside(box, p, 2)) {
+          ++on_word;
+          break;
+        }
+      }
+    }
+    EXPECT_GE(on_word, 0.85 * kp.points.size()) << on_word << "/" << kp.points.size();
+
+    // Coverage. A fair measure must not penalise words merged into one blob (short words,
+    // tight spacing, punctuation): their blob has one centroid, usually inside one of the
+    // words or in the space between them. So a word box counts as covered when a keypoint
+    // lies in it, or in the union box of it and its neighbour on the same line when they
+    // are less than one word height apart (the pair became one blob and is counted once).
+    const auto& boxes = page.word_boxes;
+    int covered = 0;
+    for (size_t i = 0; i < boxes.size(); ++i) {
+      std::vector<cv::Rect> regions = {boxes[i]};
+      for (size_t j = 0; j < boxes.size(); ++j) {
+        if (j == i) continue;
+        const cv::Rect &a = boxes[i], &b = boxes[j];
+        const int overlap_y = std::min(a.y + a.height, b.y + b.height) - std::max(a.y, b.y);
+        const int gap_x = std::max(a.x, b.x) - std::min(a.x + a.width, b.x + b.width);
+        if (overlap_y > 0.5 * std::min(a.height, b.height) && gap_x < std::min(a.height, b.height))
+          regions.push_back(a | b);
+      }
+      bool hit = false;
+      for (const auto& r : regions) {
+        for (const auto& p : kp.points) {
+          if (Inside(r, p, 2)) {
+            hit = true;
+            break;
+          }
+        }
+        if (hit) break;
+      }
+      covered += hit;
+    }
+    EXPECT_GE(covered, 0.75 * boxes.size()) << covered << "/" << boxes.size();
+  }
+}
+
+TEST(WordKeypointsTest, StableUnderUnevenLight) {
+  const WordKeypointExtractor extractor;
+  for (uint64_t seed : kSeeds) {
+    SCOPED_TRACE("seed " + std::to_string(seed));
+    const cv::Mat gray = Gray(seed);
+    const WordKeypoints clean = extractor.Extract(gray);
+    // Smooth light: a diagonal ramp times a soft radial falloff, from 0.35 to 1.0.
+    cv::Mat gain(gray.size(), CV_32F);
+    for (int y = 0; y < gray.rows; ++y) {
+      for (int x = 0; x < gray.cols; ++x) {
+        const double ramp = (x / double(gray.cols) + y / double(gray.rows)) / 2;  // 0..1
+        const double dx = x - 0.3 * gray.cols, dy = y - 0.3 * gray.rows;
+        const double radial = std::exp(-(dx * dx + dy * dy) / (2.0 * 500 * 500));
+        gain.at<float>(y, x) = static_cast<float>(0.35 + 0.65 * (0.5 * (1 - ramp) + 0.5 * radial));
+      }
+    }
+    double lo, hi;
+    cv::minMaxLoc(gain, &lo, &hi);
+    ASSERT_GE(lo, 0.35 - 1e-6);
+    ASSERT_LE(hi, 1.0 + 1e-6);
+    ASSERT_LT(lo, 0.45) << "the light must actually be uneven";
+    cv::Mat dark;
+    gray.convertTo(dark, CV_32F);
+    dark = dark.mul(gain);
+    dark.convertTo(dark, CV_8U);
+    const WordKeypoints shaded = extractor.Extract(dark);
+    EXPECT_GE(MatchedFraction(clean.points, shaded.points, 0.3 * clean.char_height), 0.8);
+  }
+}
+
+TEST(WordKeypointsTest, StableUnderScaleChange) {
+  const WordKeypointExtractor extractor;
+  for (uint64_t seed : kSeeds) {
+    const cv::Mat gray = Gray(seed);
+    const WordKeypoints original = extractor.Extract(gray);
+    for (double scale : {0.5, 1.6}) {
+      SCOPED_TRACE("seed " + std::to_string(seed) + " scale " + std::to_string(scale));
+      cv::Mat resized;
+      cv::resize(gray, resized, cv::Size(), scale, scale,
+                 scale < 1 ? cv::INTER_AREA : cv::INTER_LINEAR);
+      const WordKeypoints kp = extractor.Extract(resized);
+      EXPECT_NEAR(kp.char_height / scale, original.char_height, 0.25 * original.char_height);
+      // Pixel centres: x_original = (x + 0.5) / scale - 0.5.
+      std::vector<cv::Point2f> back;
+      for (const auto& p : kp.points)
+        back.emplace_back(static_cast<float>((p.x + 0.5) / scale - 0.5),
+                          static_cast<float>((p.y + 0.5) / scale - 0.5));
+      EXPECT_GE(MatchedFraction(original.points, back, 0.35 * original.char_height), 0.7);
+    }
+  }
+}
+
+TEST(WordKeypointsTest, RotationBy90DegreesRotatesKeypoints) {
+  const WordKeypointExtractor extractor;
+  for (uint64_t seed : kSeeds) {
+    SCOPED_TRACE("seed " + std::to_string(seed));
+    const cv::Mat gray = Gray(seed);
+    const WordKeypoints original = extractor.Extract(gray);
+    cv::Mat rotated;
+    cv::rotate(gray, rotated, cv::ROTATE_90_CLOCKWISE);
+    const WordKeypoints kp = extractor.Extract(rotated);
+    EXPECT_NEAR(std::abs(kp.text_angle_rad), CV_PI / 2, 0.05);
+    // Clockwise: (x, y) -> (rows - 1 - y, x); back: x = y', y = rows - 1 - x'.
+    std::vector<cv::Point2f> back;
+    for (const auto& p : kp.points) back.emplace_back(p.y, static_cast<float>(gray.rows - 1) - p.x);
+    EXPECT_GE(MatchedFraction(original.points, back, 0.3 * original.char_height), 0.8);
+  }
+}
+
+TEST(WordKeypointsTest, BlankPageGivesAlmostNoKeypoints) {
+  const WordKeypointExtractor extractor;
+  for (uint64_t seed : kSeeds) {
+    const cv::Mat blank = ToGray(testdata::RenderBlankPage(seed));
+    EXPECT_LE(extractor.Extract(blank).points.size(), 3u) << "seed " << seed;
+  }
+  EXPECT_TRUE(extractor.Extract(cv::Mat(200, 300, CV_8UC1, cv::Scalar(255))).points.empty());
+}
+
+TEST(WordKeypointsTest, OptionsValidate) {
+  EXPECT_TRUE(WordKeypointOptions().Validate().ok());
+  WordKeypointOptions o;
+  o.gap_factor = 0;
+  EXPECT_FALSE(o.Validate().ok());
+  o = WordKeypointOptions();
+  o.threshold_offset = -1;
+  EXPECT_FALSE(o.Validate().ok());
+  o = WordKeypointOptions();
+  o.max_char_height = o.min_char_height;
+  EXPECT_FALSE(o.Validate().ok());
+  o = WordKeypointOptions();
+  o.max_keypoints = 0;
+  EXPECT_FALSE(o.Validate().ok());
+}
+
+TEST(WordKeypointsTest, MaxKeypointsKeepsTheLargestBlobs) {
+  WordKeypointOptions o;
+  o.max_keypoints = 25;
+  const WordKeypoints kp = WordKeypointExtractor(o).Extract(Gray(1));
+  EXPECT_EQ(kp.points.size(), 25u);
+}
+
+}  // namespace
+}  // namespace texfree
