@@ -29,13 +29,18 @@ struct Blob {
   cv::Point2f center;
 };
 
-// Minimum-area rectangles of the ink's outer contours: rotation-invariant sizes.
+// Minimum-area rectangles of the ink's outer contours: rotation-invariant sizes. Every
+// component's outer boundary counts, also inside a frame (page edge, table, figure box):
+// RETR_CCOMP puts all outer boundaries at the top level, holes below them.
 std::vector<Blob> Blobs(const cv::Mat& mask, double min_side) {
   std::vector<std::vector<cv::Point>> contours;
-  cv::findContours(mask, contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_SIMPLE);
+  std::vector<cv::Vec4i> hierarchy;
+  cv::findContours(mask, contours, hierarchy, cv::RETR_CCOMP, cv::CHAIN_APPROX_SIMPLE);
   std::vector<Blob> out;
   out.reserve(contours.size());
-  for (const auto& c : contours) {
+  for (size_t i = 0; i < contours.size(); ++i) {
+    const auto& c = contours[i];
+    if (hierarchy[i][3] >= 0) continue;  // a hole
     if (c.size() < 3) continue;
     const cv::RotatedRect r = cv::minAreaRect(c);
     float a = r.size.width, b = r.size.height;

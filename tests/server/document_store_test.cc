@@ -1,0 +1,178 @@
+// DocumentStore: persistence across reopen, annotations, deletion cascade, schema version,
+// and errors for unknown ids.
+#include "server/document_store.h"
+
+#include <filesystem>
+
+#include <gtest/gtest.h>
+
+namespace texfree::server {
+namespace {
+
+namespace fs = std::filesystem;
+
+class DocumentStoreTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() / ("texfree-store-" + std::to_string(::getpid()));
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+    path_ = (dir_ / "t.db").string();
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+  fs::path dir_;
+  std::string path_;
+};
+
+DocumentRecord MakeRecord(const std::string& title, int points) {
+  DocumentRecord r;
+  r.title = title;
+  r.size = {800, 1100};
+  for (int i = 0; i < points; ++i) r.keypoints.emplace_back(i * 1.5f, i * 0.25f);
+  AnnotationRecord text;
+  text.kind = AnnotationRecord::Kind::kText;
+  text.text = "hello";
+  text.position = {10, 20};
+  text.font_size_px = 18;
+  text.color = {255, 0, 0, 255};
+  AnnotationRecord hl;
+  hl.kind = AnnotationRecord::Kind::kHighlight;
+  hl.rect = {5, 6, 70, 8};
+  hl.color = {255, 255, 0, 200};
+  hl.opacity = 0.35;
+  AnnotationRecord media;
+  media.kind = AnnotationRecord::Kind::kMedia;
+  media.rect = {1, 2, 3, 4};
+  media.mime_type = "image/png";
+  media.data = std::string("\x00\x01\x02\xff", 4);
+  r.annotations = {text, hl, media};
+  return r;
+}
+
+TEST_F(DocumentStoreTest, InsertGetSurvivesReopen) {
+  std::string id;
+  {
+    auto store = DocumentStore::Open(path_);
+    ASSERT_TRUE(store.ok()) << store.status();
+    auto rec = (*store)->Insert(MakeRecord("first", 50));
+    ASSERT_TRUE(rec.ok()) << rec.status();
+    id = rec->id;
+    EXPECT_EQ(rec->annotations.size(), 3u);
+    EXPECT_FALSE(rec->annotations[0].id.empty());
+    ASSERT_TRUE((*store)->Insert(MakeRecord("second", 10)).ok());
+  }
+  auto store = DocumentStore::Open(path_);
+  ASSERT_TRUE(store.ok());
+  auto got = (*store)->Get(id, /*with_keypoints=*/true);
+  ASSERT_TRUE(got.ok()) << got.status();
+  EXPECT_EQ(got->title, "first");
+  EXPECT_EQ(got->size, cv::Size(800, 1100));
+  EXPECT_EQ(got->keypoint_count, 50);
+  ASSERT_EQ(got->keypoints.size(), 50u);
+  EXPECT_FLOAT_EQ(got->keypoints[49].x, 49 * 1.5f);
+  ASSERT_EQ(got->annotations.size(), 3u);
+  EXPECT_EQ(got->annotations[0].text, "hello");
+  EXPECT_EQ(got->annotations[0].color.r, 255);
+  EXPECT_DOUBLE_EQ(got->annotations[1].opacity, 0.35);
+  EXPECT_DOUBLE_EQ(got->annotations[1].rect.width, 70);
+  EXPECT_EQ(got->annotations[1].color.a, 200);
+  EXPECT_EQ(got->annotations[2].data, std::string("\x00\x01\x02\xff", 4));
+  EXPECT_EQ(*(*store)->Count(), 2);
+
+  int seen = 0;
+  ASSERT_TRUE((*store)->ForEachKeypoints([&](const DocumentSummary& s, std::vector<cv::Point2f> p) {
+    EXPECT_EQ(static_cast<int>(p.size()), s.keypoints);
+    ++seen;
+  }).ok());
+  EXPECT_EQ(seen, 2);
+}
+
+TEST_F(DocumentStoreTest, DeleteRemovesAnnotationsAndUnknownIdsAreNotFound) {
+  auto store = DocumentStore::Open(path_);
+  ASSERT_TRUE(store.ok());
+  auto rec = (*store)->Insert(MakeRecord("doomed", 20));
+  ASSERT_TRUE(rec.ok());
+  auto removed = (*store)->Delete(rec->id);
+  ASSERT_TRUE(removed.ok());
+  EXPECT_EQ(*removed, rec->index_id);
+  EXPECT_EQ((*store)->Get(rec->id).status().code(), absl::StatusCode::kNotFound);
+  auto orphans = (*store)->Annotations(rec->index_id);
+  ASSERT_TRUE(orphans.ok());
+  EXPECT_TRUE(orphans->empty());
+  EXPECT_EQ((*store)->Delete(rec->id).status().code(), absl::StatusCode::kNotFound);
+  EXPECT_EQ((*store)->AddAnnotation("missing", AnnotationRecord()).status().code(),
+            absl::StatusCode::kNotFound);
+}
+
+TEST_F(DocumentStoreTest, AnnotationsAddAndDelete) {
+  auto store = DocumentStore::Open(path_);
+  ASSERT_TRUE(store.ok());
+  auto rec = (*store)->Insert(MakeRecord("doc", 5));
+  ASSERT_TRUE(rec.ok());
+  AnnotationRecord link;
+  link.kind = AnnotationRecord::Kind::kLink;
+  link.rect = {1, 1, 10, 10};
+  link.uri = "https://example.org";
+  auto added = (*store)->AddAnnotation(rec->id, link);
+  ASSERT_TRUE(added.ok());
+  EXPECT_EQ((*store)->Get(rec->id)->annotations.size(), 4u);
+  ASSERT_TRUE((*store)->DeleteAnnotation(rec->id, added->id).ok());
+  EXPECT_EQ((*store)->Get(rec->id)->annotations.size(), 3u);
+  EXPECT_EQ((*store)->DeleteAnnotation(rec->id, added->id).code(), absl::StatusCode::kNotFound);
+}
+
+TEST_F(DocumentStoreTest, ListPagesInOrder) {
+  auto store = DocumentStore::Open(path_);
+  ASSERT_TRUE(store.ok());
+  for (int i = 0; i < 5; ++i) ASSERT_TRUE((*store)->Insert(MakeRecord("d" + std::to_string(i), 3)).ok());
+  auto first = (*store)->List(0, 3);
+  ASSERT_TRUE(first.ok());
+  ASSERT_EQ(first->size(), 3u);
+  auto rest = (*store)->List(first->back().index_id, 3);
+  ASSERT_TRUE(rest.ok());
+  ASSERT_EQ(rest->size(), 2u);
+  EXPECT_EQ(rest->back().title, "d4");
+}
+
+TEST_F(DocumentStoreTest, SettingsAndNewerSchemaRefused) {
+  {
+    auto store = DocumentStore::Open(path_);
+    ASSERT_TRUE(store.ok());
+    ASSERT_TRUE((*store)->PutSetting("k", "v1").ok());
+    ASSERT_TRUE((*store)->PutSetting("k", "v2").ok());
+    EXPECT_EQ(**(*store)->GetSetting("k"), "v2");
+    EXPECT_FALSE((*store)->GetSetting("absent")->has_value());
+  }
+  {
+    auto db = SqliteDb::Open(path_);
+    ASSERT_TRUE(db.ok());
+    ASSERT_TRUE((*db)->Exec("PRAGMA user_version = 99").ok());
+  }
+  auto store = DocumentStore::Open(path_);
+  ASSERT_FALSE(store.ok());
+  EXPECT_EQ(store.status().code(), absl::StatusCode::kFailedPrecondition);
+  EXPECT_NE(store.status().message().find("newer"), std::string::npos);
+}
+
+TEST(AnnotationValidation, NamesTheField) {
+  const cv::Size page(800, 1000);
+  AnnotationRecord a;
+  a.kind = AnnotationRecord::Kind::kHighlight;
+  a.rect = {0, 0, 10, 10};
+  a.opacity = 1.2;
+  EXPECT_NE(a.Validate(page).message().find("opacity"), std::string::npos);
+  a.opacity = 0.5;
+  EXPECT_TRUE(a.Validate(page).ok());
+  a.rect.width = 0;
+  EXPECT_NE(a.Validate(page).message().find("width"), std::string::npos);
+  a.kind = AnnotationRecord::Kind::kLink;
+  a.rect.width = 5;
+  EXPECT_NE(a.Validate(page).message().find("url"), std::string::npos);
+  a.kind = AnnotationRecord::Kind::kText;
+  a.text = "x";
+  a.font_size_px = -1;
+  EXPECT_NE(a.Validate(page).message().find("font_size"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace texfree::server
