@@ -5,9 +5,8 @@
 #include <atomic>
 #include <cmath>
 #include <mutex>
-#include <thread>
-
 #include <opencv2/calib3d.hpp>
+#include <thread>
 
 #include "absl/strings/str_cat.h"
 #include "common/neighbor_grid.h"
@@ -25,9 +24,8 @@ absl::Status RetrievalOptions::Validate() const {
   if (ransac_threshold_px < 0) return absl::InvalidArgumentError("ransac_threshold_px < 0");
   if (ransac_iterations < 10) return absl::InvalidArgumentError("ransac_iterations must be >= 10");
   if (min_inliers < 6)
-    return absl::InvalidArgumentError(
-        absl::StrCat("min_inliers must be >= 6 (a homography has 4 points of freedom), got ",
-                     min_inliers));
+    return absl::InvalidArgumentError(absl::StrCat(
+        "min_inliers must be >= 6 (a homography has 4 points of freedom), got ", min_inliers));
   if (max_results < 0) return absl::InvalidArgumentError("max_results must be >= 0");
   return absl::OkStatus();
 }
@@ -157,6 +155,46 @@ struct Hit {
   }
 };
 
+struct Correspondence {
+  uint32_t document;
+  int query;
+  uint16_t reference;
+  int count;  // descriptors of the query keypoint that hit this reference keypoint
+};
+
+// A document to verify: its slice [begin, end) of the correspondences and its votes.
+struct Candidate {
+  uint32_t document;
+  size_t begin, end;
+  int votes;   // query keypoints with any hit in the document
+  int strong;  // ...of which two or more descriptors agree on one reference keypoint
+  int Score() const { return strong * 1024 + std::min(votes, 1023); }
+};
+
+// Collapses sorted hits to one correspondence per (document, query keypoint): the first
+// reference keypoint with the most hits.
+std::vector<Correspondence> BestCorrespondences(const std::vector<Hit>& hits) {
+  std::vector<Correspondence> out;
+  for (size_t i = 0; i < hits.size();) {
+    Correspondence c{hits[i].document, hits[i].query, 0, 0};
+    size_t j = i;
+    while (j < hits.size() && hits[j].document == c.document && hits[j].query == c.query) {
+      size_t run = j;
+      while (run < hits.size() && hits[run].document == c.document && hits[run].query == c.query &&
+             hits[run].reference == hits[j].reference)
+        ++run;
+      if (static_cast<int>(run - j) > c.count) {
+        c.count = static_cast<int>(run - j);
+        c.reference = hits[j].reference;
+      }
+      j = run;
+    }
+    out.push_back(c);
+    i = j;
+  }
+  return out;
+}
+
 // Plausibility of a page homography: orientation kept (no mirror), finite, the local
 // scale at the inliers' centre within a sane range, all inliers in front of the camera.
 bool PlausibleHomography(const cv::Matx33d& H, const std::vector<cv::Point2f>& ref) {
@@ -192,7 +230,9 @@ std::vector<DocumentHit> LlahRetriever::Retrieve(const std::vector<cv::Point2f>&
   std::vector<Hit> hits;
   hits.reserve(query.size() * per * 2);
   std::unordered_map<uint32_t, std::shared_ptr<const Model>> candidates_models;
-  std::vector<std::pair<int, uint32_t>> ranked;  // (votes, document)
+  // Per (document, query keypoint): the reference keypoint it hit most often, and how often.
+  std::vector<Correspondence> best;
+  std::vector<Candidate> ranked;
   {
     std::shared_lock lock(mutex_);
     for (size_t q = 0; q < query.size(); ++q) {
@@ -206,77 +246,56 @@ std::vector<DocumentHit> LlahRetriever::Retrieve(const std::vector<cv::Point2f>&
       }
     }
     std::sort(hits.begin(), hits.end());
+    best = BestCorrespondences(hits);
     // Votes per document. A query keypoint whose descriptors agree on one reference
     // keypoint (two or more hits on it) is strong evidence; a single hit is often chance
     // (text is regular, so some arrangements recur on every page). Rank by strong votes,
     // then by all votes.
-    for (size_t i = 0; i < hits.size();) {
-      size_t j = i;
-      int votes = 0, strong = 0;
-      while (j < hits.size() && hits[j].document == hits[i].document) {
-        const int query_kp = hits[j].query;
-        int best = 0;
-        while (j < hits.size() && hits[j].document == hits[i].document &&
-               hits[j].query == query_kp) {
-          size_t run = j;
-          while (run < hits.size() && hits[run].document == hits[j].document &&
-                 hits[run].query == query_kp && hits[run].reference == hits[j].reference)
-            ++run;
-          best = std::max(best, static_cast<int>(run - j));
-          j = run;
-        }
-        ++votes;
-        if (best >= 2) ++strong;
+    for (size_t i = 0; i < best.size();) {
+      Candidate c{best[i].document, i, i, 0, 0};
+      for (; c.end < best.size() && best[c.end].document == c.document; ++c.end) {
+        ++c.votes;
+        if (best[c.end].count >= 2) ++c.strong;
       }
-      if (votes >= o.min_votes && strong >= o.min_strong_votes) ranked.emplace_back(strong * 1024 + std::min(votes, 1023), hits[i].document);
-      i = j;
+      if (c.votes >= o.min_votes && c.strong >= o.min_strong_votes) ranked.push_back(c);
+      i = c.end;
     }
-    std::sort(ranked.begin(), ranked.end(), std::greater<>());
+    std::sort(ranked.begin(), ranked.end(), [](const Candidate& a, const Candidate& b) {
+      if (a.Score() != b.Score()) return a.Score() > b.Score();
+      return a.document > b.document;
+    });
     if (!ranked.empty()) {
-      const double floor = o.candidate_vote_ratio * ranked.front().first;
-      while (!ranked.empty() && ranked.back().first < floor) ranked.pop_back();
+      const double floor = o.candidate_vote_ratio * ranked.front().Score();
+      while (!ranked.empty() && ranked.back().Score() < floor) ranked.pop_back();
     }
     if (static_cast<int>(ranked.size()) > o.max_candidates) ranked.resize(o.max_candidates);
-    for (const auto& [votes, doc] : ranked) {
-      auto it = models_.find(doc);
-      if (it != models_.end()) candidates_models[doc] = it->second;
+    for (const Candidate& c : ranked) {
+      auto it = models_.find(c.document);
+      if (it != models_.end()) candidates_models[c.document] = it->second;
     }
   }
 
-  const double threshold =
-      o.ransac_threshold_px > 0 ? o.ransac_threshold_px
-                                : std::clamp(0.45 * query_char_height, 2.5, 12.0);
+  const double threshold = o.ransac_threshold_px > 0
+                               ? o.ransac_threshold_px
+                               : std::clamp(0.45 * query_char_height, 2.5, 12.0);
   std::vector<char> used(query.size(), 0);
   NeighborGrid query_grid(query);
   std::vector<int> nearest;
-  for (const auto& [votes, doc] : ranked) {
+  for (const Candidate& candidate : ranked) {
+    const uint32_t doc = candidate.document;
     auto mit = candidates_models.find(doc);
     if (mit == candidates_models.end()) continue;
     const Model& model = *mit->second;
-    // Best reference keypoint per query keypoint: the one it hit most often.
-    auto range = std::equal_range(hits.begin(), hits.end(), Hit{doc, -1, 0},
-                                  [](const Hit& a, const Hit& b) { return a.document < b.document; });
     std::vector<cv::Point2f> ref_pts, query_pts;
     std::vector<std::pair<int, int>> pairs;
     std::vector<int> strength;
-    for (auto it = range.first; it != range.second;) {
-      auto end = it;
-      int best_ref = -1, best_count = 0;
-      while (end != range.second && end->query == it->query) {
-        auto run = end;
-        while (run != range.second && run->query == it->query && run->reference == end->reference)
-          ++run;
-        const int count = static_cast<int>(run - end);
-        if (count > best_count) best_count = count, best_ref = end->reference;
-        end = run;
-      }
-      if (!used[it->query] && best_ref >= 0 && best_ref < static_cast<int>(model.keypoints.size())) {
-        ref_pts.push_back(model.keypoints[best_ref]);
-        query_pts.push_back(query[it->query]);
-        pairs.emplace_back(it->query, best_ref);
-        strength.push_back(best_count);
-      }
-      it = end;
+    for (size_t i = candidate.begin; i < candidate.end; ++i) {
+      const Correspondence& c = best[i];
+      if (used[c.query] || c.reference >= model.keypoints.size()) continue;
+      ref_pts.push_back(model.keypoints[c.reference]);
+      query_pts.push_back(query[c.query]);
+      pairs.emplace_back(c.query, c.reference);
+      strength.push_back(c.count);
     }
     if (static_cast<int>(pairs.size()) < o.min_inliers) continue;
     // RANSAC on the strong correspondences when there are enough of them: a far higher
@@ -320,8 +339,8 @@ std::vector<DocumentHit> LlahRetriever::Retrieve(const std::vector<cv::Point2f>&
       for (int r = 0; r < static_cast<int>(model.keypoints.size()); ++r) {
         const cv::Point2d p = ApplyHomography(H, model.keypoints[r]);
         if (!std::isfinite(p.x) || !std::isfinite(p.y)) continue;
-        query_grid.NearestTo(cv::Point2f(static_cast<float>(p.x), static_cast<float>(p.y)), 1,
-                             -1, &nearest);
+        query_grid.NearestTo(cv::Point2f(static_cast<float>(p.x), static_cast<float>(p.y)), 1, -1,
+                             &nearest);
         if (nearest.empty() || used[nearest[0]]) continue;
         const float d = static_cast<float>(cv::norm(cv::Point2d(query[nearest[0]]) - p));
         if (d > threshold) continue;
@@ -357,7 +376,7 @@ std::vector<DocumentHit> LlahRetriever::Retrieve(const std::vector<cv::Point2f>&
     hit.document = doc;
     hit.homography = H * (1.0 / H(2, 2));
     hit.inliers = inliers;
-    hit.votes = votes % 1024;
+    hit.votes = candidate.votes;
     hit.matches = std::move(guided);
     for (const auto& [q, r] : hit.matches) used[q] = 1;
     results.push_back(std::move(hit));

@@ -11,15 +11,12 @@
 #include "absl/strings/str_join.h"
 #include "absl/strings/str_split.h"
 #include "common/status_macros.h"
+#include "common/timing.h"
 
 namespace texfree::server {
 namespace {
 
-using Clock = std::chrono::steady_clock;
-
-double MsSince(Clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
-}
+using Clock = SteadyClock;
 
 constexpr const char* kLlahOptionsKey = "llah.options";
 constexpr const char* kQuantizerKey = "llah.quantizer";
@@ -107,7 +104,7 @@ absl::Status DocumentRegistry::LoadIndex() {
         summaries_[s.index_id] = s;
         documents.push_back({s.index_id, std::move(points), s.size});
       }));
-  const double read_ms = MsSince(t0);
+  const double read_ms = MillisecondsSince(t0);
   const size_t n = documents.size();
   RETURN_IF_ERROR(retriever->AddDocuments(std::move(documents), options_.rebuild_threads,
                                           [](size_t done, size_t total) {
@@ -117,7 +114,7 @@ absl::Status DocumentRegistry::LoadIndex() {
   retriever_ = std::move(retriever);
   spdlog::info(
       "document index: {} pages, {} entries, {:.1f} MiB, read {:.0f} ms, rebuilt in {:.0f} ms",
-      n, retriever_->entries(), retriever_->MemoryBytes() / 1048576.0, read_ms, MsSince(t0));
+      n, retriever_->entries(), retriever_->MemoryBytes() / 1048576.0, read_ms, MillisecondsSince(t0));
   return absl::OkStatus();
 }
 
@@ -160,7 +157,7 @@ absl::StatusOr<DocumentRecord> DocumentRegistry::Register(
         " image, at least ", options_.min_keypoints,
         " are needed: register a page of text, in focus, seen from above"));
   }
-  const double extract_ms = MsSince(t0);
+  const double extract_ms = MillisecondsSince(t0);
 
   std::lock_guard registering(register_mutex_);
   std::shared_ptr<LlahRetriever> retriever;
@@ -204,7 +201,7 @@ absl::StatusOr<DocumentRecord> DocumentRegistry::Register(
   spdlog::info("registered document {} \"{}\": {}x{}, {} keypoints, {} annotations "
                "(extract {:.1f} ms, total {:.1f} ms)",
                record.id, record.title, gray.cols, gray.rows, record.keypoints.size(),
-               record.annotations.size(), extract_ms, MsSince(t0));
+               record.annotations.size(), extract_ms, MillisecondsSince(t0));
   return record;
 }
 
@@ -219,7 +216,7 @@ absl::Status DocumentRegistry::Delete(const std::string& id) {
     retriever = retriever_;
   }
   if (retriever) retriever->RemoveDocument(index_id);
-  spdlog::info("deleted document {} in {:.1f} ms", id, MsSince(t0));
+  spdlog::info("deleted document {} in {:.1f} ms", id, MillisecondsSince(t0));
   return absl::OkStatus();
 }
 
@@ -228,7 +225,7 @@ absl::StatusOr<RetrievalResult> DocumentRegistry::Retrieve(
   RetrievalResult result;
   auto t = Clock::now();
   WordKeypoints kp = extractor_.Extract(gray);
-  result.timings.Add("extract", MsSince(t));
+  result.timings.Add("extract", MillisecondsSince(t));
   result.query_keypoints = static_cast<int>(kp.points.size());
   std::shared_ptr<LlahRetriever> retriever;
   {
@@ -240,7 +237,7 @@ absl::StatusOr<RetrievalResult> DocumentRegistry::Retrieve(
   RetrievalOptions ro = options_.retrieval;
   ro.max_results = max_results;
   std::vector<DocumentHit> hits = retriever->Retrieve(kp.points, kp.char_height, ro);
-  result.timings.Add("match", MsSince(t));
+  result.timings.Add("match", MillisecondsSince(t));
 
   t = Clock::now();
   for (const DocumentHit& hit : hits) {
@@ -266,7 +263,7 @@ absl::StatusOr<RetrievalResult> DocumentRegistry::Retrieve(
     ASSIGN_OR_RETURN(doc.annotations, store_->Annotations(hit.document));
     result.documents.push_back(std::move(doc));
   }
-  result.timings.Add("pose", MsSince(t));
+  result.timings.Add("pose", MillisecondsSince(t));
   return result;
 }
 

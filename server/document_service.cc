@@ -7,16 +7,13 @@
 
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
+#include "common/timing.h"
 #include "server/proto_convert.h"
 
 namespace texfree::server {
 namespace {
 
-using Clock = std::chrono::steady_clock;
-
-double MsSince(Clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
-}
+using Clock = SteadyClock;
 
 grpc::Status Fail(const char* method, const absl::Status& status) {
   if (status.code() == absl::StatusCode::kInternal || status.code() == absl::StatusCode::kDataLoss ||
@@ -53,7 +50,7 @@ grpc::Status DocumentServiceImpl::RegisterDocument(grpc::ServerContext*,
   auto record = registry_->Register(*image, request->title(), std::move(annotations));
   if (!record.ok()) return Fail("RegisterDocument", record.status());
   DocumentToProto(*record, response->mutable_document());
-  response->set_server_ms(MsSince(t0));
+  response->set_server_ms(MillisecondsSince(t0));
   return grpc::Status::OK;
 }
 
@@ -66,7 +63,7 @@ grpc::Status DocumentServiceImpl::DeleteDocument(grpc::ServerContext*,
   if (auto s = registry_->Delete(request->document_id()); !s.ok())
     return Fail("DeleteDocument", s);
   response->set_document_id(request->document_id());
-  response->set_server_ms(MsSince(t0));
+  response->set_server_ms(MillisecondsSince(t0));
   return grpc::Status::OK;
 }
 
@@ -139,7 +136,7 @@ grpc::Status DocumentServiceImpl::RetrieveDocuments(grpc::ServerContext*,
   const auto t0 = Clock::now();
   auto image = ImageFromProto(request->image(), limits_);
   if (!image.ok()) return Fail("RetrieveDocuments", image.status());
-  const double decode_ms = MsSince(t0);
+  const double decode_ms = MillisecondsSince(t0);
   auto camera = CameraFromProto(request->intrinsics());
   if (!camera.ok()) return Fail("RetrieveDocuments", camera.status());
   if (request->max_results() > 1000)
@@ -156,7 +153,7 @@ grpc::Status DocumentServiceImpl::RetrieveDocuments(grpc::ServerContext*,
     t->set_ms(ms);
   }
   response->set_query_keypoints(result->query_keypoints);
-  response->set_server_ms(MsSince(t0));
+  response->set_server_ms(MillisecondsSince(t0));
   spdlog::debug("RetrieveDocuments: {}x{}, {} keypoints, {} matches, {:.1f} ms", image->cols,
                 image->rows, result->query_keypoints, result->documents.size(),
                 response->server_ms());

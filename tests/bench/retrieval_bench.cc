@@ -5,39 +5,36 @@
 // p95 server time (decode + extract + match + verify), index memory and start-up time.
 //
 //   texfree-bench-retrieval --pages 100,1000,10000 --queries 300 --unregistered 200
+#include <spdlog/spdlog.h>
+
+#include <CLI/CLI.hpp>
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 #include <random>
 #include <string>
 #include <vector>
 
-#include <CLI/CLI.hpp>
-#include <opencv2/imgcodecs.hpp>
-#include <opencv2/imgproc.hpp>
-#include <spdlog/spdlog.h>
-
 #include "common/image_io.h"
 #include "common/planar_pose.h"
+#include "common/timing.h"
 #include "server/document_registry.h"
 #include "server/document_store.h"
 #include "tests/data/camera_view.h"
 #include "tests/data/page_renderer.h"
 
 namespace fs = std::filesystem;
-using Clock = std::chrono::steady_clock;
+using Clock = texfree::SteadyClock;
 using texfree::server::DocumentRegistry;
 using texfree::server::DocumentRegistryOptions;
 using texfree::server::DocumentStore;
 
 namespace {
-
-double MsSince(Clock::time_point t0) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
-}
 
 double Percentile(std::vector<double> v, double q) {
   if (v.empty()) return 0;
@@ -53,23 +50,6 @@ long RssKiB() {
   return 0;
 }
 
-// Mean distance between estimated and true projections of page points inside the frame.
-double HomographyError(const cv::Matx33d& est, const cv::Matx33d& truth, const cv::Size& page,
-                       const cv::Size& image) {
-  double sum = 0;
-  int n = 0;
-  for (int y = 0; y <= 10; ++y) {
-    for (int x = 0; x <= 10; ++x) {
-      const cv::Point2d p(page.width * x / 10.0, page.height * y / 10.0);
-      const cv::Point2d t = texfree::ApplyHomography(truth, p);
-      if (t.x < 0 || t.y < 0 || t.x >= image.width || t.y >= image.height) continue;
-      sum += cv::norm(texfree::ApplyHomography(est, p) - t);
-      ++n;
-    }
-  }
-  return n ? sum / n : 0;
-}
-
 struct Query {
   std::string jpeg;
   int page;  // -1: never registered
@@ -81,16 +61,18 @@ std::vector<Query> MakeQueries(int count, int registered, uint64_t seed, bool un
   std::vector<Query> out;
   std::mt19937_64 rng(seed);
   for (int i = 0; i < count; ++i) {
-    const int page = unregistered ? -1 : static_cast<int>((static_cast<int64_t>(i) * 7919) % registered);
+    const int page =
+        unregistered ? -1 : static_cast<int>((static_cast<int64_t>(i) * 7919) % registered);
     const uint64_t page_seed = unregistered ? 1'000'000 + i : page;
     auto rendered = texfree::testdata::RenderTextPage(page_seed);
     auto options = texfree::testdata::RandomViewOptions(rng, rendered.image.size());
     options.jpeg_quality = 0;  // encoded below, decoded by the timed server path
     auto view = texfree::testdata::RenderCameraView(rendered.image, options, seed + i);
     std::vector<uchar> bytes;
-    cv::imencode(".jpg", view.image, bytes, {cv::IMWRITE_JPEG_QUALITY, 60 + static_cast<int>(rng() % 36)});
-    out.push_back({std::string(bytes.begin(), bytes.end()), page, view.homography,
-                   rendered.image.size()});
+    cv::imencode(".jpg", view.image, bytes,
+                 {cv::IMWRITE_JPEG_QUALITY, 60 + static_cast<int>(rng() % 36)});
+    out.push_back(
+        {std::string(bytes.begin(), bytes.end()), page, view.homography, rendered.image.size()});
   }
   return out;
 }
@@ -134,8 +116,9 @@ int main(int argc, char** argv) {
   auto registry = open();
   int registered = static_cast<int>(*registry->Count());
   std::vector<std::string> ids;
-  std::printf("| pages | top-1 | H err px (median) | false matches | median ms | p95 ms | "
-              "index MiB | RSS MiB | start-up s | register ms/page |\n");
+  std::printf(
+      "| pages | top-1 | H err px (median) | false matches | median ms | p95 ms | "
+      "index MiB | RSS MiB | start-up s | register ms/page |\n");
   std::printf("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
   const auto unregistered_queries = MakeQueries(unregistered, 1, 99, true);
   for (int target : checkpoints) {
@@ -152,13 +135,14 @@ int main(int argc, char** argv) {
       }
       if ((registered + 1) % 500 == 0) std::fprintf(stderr, "registered %d\n", registered + 1);
     }
-    const double reg_ms = registered > before ? MsSince(t_reg) / (registered - before) : 0;
+    const double reg_ms =
+        registered > before ? texfree::MillisecondsSince(t_reg) / (registered - before) : 0;
 
     // Start-up: reopen the database and rebuild the index.
     registry.reset();
     const auto t_open = Clock::now();
     registry = open();
-    const double startup_s = MsSince(t_open) / 1000.0;
+    const double startup_s = texfree::MillisecondsSince(t_open) / 1000.0;
 
     // Titles map back to page numbers.
     std::vector<std::string> id_of_page(registered);
@@ -181,13 +165,13 @@ int main(int argc, char** argv) {
       const auto t0 = Clock::now();
       auto gray = texfree::DecodeImage(q.jpeg, limits);
       auto result = registry->Retrieve(*gray, std::nullopt, 0);
-      times.push_back(MsSince(t0));
+      times.push_back(texfree::MillisecondsSince(t0));
       if (result.ok())
         for (const auto& [stage, ms] : result->timings.stages) stage_ms[stage] += ms;
       if (result.ok() && !result->documents.empty() &&
           result->documents[0].document.id == id_of_page[q.page]) {
-        const double err = HomographyError(result->documents[0].homography, q.truth, q.page_size,
-                                           gray->size());
+        const double err = texfree::testdata::MeanHomographyError(
+            result->documents[0].homography, q.truth, q.page_size, gray->size());
         errors.push_back(err);
         if (err < 10) ++correct;
       }
@@ -201,15 +185,17 @@ int main(int argc, char** argv) {
       const auto t0 = Clock::now();
       auto gray = texfree::DecodeImage(q.jpeg, limits);
       auto result = registry->Retrieve(*gray, std::nullopt, 0);
-      times.push_back(MsSince(t0));
+      times.push_back(texfree::MillisecondsSince(t0));
       if (result.ok()) unreg_false += static_cast<int>(result->documents.size());
     }
-    std::printf("| %d | %.1f%% (%d/%d) | %.2f | %d of %d unregistered (+%d wrong) | %.1f | %.1f | %.0f | %.0f | %.2f | %.1f |\n",
-                registered, 100.0 * correct / queries_now.size(), correct,
-                static_cast<int>(queries_now.size()), Percentile(errors, 0.5), unreg_false,
-                static_cast<int>(unregistered_queries.size()), false_matches,
-                Percentile(times, 0.5), Percentile(times, 0.95),
-                registry->index_memory_bytes() / 1048576.0, RssKiB() / 1024.0, startup_s, reg_ms);
+    std::printf(
+        "| %d | %.1f%% (%d/%d) | %.2f | %d of %d unregistered (+%d wrong) | %.1f | %.1f | %.0f | "
+        "%.0f | %.2f | %.1f |\n",
+        registered, 100.0 * correct / queries_now.size(), correct,
+        static_cast<int>(queries_now.size()), Percentile(errors, 0.5), unreg_false,
+        static_cast<int>(unregistered_queries.size()), false_matches, Percentile(times, 0.5),
+        Percentile(times, 0.95), registry->index_memory_bytes() / 1048576.0, RssKiB() / 1024.0,
+        startup_s, reg_ms);
     std::string stages;
     for (const auto& [stage, ms] : stage_ms)
       stages += stage + " " + std::to_string(ms / queries_now.size()).substr(0, 5) + " ms  ";

@@ -424,4 +424,24 @@ std::string CameraViewGroundTruthJson(const CameraView& view,
   return os.str();
 }
 
+double MeanHomographyError(const cv::Matx33d& estimated, const cv::Matx33d& truth,
+                           const cv::Size& page_size, const cv::Size& image_size) {
+  auto apply = [](const cv::Matx33d& H, const cv::Point2d& p) {
+    const cv::Vec3d q = H * cv::Vec3d(p.x, p.y, 1.0);
+    return cv::Point2d(q[0] / q[2], q[1] / q[2]);
+  };
+  double sum = 0;
+  int n = 0;
+  for (int y = 0; y <= 10; ++y) {
+    for (int x = 0; x <= 10; ++x) {
+      const cv::Point2d p(page_size.width * x / 10.0, page_size.height * y / 10.0);
+      const cv::Point2d t = apply(truth, p);
+      if (t.x < 0 || t.y < 0 || t.x >= image_size.width || t.y >= image_size.height) continue;
+      sum += cv::norm(apply(estimated, p) - t);
+      ++n;
+    }
+  }
+  return n ? sum / n : 1e9;
+}
+
 }  // namespace texfree::testdata

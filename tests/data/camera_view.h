@@ -62,6 +62,12 @@ CameraViewOptions RandomViewOptions(std::mt19937_64& rng,
                                     double min_scale = 0.6,
                                     double max_scale = 1.3);
 
+// Mean distance in image pixels between where `estimated` and `truth` (both page ->
+// image) put an 11 x 11 grid of page points, over the points `truth` places inside the
+// image. Returns 1e9 when no grid point is visible.
+double MeanHomographyError(const cv::Matx33d& estimated, const cv::Matx33d& truth,
+                           const cv::Size& page_size, const cv::Size& image_size);
+
 // Ground truth as JSON text (homography, K, R, t, options) for writing beside
 // an image.
 std::string CameraViewGroundTruthJson(const CameraView& view,

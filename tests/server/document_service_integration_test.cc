@@ -2,14 +2,14 @@
 // rendered pages with annotations, retrieve them from camera views (homography and pose
 // against ground truth), several pages in one view, bad input answered with the right
 // status, deletion, and a restart that keeps what remains.
+#include <gtest/gtest.h>
+
 #include <filesystem>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 #include <random>
 #include <string>
 #include <vector>
-
-#include <gtest/gtest.h>
-#include <opencv2/imgcodecs.hpp>
-#include <opencv2/imgproc.hpp>
 
 #include "common/planar_pose.h"
 #include "tests/data/camera_view.h"
@@ -35,22 +35,6 @@ cv::Matx33d FromProto(const v1::Homography& h) {
   cv::Matx33d H;
   for (int i = 0; i < 9; ++i) H.val[i] = h.h(i);
   return H;
-}
-
-// Mean distance between estimated and true projections of page points inside the image.
-double HomographyError(const cv::Matx33d& est, const cv::Matx33d& truth, const cv::Size& page,
-                       const cv::Size& image) {
-  double sum = 0;
-  int n = 0;
-  for (int y = 0; y <= 10; ++y)
-    for (int x = 0; x <= 10; ++x) {
-      const cv::Point2d p(page.width * x / 10.0, page.height * y / 10.0);
-      const cv::Point2d t = ApplyHomography(truth, p);
-      if (t.x < 0 || t.y < 0 || t.x >= image.width || t.y >= image.height) continue;
-      sum += cv::norm(ApplyHomography(est, p) - t);
-      ++n;
-    }
-  return n ? sum / n : 1e9;
 }
 
 struct Page {
@@ -110,8 +94,9 @@ v1::RetrieveDocumentsResponse Retrieve(v1::DocumentService::Stub& stub, const cv
   return res;
 }
 
-grpc::Status Register(v1::DocumentService::Stub& stub, const cv::Mat& image, const std::string& title,
-                      std::vector<v1::Annotation> annotations, v1::RegisterDocumentResponse* res) {
+grpc::Status Register(v1::DocumentService::Stub& stub, const cv::Mat& image,
+                      const std::string& title, std::vector<v1::Annotation> annotations,
+                      v1::RegisterDocumentResponse* res) {
   grpc::ClientContext ctx;
   v1::RegisterDocumentRequest req;
   req.mutable_image()->set_encoded(Encode(image));
@@ -165,8 +150,8 @@ TEST_F(DocumentServiceIntegrationTest, RegisterRetrieveDeleteRestart) {
 
   // Camera views: each page is found first, homography within a few pixels, pose with
   // intrinsics close to the camera's true rotation.
-  const std::vector<testdata::CameraViewOptions> views = {
-      View(0, 0, 0, 0.8), View(8, 30, 15, 0.9), View(12, 200, -30, 0.8)};
+  const std::vector<testdata::CameraViewOptions> views = {View(0, 0, 0, 0.8), View(8, 30, 15, 0.9),
+                                                          View(12, 200, -30, 0.8)};
   for (const Page& p : pages) {
     for (size_t v = 0; v < views.size(); ++v) {
       auto view = testdata::RenderCameraView(p.image, views[v], p.seed * 10 + v);
@@ -175,8 +160,8 @@ TEST_F(DocumentServiceIntegrationTest, RegisterRetrieveDeleteRestart) {
       if (res.matches_size() == 0) continue;
       const auto& m = res.matches(0);
       EXPECT_EQ(m.document_id(), p.id) << "page " << p.seed << " view " << v;
-      EXPECT_LT(HomographyError(FromProto(m.homography()), view.homography, p.image.size(),
-                                view.image.size()),
+      EXPECT_LT(testdata::MeanHomographyError(FromProto(m.homography()), view.homography,
+                                              p.image.size(), view.image.size()),
                 3.0)
           << "page " << p.seed << " view " << v;
       EXPECT_GE(m.inliers(), 12u);
@@ -216,8 +201,12 @@ TEST_F(DocumentServiceIntegrationTest, RegisterRetrieveDeleteRestart) {
     ASSERT_EQ(found.size(), 2u);
     ASSERT_TRUE(found.count(pages[1].id));
     ASSERT_TRUE(found.count(pages[2].id));
-    EXPECT_LT(HomographyError(found[pages[1].id], Ha, pages[1].image.size(), canvas.size()), 3.0);
-    EXPECT_LT(HomographyError(found[pages[2].id], Hb, pages[2].image.size(), canvas.size()), 3.0);
+    EXPECT_LT(
+        testdata::MeanHomographyError(found[pages[1].id], Ha, pages[1].image.size(), canvas.size()),
+        3.0);
+    EXPECT_LT(
+        testdata::MeanHomographyError(found[pages[2].id], Hb, pages[2].image.size(), canvas.size()),
+        3.0);
   }
 
   // A page never registered matches nothing.
@@ -302,9 +291,9 @@ TEST_F(DocumentServiceIntegrationTest, BadInputGetsClearErrorsAndServerStaysUp) 
 
   // A PNG header announcing 12000 x 9000 pixels (108 MP) is refused before decoding.
   {
-    const unsigned char header[] = {0x89, 'P', 'N', 'G', 0x0D, 0x0A, 0x1A, 0x0A, 0, 0, 0, 13,
-                                    'I', 'H', 'D', 'R', 0, 0, 0x2E, 0xE0, 0, 0, 0x23, 0x28,
-                                    8, 0, 0, 0, 0};
+    const unsigned char header[] = {0x89, 'P', 'N',  'G',  0x0D, 0x0A, 0x1A, 0x0A, 0,    0,
+                                    0,    13,  'I',  'H',  'D',  'R',  0,    0,    0x2E, 0xE0,
+                                    0,    0,   0x23, 0x28, 8,    0,    0,    0,    0};
     s = register_bytes(std::string(reinterpret_cast<const char*>(header), sizeof(header)));
     EXPECT_EQ(s.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
     EXPECT_NE(s.error_message().find("limit"), std::string::npos) << s.error_message();
