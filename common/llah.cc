@@ -18,7 +18,7 @@ uint64_t Mix64(uint64_t x) {  // splitmix64 finaliser
   return x ^ (x >> 31);
 }
 
-void Combinations(int n, int r, std::vector<std::vector<int>>* out) {
+void Combinations(int n, int r, std::vector<std::vector<int>> *out) {
   std::vector<int> c(r);
   std::iota(c.begin(), c.end(), 0);
   while (true) {
@@ -33,7 +33,7 @@ void Combinations(int n, int r, std::vector<std::vector<int>>* out) {
 
 constexpr int kMaxN = 10;
 
-inline float Cross(const cv::Point2f& a, const cv::Point2f& b, const cv::Point2f& c) {
+inline float Cross(const cv::Point2f &a, const cv::Point2f &b, const cv::Point2f &c) {
   return (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x);
 }
 
@@ -75,8 +75,8 @@ int InvariantQuantizer::Quantize(float value) const {
                           thresholds_.begin());
 }
 
-float AffineInvariant(const cv::Point2f& a, const cv::Point2f& b, const cv::Point2f& c,
-                      const cv::Point2f& d) {
+float AffineInvariant(const cv::Point2f &a, const cv::Point2f &b, const cv::Point2f &c,
+                      const cv::Point2f &d) {
   return std::atan2(Cross(a, c, d), Cross(a, b, c));
 }
 
@@ -85,15 +85,15 @@ LlahDescriber::LlahDescriber(LlahOptions options, InvariantQuantizer quantizer)
   Combinations(options_.n, options_.m, &subsets_m_);
   std::vector<std::vector<int>> c4;
   Combinations(options_.m, 4, &c4);
-  for (const auto& c : c4) subsets_4_.push_back({c[0], c[1], c[2], c[3]});
+  for (const auto &c : c4) subsets_4_.push_back({c[0], c[1], c[2], c[3]});
 }
 
 namespace {
 
-// Neighbours of points[index] ordered by angle around it. Returns false if too few.
-bool OrderedNeighbors(const std::vector<cv::Point2f>& points, int index, int n,
-                      const NeighborGrid& grid, std::vector<int>& scratch,
-                      cv::Point2f* ordered) {
+// Neighbours of points[index] ordered by angle around it. Returns false if too
+// few.
+bool OrderedNeighbors(const std::vector<cv::Point2f> &points, int index, int n,
+                      const NeighborGrid &grid, std::vector<int> &scratch, cv::Point2f *ordered) {
   grid.Nearest(index, n, &scratch);
   if (static_cast<int>(scratch.size()) < n) return false;
   const cv::Point2f p = points[index];
@@ -109,69 +109,147 @@ bool OrderedNeighbors(const std::vector<cv::Point2f>& points, int index, int n,
 
 }  // namespace
 
-void LlahDescriber::DescribePoint(const std::vector<cv::Point2f>& points, int index,
-                                  const NeighborGrid& grid, std::vector<int>& scratch,
-                                  uint64_t* out) const {
+void LlahDescriber::DescribePoint(const std::vector<cv::Point2f> &points, int index,
+                                  const NeighborGrid &grid, int probes, std::vector<int> &scratch,
+                                  uint64_t *out) const {
   const int n = options_.n, m = options_.m;
   const int per = static_cast<int>(subsets_m_.size());
+  const int variants = 1 << probes;
   cv::Point2f q[kMaxN];
   if (!OrderedNeighbors(points, index, n, grid, scratch, q)) {
-    std::fill(out, out + per, 0);
+    std::fill(out, out + per * variants, 0);
     return;
   }
-  // Quantised invariant of each ordered quadruple, computed once per keypoint.
+  // Quantised invariant of each ordered quadruple, computed once per keypoint,
+  // and its distance to the nearest level boundary (for probing).
   int8_t table[kMaxN * kMaxN * kMaxN * kMaxN];
+  float margin[kMaxN * kMaxN * kMaxN * kMaxN];
+  int8_t other[kMaxN * kMaxN * kMaxN * kMaxN];  // the level across the nearest boundary
   std::memset(table, -1, sizeof(int8_t) * n * n * n * n);
-  auto level = [&](int a, int b, int c, int d) -> int {
-    int8_t& slot = table[((a * n + b) * n + c) * n + d];
-    if (slot < 0) slot = static_cast<int8_t>(quantizer_.Quantize(AffineInvariant(q[a], q[b], q[c], q[d])));
-    return slot;
+  const std::vector<float> &t = quantizer_.thresholds();
+  const int k = options_.k;
+  auto slot_of = [&](int a, int b, int c, int d) { return ((a * n + b) * n + c) * n + d; };
+  auto level = [&](int slot, int a, int b, int c, int d) -> int {
+    int8_t &l = table[slot];
+    if (l < 0) {
+      const float v = AffineInvariant(q[a], q[b], q[c], q[d]);
+      const int lv = quantizer_.Quantize(v);
+      l = static_cast<int8_t>(lv);
+      if (probes > 0 && !t.empty()) {
+        // The invariant is an angle: level 0 and level k-1 meet at +-pi.
+        const float below = lv > 0 ? v - t[lv - 1] : v + static_cast<float>(CV_PI);
+        const float above = lv < k - 1 ? t[lv] - v : static_cast<float>(CV_PI) - v;
+        margin[slot] = std::min(below, above);
+        other[slot] = static_cast<int8_t>(below < above ? (lv + k - 1) % k : (lv + 1) % k);
+      }
+    }
+    return l;
   };
   const int dims = static_cast<int>(subsets_4_.size());
-  std::array<uint8_t, 256> best{}, cur{};
-  for (int s = 0; s < per; ++s) {
-    const std::vector<int>& sub = subsets_m_[s];
+  int slots[kMaxN][256];  // slot of each (rotation, 4-subset) of the current m-subset
+  int best_rotation = 0;
+  auto canonical_hash = [&]() {
+    std::array<uint8_t, 256> best{}, cur{};
     bool have_best = false;
     for (int r = 0; r < m; ++r) {
-      for (int j = 0; j < dims; ++j) {
-        const auto& f = subsets_4_[j];
-        cur[j] = static_cast<uint8_t>(level(sub[(f[0] + r) % m], sub[(f[1] + r) % m],
-                                            sub[(f[2] + r) % m], sub[(f[3] + r) % m]));
-      }
-      if (!have_best || std::lexicographical_compare(cur.begin(), cur.begin() + dims,
-                                                     best.begin(), best.begin() + dims)) {
+      for (int j = 0; j < dims; ++j) cur[j] = static_cast<uint8_t>(table[slots[r][j]]);
+      if (!have_best || std::lexicographical_compare(cur.begin(), cur.begin() + dims, best.begin(),
+                                                     best.begin() + dims)) {
         best = cur;
         have_best = true;
+        best_rotation = r;
       }
     }
     uint64_t h = 0;
-    for (int j = 0; j < dims; ++j) h = h * static_cast<uint64_t>(options_.k) + best[j];
+    for (int j = 0; j < dims; ++j) h = h * static_cast<uint64_t>(k) + best[j];
     h = Mix64(h ^ (static_cast<uint64_t>(dims) << 58));
-    out[s] = h == 0 ? 1 : h;
+    return h == 0 ? uint64_t{1} : h;
+  };
+  for (int s = 0; s < per; ++s) {
+    const std::vector<int> &sub = subsets_m_[s];
+    for (int r = 0; r < m; ++r) {
+      for (int j = 0; j < dims; ++j) {
+        const auto &f = subsets_4_[j];
+        const int a = sub[(f[0] + r) % m], b = sub[(f[1] + r) % m], c = sub[(f[2] + r) % m],
+                  d = sub[(f[3] + r) % m];
+        slots[r][j] = slot_of(a, b, c, d);
+        level(slots[r][j], a, b, c, d);
+      }
+    }
+    uint64_t *dst = out + s * variants;
+    dst[0] = canonical_hash();
+    if (variants == 1) continue;
+    // Probes: the descriptors obtained by moving the `probes` least certain
+    // invariants (closest to a level boundary) to the level across that
+    // boundary. Noise in the query most often moves exactly those. Only the
+    // canonical rotation's invariants make the hash.
+    std::array<int, 4> uncertain{};
+    std::array<float, 4> worst{};
+    int found = 0;
+    {
+      const int r = best_rotation;
+      for (int j = 0; j < dims; ++j) {
+        const int slot = slots[r][j];
+        bool seen = false;
+        for (int u = 0; u < found; ++u) seen |= uncertain[u] == slot;
+        if (seen) continue;
+        const float mg = margin[slot];
+        if (found < probes) {
+          uncertain[found] = slot;
+          worst[found++] = mg;
+        } else {
+          int w = 0;
+          for (int u = 1; u < found; ++u)
+            if (worst[u] > worst[w]) w = u;
+          if (mg < worst[w]) {
+            uncertain[w] = slot;
+            worst[w] = mg;
+          }
+        }
+      }
+    }
+    for (int v = 1; v < variants; ++v) {
+      int8_t saved[4];
+      for (int u = 0; u < found; ++u) {
+        saved[u] = table[uncertain[u]];
+        if (v >> u & 1) table[uncertain[u]] = other[uncertain[u]];
+      }
+      dst[v] = v < (1 << found) ? canonical_hash() : 0;
+      for (int u = 0; u < found; ++u) table[uncertain[u]] = saved[u];
+    }
   }
 }
 
-void LlahDescriber::Describe(const std::vector<cv::Point2f>& points,
-                             std::vector<uint64_t>* hashes) const {
-  std::vector<int> all(points.size());
-  std::iota(all.begin(), all.end(), 0);
-  hashes->assign(points.size() * subsets_m_.size(), 0);
-  DescribeSubset(points, all, hashes);
+void LlahDescriber::Describe(const std::vector<cv::Point2f> &points,
+                             std::vector<uint64_t> *hashes) const {
+  DescribeWithProbes(points, 0, hashes);
 }
 
-void LlahDescriber::DescribeSubset(const std::vector<cv::Point2f>& points,
-                                   const std::vector<int>& which,
-                                   std::vector<uint64_t>* hashes) const {
+void LlahDescriber::DescribeWithProbes(const std::vector<cv::Point2f> &points, int probes,
+                                       std::vector<uint64_t> *hashes) const {
+  probes = std::clamp(probes, 0, kMaxProbes);
+  const size_t per = subsets_m_.size() << probes;
+  hashes->assign(points.size() * per, 0);
+  if (points.empty()) return;
+  NeighborGrid grid(points);
+  std::vector<int> scratch;
+  for (int i = 0; i < static_cast<int>(points.size()); ++i)
+    DescribePoint(points, i, grid, probes, scratch, hashes->data() + i * per);
+}
+
+void LlahDescriber::DescribeSubset(const std::vector<cv::Point2f> &points,
+                                   const std::vector<int> &which,
+                                   std::vector<uint64_t> *hashes) const {
   const size_t per = subsets_m_.size();
   if (hashes->size() < points.size() * per) hashes->resize(points.size() * per, 0);
   if (points.empty()) return;
   NeighborGrid grid(points);
   std::vector<int> scratch;
-  for (int i : which) DescribePoint(points, i, grid, scratch, hashes->data() + i * per);
+  for (int i : which) DescribePoint(points, i, grid, 0, scratch, hashes->data() + i * per);
 }
 
-void LlahDescriber::CollectInvariants(const std::vector<cv::Point2f>& points,
-                                      std::vector<float>* out) const {
+void LlahDescriber::CollectInvariants(const std::vector<cv::Point2f> &points,
+                                      std::vector<float> *out) const {
   if (points.empty()) return;
   NeighborGrid grid(points);
   std::vector<int> scratch;
@@ -180,10 +258,10 @@ void LlahDescriber::CollectInvariants(const std::vector<cv::Point2f>& points,
   cv::Point2f q[kMaxN];
   for (int i = 0; i < static_cast<int>(points.size()); ++i) {
     if (!OrderedNeighbors(points, i, options_.n, grid, scratch, q)) continue;
-    for (const auto& c : c4) {
+    for (const auto &c : c4) {
       for (int r = 0; r < 4; ++r) {
-        out->push_back(AffineInvariant(q[c[r]], q[c[(r + 1) % 4]], q[c[(r + 2) % 4]],
-                                       q[c[(r + 3) % 4]]));
+        out->push_back(
+            AffineInvariant(q[c[r]], q[c[(r + 1) % 4]], q[c[(r + 2) % 4]], q[c[(r + 3) % 4]]));
       }
     }
   }

@@ -1,4 +1,5 @@
-// LlahRetriever implementation: voting, candidate selection, RANSAC and guided refinement.
+// LlahRetriever implementation: voting, candidate selection, RANSAC and guided
+// refinement.
 #include "common/llah_retriever.h"
 
 #include <algorithm>
@@ -17,6 +18,9 @@ namespace texfree {
 absl::Status RetrievalOptions::Validate() const {
   if (max_hits_per_descriptor < 1)
     return absl::InvalidArgumentError("max_hits_per_descriptor must be >= 1");
+  if (query_probes < 0 || query_probes > LlahDescriber::kMaxProbes)
+    return absl::InvalidArgumentError(absl::StrCat(
+        "query_probes must be in [0, ", LlahDescriber::kMaxProbes, "], got ", query_probes));
   if (min_votes < 4) return absl::InvalidArgumentError("min_votes must be >= 4");
   if (candidate_vote_ratio < 0 || candidate_vote_ratio > 1)
     return absl::InvalidArgumentError("candidate_vote_ratio must be in [0, 1]");
@@ -49,10 +53,10 @@ absl::Status LlahRetriever::AddDocument(DocumentKeypoints document) {
 }
 
 absl::Status LlahRetriever::AddDocuments(std::vector<DocumentKeypoints> documents, int threads,
-                                         const std::function<void(size_t, size_t)>& progress) {
+                                         const std::function<void(size_t, size_t)> &progress) {
   const size_t total = documents.size();
   size_t total_points = 0;
-  for (const auto& d : documents) {
+  for (const auto &d : documents) {
     if (d.keypoints.size() > 65535)
       return absl::InvalidArgumentError(absl::StrCat("document ", d.id, " has too many keypoints"));
     total_points += d.keypoints.size();
@@ -61,7 +65,8 @@ absl::Status LlahRetriever::AddDocuments(std::vector<DocumentKeypoints> document
     std::unique_lock lock(mutex_);
     index_.Reserve(index_.entries() + total_points * describer_.descriptors_per_point());
   }
-  // Workers compute descriptors; the index is filled in order under the lock, in batches.
+  // Workers compute descriptors; the index is filled in order under the lock,
+  // in batches.
   std::atomic<size_t> next{0}, done{0};
   std::mutex insert_mutex;
   absl::Status status;
@@ -70,7 +75,7 @@ absl::Status LlahRetriever::AddDocuments(std::vector<DocumentKeypoints> document
     while (true) {
       const size_t i = next.fetch_add(1);
       if (i >= total) return;
-      DocumentKeypoints& d = documents[i];
+      DocumentKeypoints &d = documents[i];
       describer_.Describe(d.keypoints, &hashes);
       auto model = std::make_shared<Model>(Model{std::move(d.keypoints), d.size});
       {
@@ -93,7 +98,7 @@ absl::Status LlahRetriever::AddDocuments(std::vector<DocumentKeypoints> document
   std::vector<std::thread> pool;
   for (int t = 1; t < std::max(1, threads); ++t) pool.emplace_back(work);
   work();
-  for (auto& t : pool) t.join();
+  for (auto &t : pool) t.join();
   return status;
 }
 
@@ -137,7 +142,7 @@ size_t LlahRetriever::entries() const {
 size_t LlahRetriever::MemoryBytes() const {
   std::shared_lock lock(mutex_);
   size_t bytes = index_.MemoryBytes();
-  for (const auto& [id, m] : models_)
+  for (const auto &[id, m] : models_)
     bytes += sizeof(Model) + m->keypoints.capacity() * sizeof(cv::Point2f) + 64;
   return bytes;
 }
@@ -148,7 +153,7 @@ struct Hit {
   uint32_t document;
   int query;
   uint16_t reference;
-  bool operator<(const Hit& o) const {
+  bool operator<(const Hit &o) const {
     if (document != o.document) return document < o.document;
     if (query != o.query) return query < o.query;
     return reference < o.reference;
@@ -159,21 +164,24 @@ struct Correspondence {
   uint32_t document;
   int query;
   uint16_t reference;
-  int count;  // descriptors of the query keypoint that hit this reference keypoint
+  int count;  // descriptors of the query keypoint that hit this reference
+              // keypoint
 };
 
-// A document to verify: its slice [begin, end) of the correspondences and its votes.
+// A document to verify: its slice [begin, end) of the correspondences and its
+// votes.
 struct Candidate {
   uint32_t document;
   size_t begin, end;
   int votes;   // query keypoints with any hit in the document
-  int strong;  // ...of which two or more descriptors agree on one reference keypoint
+  int strong;  // ...of which two or more descriptors agree on one reference
+               // keypoint
   int Score() const { return strong * 1024 + std::min(votes, 1023); }
 };
 
-// Collapses sorted hits to one correspondence per (document, query keypoint): the first
-// reference keypoint with the most hits.
-std::vector<Correspondence> BestCorrespondences(const std::vector<Hit>& hits) {
+// Collapses sorted hits to one correspondence per (document, query keypoint):
+// the first reference keypoint with the most hits.
+std::vector<Correspondence> BestCorrespondences(const std::vector<Hit> &hits) {
   std::vector<Correspondence> out;
   for (size_t i = 0; i < hits.size();) {
     Correspondence c{hits[i].document, hits[i].query, 0, 0};
@@ -195,13 +203,14 @@ std::vector<Correspondence> BestCorrespondences(const std::vector<Hit>& hits) {
   return out;
 }
 
-// Plausibility of a page homography: orientation kept (no mirror), finite, the local
-// scale at the inliers' centre within a sane range, all inliers in front of the camera.
-bool PlausibleHomography(const cv::Matx33d& H, const std::vector<cv::Point2f>& ref) {
+// Plausibility of a page homography: orientation kept (no mirror), finite, the
+// local scale at the inliers' centre within a sane range, all inliers in front
+// of the camera.
+bool PlausibleHomography(const cv::Matx33d &H, const std::vector<cv::Point2f> &ref) {
   for (int i = 0; i < 9; ++i)
     if (!std::isfinite(H.val[i])) return false;
   cv::Point2d c(0, 0);
-  for (const auto& p : ref) {
+  for (const auto &p : ref) {
     const double w = H(2, 0) * p.x + H(2, 1) * p.y + H(2, 2);
     if (w <= 1e-9) return false;
     c += cv::Point2d(p.x, p.y);
@@ -218,19 +227,20 @@ bool PlausibleHomography(const cv::Matx33d& H, const std::vector<cv::Point2f>& r
 
 }  // namespace
 
-std::vector<DocumentHit> LlahRetriever::Retrieve(const std::vector<cv::Point2f>& query,
+std::vector<DocumentHit> LlahRetriever::Retrieve(const std::vector<cv::Point2f> &query,
                                                  double query_char_height,
-                                                 const RetrievalOptions& o) const {
+                                                 const RetrievalOptions &o) const {
   std::vector<DocumentHit> results;
   if (query.size() < 8) return results;
   std::vector<uint64_t> hashes;
-  describer_.Describe(query, &hashes);
-  const int per = describer_.descriptors_per_point();
+  describer_.DescribeWithProbes(query, o.query_probes, &hashes);
+  const int per = static_cast<int>(hashes.size() / query.size());
 
   std::vector<Hit> hits;
   hits.reserve(query.size() * per * 2);
   std::unordered_map<uint32_t, std::shared_ptr<const Model>> candidates_models;
-  // Per (document, query keypoint): the reference keypoint it hit most often, and how often.
+  // Per (document, query keypoint): the reference keypoint it hit most often,
+  // and how often.
   std::vector<Correspondence> best;
   std::vector<Candidate> ranked;
   {
@@ -247,10 +257,10 @@ std::vector<DocumentHit> LlahRetriever::Retrieve(const std::vector<cv::Point2f>&
     }
     std::sort(hits.begin(), hits.end());
     best = BestCorrespondences(hits);
-    // Votes per document. A query keypoint whose descriptors agree on one reference
-    // keypoint (two or more hits on it) is strong evidence; a single hit is often chance
-    // (text is regular, so some arrangements recur on every page). Rank by strong votes,
-    // then by all votes.
+    // Votes per document. A query keypoint whose descriptors agree on one
+    // reference keypoint (two or more hits on it) is strong evidence; a single
+    // hit is often chance (text is regular, so some arrangements recur on every
+    // page). Rank by strong votes, then by all votes.
     for (size_t i = 0; i < best.size();) {
       Candidate c{best[i].document, i, i, 0, 0};
       for (; c.end < best.size() && best[c.end].document == c.document; ++c.end) {
@@ -260,7 +270,7 @@ std::vector<DocumentHit> LlahRetriever::Retrieve(const std::vector<cv::Point2f>&
       if (c.votes >= o.min_votes && c.strong >= o.min_strong_votes) ranked.push_back(c);
       i = c.end;
     }
-    std::sort(ranked.begin(), ranked.end(), [](const Candidate& a, const Candidate& b) {
+    std::sort(ranked.begin(), ranked.end(), [](const Candidate &a, const Candidate &b) {
       if (a.Score() != b.Score()) return a.Score() > b.Score();
       return a.document > b.document;
     });
@@ -269,7 +279,7 @@ std::vector<DocumentHit> LlahRetriever::Retrieve(const std::vector<cv::Point2f>&
       while (!ranked.empty() && ranked.back().Score() < floor) ranked.pop_back();
     }
     if (static_cast<int>(ranked.size()) > o.max_candidates) ranked.resize(o.max_candidates);
-    for (const Candidate& c : ranked) {
+    for (const Candidate &c : ranked) {
       auto it = models_.find(c.document);
       if (it != models_.end()) candidates_models[c.document] = it->second;
     }
@@ -281,16 +291,16 @@ std::vector<DocumentHit> LlahRetriever::Retrieve(const std::vector<cv::Point2f>&
   std::vector<char> used(query.size(), 0);
   NeighborGrid query_grid(query);
   std::vector<int> nearest;
-  for (const Candidate& candidate : ranked) {
+  for (const Candidate &candidate : ranked) {
     const uint32_t doc = candidate.document;
     auto mit = candidates_models.find(doc);
     if (mit == candidates_models.end()) continue;
-    const Model& model = *mit->second;
+    const Model &model = *mit->second;
     std::vector<cv::Point2f> ref_pts, query_pts;
     std::vector<std::pair<int, int>> pairs;
     std::vector<int> strength;
     for (size_t i = candidate.begin; i < candidate.end; ++i) {
-      const Correspondence& c = best[i];
+      const Correspondence &c = best[i];
       if (used[c.query] || c.reference >= model.keypoints.size()) continue;
       ref_pts.push_back(model.keypoints[c.reference]);
       query_pts.push_back(query[c.query]);
@@ -298,8 +308,8 @@ std::vector<DocumentHit> LlahRetriever::Retrieve(const std::vector<cv::Point2f>&
       strength.push_back(c.count);
     }
     if (static_cast<int>(pairs.size()) < o.min_inliers) continue;
-    // RANSAC on the strong correspondences when there are enough of them: a far higher
-    // inlier ratio than all of them, so far fewer iterations.
+    // RANSAC on the strong correspondences when there are enough of them: a far
+    // higher inlier ratio than all of them, so far fewer iterations.
     std::vector<cv::Point2f> sample_ref, sample_query;
     for (size_t i = 0; i < pairs.size(); ++i) {
       if (strength[i] >= 2) {
@@ -328,10 +338,11 @@ std::vector<DocumentHit> LlahRetriever::Retrieve(const std::vector<cv::Point2f>&
     if (static_cast<int>(inlier_pairs.size()) < o.min_inliers) continue;
     if (!PlausibleHomography(H, inlier_ref)) continue;
 
-    // Guided refinement: every reference keypoint projected by H takes the nearest free
-    // query keypoint within the threshold; the homography is refitted on those matches.
-    // (The decision above rests on LLAH correspondences only: projected text lands near
-    // some word by chance too often to count as evidence.)
+    // Guided refinement: every reference keypoint projected by H takes the
+    // nearest free query keypoint within the threshold; the homography is
+    // refitted on those matches. (The decision above rests on LLAH
+    // correspondences only: projected text lands near some word by chance too
+    // often to count as evidence.)
     std::vector<std::pair<int, int>> guided;
     for (int round = 0; round < 2; ++round) {
       std::vector<int> owner(query.size(), -1);
@@ -378,12 +389,12 @@ std::vector<DocumentHit> LlahRetriever::Retrieve(const std::vector<cv::Point2f>&
     hit.inliers = inliers;
     hit.votes = candidate.votes;
     hit.matches = std::move(guided);
-    for (const auto& [q, r] : hit.matches) used[q] = 1;
+    for (const auto &[q, r] : hit.matches) used[q] = 1;
     results.push_back(std::move(hit));
     if (o.max_results > 0 && static_cast<int>(results.size()) >= o.max_results) break;
   }
   std::sort(results.begin(), results.end(),
-            [](const DocumentHit& a, const DocumentHit& b) { return a.inliers > b.inliers; });
+            [](const DocumentHit &a, const DocumentHit &b) { return a.inliers > b.inliers; });
   return results;
 }
 

@@ -1,17 +1,17 @@
-// LlahRetriever: the document database of LLAH (seed 2.3, 5.3): registered keypoint sets,
-// their descriptors in an InvertedIndex, and retrieval = voting + RANSAC homography
-// verification per candidate document, so that every document visible in a query is found.
+// LlahRetriever: the document database of LLAH (seed 2.3, 5.3): registered
+// keypoint sets, their descriptors in an InvertedIndex, and retrieval = voting
+// + RANSAC homography verification per candidate document, so that every
+// document visible in a query is found.
 #pragma once
 
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <opencv2/core.hpp>
 #include <shared_mutex>
 #include <unordered_map>
 #include <utility>
 #include <vector>
-
-#include <opencv2/core.hpp>
 
 #include "absl/status/status.h"
 #include "common/inverted_index.h"
@@ -20,21 +20,29 @@
 namespace texfree {
 
 struct RetrievalOptions {
-  // Descriptors found under more than this many entries are too common to vote (stop words).
+  // Descriptors found under more than this many entries are too common to vote
+  // (stop words).
   int max_hits_per_descriptor = 24;
+  // Query-side multi-probe (LlahDescriber::DescribeWithProbes): 2^query_probes
+  // lookups per descriptor, forgiving that many invariants quantised across a
+  // level boundary.
+  int query_probes = 2;
   // A document needs this many query keypoints voting for it to be verified.
   int min_votes = 12;
-  // ...of which this many agree on one reference keypoint with two or more descriptors.
+  // ...of which this many agree on one reference keypoint with two or more
+  // descriptors.
   int min_strong_votes = 4;
   // ...and at least this share of the best document's votes.
   double candidate_vote_ratio = 0.05;
-  // At most this many documents are verified per query (RANSAC is the costly step).
+  // At most this many documents are verified per query (RANSAC is the costly
+  // step).
   int max_candidates = 5;
-  // RANSAC inlier distance in query pixels; 0 = derived from the query's character height.
+  // RANSAC inlier distance in query pixels; 0 = derived from the query's
+  // character height.
   double ransac_threshold_px = 0;
   int ransac_iterations = 1000;
-  // A document is visible when at least this many LLAH correspondences agree with one
-  // homography.
+  // A document is visible when at least this many LLAH correspondences agree
+  // with one homography.
   int min_inliers = 12;
   // 0 = every visible document.
   int max_results = 0;
@@ -47,7 +55,8 @@ struct DocumentHit {
   cv::Matx33d homography;  // reference keypoint frame -> query pixels
   int inliers = 0;         // LLAH correspondences consistent with the homography
   int votes = 0;
-  // Inlier pairs (query keypoint index, reference keypoint index), after guided matching.
+  // Inlier pairs (query keypoint index, reference keypoint index), after guided
+  // matching.
   std::vector<std::pair<int, int>> matches;
 };
 
@@ -57,31 +66,32 @@ struct DocumentKeypoints {
   cv::Size size;
 };
 
-// Thread-safe: retrievals run concurrently; adding and removing take an exclusive lock for
-// the index update only (descriptors are computed outside it).
+// Thread-safe: retrievals run concurrently; adding and removing take an
+// exclusive lock for the index update only (descriptors are computed outside
+// it).
 class LlahRetriever {
  public:
   LlahRetriever(LlahOptions options, InvariantQuantizer quantizer, int log2_buckets = 22);
 
-  // Fails with ALREADY_EXISTS for a known id, INVALID_ARGUMENT for over 65535 keypoints.
+  // Fails with ALREADY_EXISTS for a known id, INVALID_ARGUMENT for over 65535
+  // keypoints.
   absl::Status AddDocument(DocumentKeypoints document);
-  // Bulk load at start-up: descriptors computed on `threads` threads. `progress(done, total)`
-  // is called now and then.
+  // Bulk load at start-up: descriptors computed on `threads` threads.
+  // `progress(done, total)` is called now and then.
   absl::Status AddDocuments(std::vector<DocumentKeypoints> documents, int threads,
-                            const std::function<void(size_t, size_t)>& progress = nullptr);
+                            const std::function<void(size_t, size_t)> &progress = nullptr);
   // Removes a document's keypoints and every index entry; false if unknown.
   bool RemoveDocument(uint32_t id);
   bool Contains(uint32_t id) const;
 
   // query_char_height: the extractor's estimate, used for the RANSAC threshold.
-  std::vector<DocumentHit> Retrieve(const std::vector<cv::Point2f>& query,
-                                    double query_char_height,
-                                    const RetrievalOptions& options) const;
+  std::vector<DocumentHit> Retrieve(const std::vector<cv::Point2f> &query, double query_char_height,
+                                    const RetrievalOptions &options) const;
 
   // Reference keypoints of a document (empty if unknown).
   std::vector<cv::Point2f> Keypoints(uint32_t id) const;
 
-  const LlahDescriber& describer() const { return describer_; }
+  const LlahDescriber &describer() const { return describer_; }
   size_t documents() const;
   size_t entries() const;
   // Index and keypoint memory in bytes.

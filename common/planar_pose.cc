@@ -2,7 +2,6 @@
 #include "common/planar_pose.h"
 
 #include <cmath>
-
 #include <opencv2/calib3d.hpp>
 
 #include "absl/strings/str_cat.h"
@@ -29,7 +28,8 @@ bool CameraModel::has_distortion() const {
   return false;
 }
 
-absl::StatusOr<PlanarPose> PoseFromHomography(const cv::Matx33d& H, const cv::Matx33d& K) {
+absl::StatusOr<PlanarPose> PoseFromHomography(const cv::Matx33d &H, const cv::Matx33d &K,
+                                              const cv::Point2d &visible_point) {
   const cv::Matx33d M = K.inv() * H;
   cv::Vec3d c1(M(0, 0), M(1, 0), M(2, 0)), c2(M(0, 1), M(1, 1), M(2, 1)),
       c3(M(0, 2), M(1, 2), M(2, 2));
@@ -37,7 +37,11 @@ absl::StatusOr<PlanarPose> PoseFromHomography(const cv::Matx33d& H, const cv::Ma
   if (!(n1 > 1e-12) || !(n2 > 1e-12) || !std::isfinite(n1 + n2))
     return absl::InvalidArgumentError("degenerate homography: cannot recover a pose");
   double lambda = 2.0 / (n1 + n2);
-  if (c3[2] * lambda < 0) lambda = -lambda;  // the plane's origin in front of the camera
+  // H is known up to sign: choose the one that puts the visible point in front
+  // of the camera (the plane's origin may be behind it when the camera is close
+  // and tilted).
+  const double depth = M(2, 0) * visible_point.x + M(2, 1) * visible_point.y + M(2, 2);
+  if (depth * lambda < 0) lambda = -lambda;
   const cv::Vec3d r1 = c1 * lambda, r2 = c2 * lambda, r3 = r1.cross(r2);
   cv::Matx33d Q(r1[0], r2[0], r3[0], r1[1], r2[1], r3[1], r1[2], r2[2], r3[2]);
   cv::SVD svd(Q);
@@ -49,14 +53,14 @@ absl::StatusOr<PlanarPose> PoseFromHomography(const cv::Matx33d& H, const cv::Ma
   return pose;
 }
 
-absl::StatusOr<PlanarPose> EstimatePlanarPose(const std::vector<cv::Point2f>& plane,
-                                              const std::vector<cv::Point2f>& pixels,
-                                              const CameraModel& camera) {
+absl::StatusOr<PlanarPose> EstimatePlanarPose(const std::vector<cv::Point2f> &plane,
+                                              const std::vector<cv::Point2f> &pixels,
+                                              const CameraModel &camera) {
   if (plane.size() != pixels.size() || plane.size() < 4)
     return absl::InvalidArgumentError("planar pose needs at least 4 correspondences");
   std::vector<cv::Point3f> object;
   object.reserve(plane.size());
-  for (const auto& p : plane) object.emplace_back(p.x, p.y, 0.f);
+  for (const auto &p : plane) object.emplace_back(p.x, p.y, 0.f);
   cv::Mat rvec, tvec;
   const cv::Mat K(camera.K);
   const cv::Mat dist = camera.distortion.empty() ? cv::Mat() : cv::Mat(camera.distortion);
@@ -64,7 +68,7 @@ absl::StatusOr<PlanarPose> EstimatePlanarPose(const std::vector<cv::Point2f>& pl
   try {
     ok = cv::solvePnP(object, pixels, K, dist, rvec, tvec, false, cv::SOLVEPNP_IPPE);
     if (ok) cv::solvePnPRefineLM(object, pixels, K, dist, rvec, tvec);
-  } catch (const cv::Exception& e) {
+  } catch (const cv::Exception &e) {
     return absl::InvalidArgumentError(absl::StrCat("pose estimation failed: ", e.what()));
   }
   if (!ok) return absl::InvalidArgumentError("pose estimation did not converge");
@@ -76,14 +80,14 @@ absl::StatusOr<PlanarPose> EstimatePlanarPose(const std::vector<cv::Point2f>& pl
   return pose;
 }
 
-cv::Matx33d HomographyFromPose(const PlanarPose& pose, const cv::Matx33d& K) {
-  const cv::Matx33d Rt(pose.R(0, 0), pose.R(0, 1), pose.t[0], pose.R(1, 0), pose.R(1, 1),
-                       pose.t[1], pose.R(2, 0), pose.R(2, 1), pose.t[2]);
+cv::Matx33d HomographyFromPose(const PlanarPose &pose, const cv::Matx33d &K) {
+  const cv::Matx33d Rt(pose.R(0, 0), pose.R(0, 1), pose.t[0], pose.R(1, 0), pose.R(1, 1), pose.t[1],
+                       pose.R(2, 0), pose.R(2, 1), pose.t[2]);
   cv::Matx33d H = K * Rt;
   return H * (1.0 / H(2, 2));
 }
 
-cv::Point2d ApplyHomography(const cv::Matx33d& H, const cv::Point2d& p) {
+cv::Point2d ApplyHomography(const cv::Matx33d &H, const cv::Point2d &p) {
   const double w = H(2, 0) * p.x + H(2, 1) * p.y + H(2, 2);
   return {(H(0, 0) * p.x + H(0, 1) * p.y + H(0, 2)) / w,
           (H(1, 0) * p.x + H(1, 1) * p.y + H(1, 2)) / w};

@@ -1,9 +1,9 @@
-// Camera pose of a plane from a homography (seed appendix A) and its refinement.
+// Camera pose of a plane from a homography (seed appendix A) and its
+// refinement.
 #pragma once
 
-#include <vector>
-
 #include <opencv2/core.hpp>
+#include <vector>
 
 #include "absl/status/statusor.h"
 
@@ -24,20 +24,24 @@ struct PlanarPose {
   cv::Vec3d t;
 };
 
-// Appendix A: [r1 r2 t] = K^-1 H up to scale, r3 = r1 x r2, then the closest rotation
-// (SVD). The sign is fixed so that the plane lies in front of the camera.
-absl::StatusOr<PlanarPose> PoseFromHomography(const cv::Matx33d& H, const cv::Matx33d& K);
+// Appendix A: [r1 r2 t] = K^-1 H up to scale, r3 = r1 x r2, then the closest
+// rotation (SVD). The sign is fixed so that visible_point (a plane point seen
+// in the image, e.g. the centre of the inliers) lies in front of the camera.
+absl::StatusOr<PlanarPose> PoseFromHomography(const cv::Matx33d &H, const cv::Matx33d &K,
+                                              const cv::Point2d &visible_point = {0, 0});
 
-// Pose from plane points (Z = 0) and their pixels, honouring lens distortion: IPPE then
-// Levenberg-Marquardt on the reprojection error. Needs at least 4 correspondences.
-absl::StatusOr<PlanarPose> EstimatePlanarPose(const std::vector<cv::Point2f>& plane,
-                                              const std::vector<cv::Point2f>& pixels,
-                                              const CameraModel& camera);
+// Pose from plane points (Z = 0) and their pixels, honouring lens distortion:
+// IPPE then Levenberg-Marquardt on the reprojection error. Needs at least 4
+// correspondences.
+absl::StatusOr<PlanarPose> EstimatePlanarPose(const std::vector<cv::Point2f> &plane,
+                                              const std::vector<cv::Point2f> &pixels,
+                                              const CameraModel &camera);
 
-// The homography plane -> pixels of a pose: K [r1 r2 t], normalised to H(2,2) = 1.
-cv::Matx33d HomographyFromPose(const PlanarPose& pose, const cv::Matx33d& K);
+// The homography plane -> pixels of a pose: K [r1 r2 t], normalised to H(2,2)
+// = 1.
+cv::Matx33d HomographyFromPose(const PlanarPose &pose, const cv::Matx33d &K);
 
 // Applies a homography to a point.
-cv::Point2d ApplyHomography(const cv::Matx33d& H, const cv::Point2d& p);
+cv::Point2d ApplyHomography(const cv::Matx33d &H, const cv::Point2d &p);
 
 }  // namespace texfree

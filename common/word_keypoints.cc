@@ -2,8 +2,10 @@
 #include "common/word_keypoints.h"
 
 #include <algorithm>
+#include <array>
+#include <cfloat>
 #include <cmath>
-
+#include <numeric>
 #include <opencv2/imgproc.hpp>
 
 #include "absl/strings/str_cat.h"
@@ -17,29 +19,31 @@ int OddAtLeast(double v, int minimum) {
   return i | 1;
 }
 
-cv::Mat InkMask(const cv::Mat& smooth, int block, double offset) {
+cv::Mat InkMask(const cv::Mat &smooth, int block, double offset) {
   cv::Mat ink;
-  cv::adaptiveThreshold(smooth, ink, 255, cv::ADAPTIVE_THRESH_MEAN_C, cv::THRESH_BINARY_INV,
-                        block, offset);
+  cv::adaptiveThreshold(smooth, ink, 255, cv::ADAPTIVE_THRESH_MEAN_C, cv::THRESH_BINARY_INV, block,
+                        offset);
   return ink;
 }
 
 struct Blob {
-  float short_side, long_side, angle;  // minimum-area rectangle, angle of the long side
+  float short_side, long_side,
+      angle;  // minimum-area rectangle, angle of the long side
   cv::Point2f center;
 };
 
-// Minimum-area rectangles of the ink's outer contours: rotation-invariant sizes. Every
-// component's outer boundary counts, also inside a frame (page edge, table, figure box):
-// RETR_CCOMP puts all outer boundaries at the top level, holes below them.
-std::vector<Blob> Blobs(const cv::Mat& mask, double min_side) {
+// Minimum-area rectangles of the ink's outer contours: rotation-invariant
+// sizes. Every component's outer boundary counts, also inside a frame (page
+// edge, table, figure box): RETR_CCOMP puts all outer boundaries at the top
+// level, holes below them.
+std::vector<Blob> Blobs(const cv::Mat &mask, double min_side) {
   std::vector<std::vector<cv::Point>> contours;
   std::vector<cv::Vec4i> hierarchy;
   cv::findContours(mask, contours, hierarchy, cv::RETR_CCOMP, cv::CHAIN_APPROX_SIMPLE);
   std::vector<Blob> out;
   out.reserve(contours.size());
   for (size_t i = 0; i < contours.size(); ++i) {
-    const auto& c = contours[i];
+    const auto &c = contours[i];
     if (hierarchy[i][3] >= 0) continue;  // a hole
     if (c.size() < 3) continue;
     const cv::RotatedRect r = cv::minAreaRect(c);
@@ -55,11 +59,12 @@ std::vector<Blob> Blobs(const cv::Mat& mask, double min_side) {
   return out;
 }
 
-// Direction from each letter-sized blob to its nearest neighbour: letters of a word are
-// closest along the line. Doubled-angle mean, so opposite directions agree.
-double NeighborDirection(const std::vector<Blob>& blobs, double size) {
+// Direction from each letter-sized blob to its nearest neighbour: letters of a
+// word are closest along the line. Doubled-angle mean, so opposite directions
+// agree.
+double NeighborDirection(const std::vector<Blob> &blobs, double size) {
   std::vector<cv::Point2f> centers;
-  for (const Blob& b : blobs)
+  for (const Blob &b : blobs)
     if (b.short_side > 0.4 * size && b.short_side < 2.5 * size) centers.push_back(b.center);
   if (centers.size() < 3) return 0;
   NeighborGrid grid(centers);
@@ -85,22 +90,22 @@ double Quantile(std::vector<float> v, double q) {
   return v[i];
 }
 
-// Short side of elongated blobs (words, or letters fused into words): a text size that is
-// the same whether or not letters touch at this resolution.
-bool WordHeight(const std::vector<Blob>& blobs, double elongation, double* height) {
+// Short side of elongated blobs (words, or letters fused into words): a text
+// size that is the same whether or not letters touch at this resolution.
+bool WordHeight(const std::vector<Blob> &blobs, double elongation, double *height) {
   std::vector<float> sides;
-  for (const Blob& b : blobs)
+  for (const Blob &b : blobs)
     if (b.long_side >= elongation * b.short_side) sides.push_back(b.short_side);
   if (sides.size() < 8) return false;
   *height = Quantile(sides, 0.5);
   return true;
 }
 
-// Text line direction: length-weighted doubled-angle mean of elongated blobs near the
-// typical height.
-double LineDirection(const std::vector<Blob>& blobs, double height) {
+// Text line direction: length-weighted doubled-angle mean of elongated blobs
+// near the typical height.
+double LineDirection(const std::vector<Blob> &blobs, double height) {
   double sx = 0, sy = 0;
-  for (const Blob& b : blobs) {
+  for (const Blob &b : blobs) {
     if (b.long_side < 1.8 * b.short_side || b.short_side > 2.0 * height) continue;
     sx += b.long_side * std::cos(2.0 * b.angle);
     sy += b.long_side * std::sin(2.0 * b.angle);
@@ -122,14 +127,252 @@ cv::Mat LineKernel(double length, double angle) {
   return k;
 }
 
+struct Word {
+  cv::Point2f center;
+  double area;
+};
+
+// One ink component (a letter, or letters fused at this resolution): its pixel
+// count, centroid and extents along the text line (u) and across it (n).
+struct Glyph {
+  double area = 0, sx = 0, sy = 0;
+  float min_u = FLT_MAX, max_u = -FLT_MAX, min_n = FLT_MAX, max_n = -FLT_MAX;
+  int left = 0, top = 0, right = 0, bottom = 0;
+  float height() const { return max_n - min_n; }
+};
+
+int Find(std::vector<int> &parent, int i) {
+  while (parent[i] != i) i = parent[i] = parent[parent[i]];
+  return i;
+}
+
+// Letters -> words with one line-shaped closing for the whole image: gaps
+// shorter than gap_factor * h along the text direction are filled.
+std::vector<Word> CloseAlongLines(const cv::Mat &ink, double h, double angle,
+                                  const WordKeypointOptions &o) {
+  cv::Mat words;
+  cv::morphologyEx(ink, words, cv::MORPH_CLOSE, LineKernel(o.gap_factor * h, angle));
+  cv::Mat labels, stats, centroids;
+  const int n = cv::connectedComponentsWithStats(words, labels, stats, centroids, 8, CV_32S);
+  std::vector<Word> found;
+  const double min_area = o.min_word_area_factor * h * h;
+  for (int i = 1; i < n; ++i) {
+    const int x = stats.at<int>(i, cv::CC_STAT_LEFT), y = stats.at<int>(i, cv::CC_STAT_TOP);
+    const int w = stats.at<int>(i, cv::CC_STAT_WIDTH), bh = stats.at<int>(i, cv::CC_STAT_HEIGHT);
+    const int area = stats.at<int>(i, cv::CC_STAT_AREA);
+    if (area < min_area) continue;
+    if (std::max(w, bh) > o.max_word_length_factor * h) continue;
+    // Figures and merged paragraphs: far more ink than the longest word could
+    // hold.
+    if (area > o.max_word_length_factor * o.max_word_height_factor * h * h) continue;
+    if (area < 0.08 * w * bh) continue;  // thin frames
+    if (o.drop_border_blobs &&
+        (x <= 1 || y <= 1 || x + w >= ink.cols - 1 || y + bh >= ink.rows - 1))
+      continue;
+    found.push_back({cv::Point2f(static_cast<float>(centroids.at<double>(i, 0)),
+                                 static_cast<float>(centroids.at<double>(i, 1))),
+                     static_cast<double>(area)});
+  }
+  return found;
+}
+
+// Letter spacing differs between fonts (monospace letters sit far apart) while
+// word spaces are wider still: the gaps from each glyph to its nearest
+// neighbour on the line form two modes, letter gaps (the majority) and word
+// gaps. Otsu's split between them, when the two modes are clearly apart;
+// otherwise (letters fused at this resolution: only word gaps are left) the
+// default.
+double WordGapThreshold(const std::vector<float> &gaps, double fallback) {
+  constexpr double kLow = -0.2, kHigh = 1.6, kBin = 0.02;
+  constexpr int kBins = static_cast<int>((kHigh - kLow) / kBin);
+  std::array<double, kBins> hist{};
+  double total = 0;
+  for (float g : gaps) {
+    const int b = static_cast<int>((g - kLow) / kBin);
+    if (b < 0 || b >= kBins) continue;
+    hist[static_cast<size_t>(b)] += 1;
+    total += 1;
+  }
+  if (total < 40) return fallback;
+  double sum_all = 0;
+  for (int b = 0; b < kBins; ++b) sum_all += hist[static_cast<size_t>(b)] * b;
+  double w0 = 0, sum0 = 0, best = -1;
+  int split = -1;
+  for (int b = 0; b < kBins - 1; ++b) {
+    w0 += hist[static_cast<size_t>(b)];
+    sum0 += hist[static_cast<size_t>(b)] * b;
+    const double w1 = total - w0;
+    if (w0 < 1 || w1 < 1) continue;
+    const double m0 = sum0 / w0, m1 = (sum_all - sum0) / w1;
+    const double between = w0 * w1 * (m0 - m1) * (m0 - m1);
+    if (between > best) {
+      best = between;
+      split = b;
+    }
+  }
+  if (split < 0) return fallback;
+  double w_low = 0, s_low = 0;
+  for (int b = 0; b <= split; ++b) {
+    w_low += hist[static_cast<size_t>(b)];
+    s_low += hist[static_cast<size_t>(b)] * b;
+  }
+  const double w_high = total - w_low;
+  const double mean_low = kLow + kBin * (s_low / w_low + 0.5);
+  const double mean_high = kLow + kBin * ((sum_all - s_low) / w_high + 0.5);
+  // Letter gaps must be the majority and well apart from word gaps.
+  if (w_low < 0.4 * total || w_high < 0.08 * total || mean_high - mean_low < 0.25) return fallback;
+  return std::clamp(kLow + kBin * (split + 1), 0.5 * fallback, 4.0 * fallback);
+}
+
+// Letters -> words with sizes measured locally, so that one image may hold text
+// of several sizes, or text whose size changes across the image (perspective):
+// two glyphs on the same line (their extents across the line overlap) join when
+// the gap between them along the line is below gap_factor times the local text
+// height (median height of the glyph's neighbours). A closing with one kernel
+// for the whole image cannot do this.
+std::vector<Word> GroupLettersIntoWords(const cv::Mat &ink, double h, double angle,
+                                        const WordKeypointOptions &o) {
+  cv::Mat labels, stats, centroids;
+  const int count = cv::connectedComponentsWithStats(ink, labels, stats, centroids, 8, CV_32S);
+  const float ux = static_cast<float>(std::cos(angle)), uy = static_cast<float>(std::sin(angle));
+  std::vector<Glyph> glyphs(static_cast<size_t>(count));
+  for (int y = 0; y < labels.rows; ++y) {
+    const int *row = labels.ptr<int>(y);
+    for (int x = 0; x < labels.cols; ++x) {
+      const int l = row[x];
+      if (l == 0) continue;
+      Glyph &g = glyphs[static_cast<size_t>(l)];
+      const float u = x * ux + y * uy, n = -x * uy + y * ux;
+      g.min_u = std::min(g.min_u, u);
+      g.max_u = std::max(g.max_u, u);
+      g.min_n = std::min(g.min_n, n);
+      g.max_n = std::max(g.max_n, n);
+    }
+  }
+  // Glyphs that may be part of words: not noise specks, not rules, frames or
+  // figures.
+  const double max_extent = o.max_word_length_factor * h;
+  std::vector<int> kept;
+  std::vector<cv::Point2f> centers;
+  for (int i = 1; i < count; ++i) {
+    Glyph &g = glyphs[static_cast<size_t>(i)];
+    g.area = stats.at<int>(i, cv::CC_STAT_AREA);
+    g.sx = centroids.at<double>(i, 0) * g.area;
+    g.sy = centroids.at<double>(i, 1) * g.area;
+    g.left = stats.at<int>(i, cv::CC_STAT_LEFT);
+    g.top = stats.at<int>(i, cv::CC_STAT_TOP);
+    g.right = g.left + stats.at<int>(i, cv::CC_STAT_WIDTH);
+    g.bottom = g.top + stats.at<int>(i, cv::CC_STAT_HEIGHT);
+    if (g.area < 2) continue;
+    if (g.max_u - g.min_u > max_extent || g.height() > o.max_word_height_factor * h) continue;
+    kept.push_back(i);
+    centers.emplace_back(static_cast<float>(centroids.at<double>(i, 0)),
+                         static_cast<float>(centroids.at<double>(i, 1)));
+  }
+  std::vector<Word> words;
+  if (kept.size() < 2) return words;
+  NeighborGrid grid(centers);
+  constexpr int kNeighbors = 8;
+  std::vector<int> nn;
+  // Local text height: median height of the glyph and its neighbours (robust to
+  // dots, commas and ascenders).
+  std::vector<float> local_h(kept.size());
+  std::vector<float> heights;
+  for (size_t a = 0; a < kept.size(); ++a) {
+    grid.Nearest(static_cast<int>(a), kNeighbors, &nn);
+    heights.clear();
+    heights.push_back(glyphs[static_cast<size_t>(kept[a])].height());
+    for (int b : nn) heights.push_back(glyphs[static_cast<size_t>(kept[b])].height());
+    std::nth_element(heights.begin(), heights.begin() + heights.size() / 2, heights.end());
+    local_h[a] = std::max(1.0f, heights[heights.size() / 2]);
+  }
+  // Candidate pairs on the same line (their extents across the line overlap by
+  // half the smaller glyph) with their gap along the line relative to the local
+  // height.
+  struct Pair {
+    int a, b;
+    float gap;
+  };
+  std::vector<Pair> pairs;
+  std::vector<float> next_gap;  // per glyph: the gap to the next glyph along its line
+  for (size_t a = 0; a < kept.size(); ++a) {
+    const Glyph &ga = glyphs[static_cast<size_t>(kept[a])];
+    grid.Nearest(static_cast<int>(a), kNeighbors, &nn);
+    float nearest = FLT_MAX;
+    for (int b : nn) {
+      const Glyph &gb = glyphs[static_cast<size_t>(kept[b])];
+      const float overlap = std::min(ga.max_n, gb.max_n) - std::max(ga.min_n, gb.min_n);
+      if (overlap < 0.5f * std::min(ga.height(), gb.height())) continue;
+      const float lh = std::max(local_h[a], local_h[static_cast<size_t>(b)]);
+      const float gap = (std::max(ga.min_u, gb.min_u) - std::min(ga.max_u, gb.max_u)) / lh;
+      if (gap > 2.0f) continue;
+      if (gb.min_u + gb.max_u > ga.min_u + ga.max_u) nearest = std::min(nearest, gap);
+      if (static_cast<int>(a) < b) pairs.push_back({static_cast<int>(a), b, gap});
+    }
+    if (nearest < FLT_MAX) next_gap.push_back(nearest);
+  }
+  const double threshold = WordGapThreshold(next_gap, o.letter_gap_factor);
+  std::vector<int> parent(kept.size());
+  std::iota(parent.begin(), parent.end(), 0);
+  for (const Pair &p : pairs) {
+    if (p.gap > threshold) continue;
+    const int ra = Find(parent, p.a), rb = Find(parent, p.b);
+    if (ra != rb) parent[static_cast<size_t>(std::max(ra, rb))] = std::min(ra, rb);
+  }
+  // Accumulate the groups.
+  std::vector<Glyph> groups(kept.size());
+  std::vector<float> group_h(kept.size(), 0);
+  for (size_t a = 0; a < kept.size(); ++a) {
+    const int r = Find(parent, static_cast<int>(a));
+    const Glyph &g = glyphs[static_cast<size_t>(kept[a])];
+    Glyph &w = groups[static_cast<size_t>(r)];
+    if (w.area == 0) {
+      w.left = g.left;
+      w.top = g.top;
+      w.right = g.right;
+      w.bottom = g.bottom;
+    }
+    w.area += g.area;
+    w.sx += g.sx;
+    w.sy += g.sy;
+    w.min_u = std::min(w.min_u, g.min_u);
+    w.max_u = std::max(w.max_u, g.max_u);
+    w.min_n = std::min(w.min_n, g.min_n);
+    w.max_n = std::max(w.max_n, g.max_n);
+    w.left = std::min(w.left, g.left);
+    w.top = std::min(w.top, g.top);
+    w.right = std::max(w.right, g.right);
+    w.bottom = std::max(w.bottom, g.bottom);
+    group_h[static_cast<size_t>(r)] = std::max(group_h[static_cast<size_t>(r)], local_h[a]);
+  }
+  for (size_t r = 0; r < groups.size(); ++r) {
+    const Glyph &w = groups[r];
+    if (w.area == 0) continue;
+    const double lh = group_h[r];
+    if (w.area < o.min_word_area_factor * lh * lh) continue;  // dots, specks
+    if (w.max_u - w.min_u > max_extent) continue;             // rules
+    if (o.drop_border_blobs &&
+        (w.left <= 1 || w.top <= 1 || w.right >= ink.cols - 1 || w.bottom >= ink.rows - 1))
+      continue;
+    words.push_back(
+        {cv::Point2f(static_cast<float>(w.sx / w.area), static_cast<float>(w.sy / w.area)),
+         w.area});
+  }
+  return words;
+}
+
 }  // namespace
 
 absl::Status WordKeypointOptions::Validate() const {
   if (threshold_offset < 0 || threshold_offset > 128)
     return absl::InvalidArgumentError(
         absl::StrCat("threshold_offset must be in [0, 128], got ", threshold_offset));
+  if (letter_gap_factor <= 0 || letter_gap_factor > 2)
+    return absl::InvalidArgumentError(
+        absl::StrCat("letter_gap_factor must be in (0, 2], got ", letter_gap_factor));
   if (gap_factor <= 0 || gap_factor > 3)
-    return absl::InvalidArgumentError(absl::StrCat("gap_factor must be in (0, 3], got ", gap_factor));
+    return absl::InvalidArgumentError(
+        absl::StrCat("gap_factor must be in (0, 3], got ", gap_factor));
   if (min_char_height < 1 || max_char_height <= min_char_height)
     return absl::InvalidArgumentError("need 1 <= min_char_height < max_char_height");
   if (min_word_area_factor < 0 || max_word_length_factor <= 1 || max_word_height_factor <= 1)
@@ -142,11 +385,11 @@ absl::Status WordKeypointOptions::Validate() const {
 WordKeypointExtractor::WordKeypointExtractor(WordKeypointOptions options)
     : options_(std::move(options)) {}
 
-WordKeypoints WordKeypointExtractor::Extract(const cv::Mat& gray) const {
+WordKeypoints WordKeypointExtractor::Extract(const cv::Mat &gray) const {
   CV_Assert(gray.type() == CV_8UC1);
   WordKeypoints result;
   if (gray.empty()) return result;
-  const WordKeypointOptions& o = options_;
+  const WordKeypointOptions &o = options_;
   cv::Mat smooth;
   cv::GaussianBlur(gray, smooth, cv::Size(3, 3), 0.7);
 
@@ -156,11 +399,13 @@ WordKeypoints WordKeypointExtractor::Extract(const cv::Mat& gray) const {
   std::vector<Blob> blobs = Blobs(ink1, o.min_char_height * 0.5);
   if (blobs.size() < 8) return result;
   std::vector<float> sides;
-  for (const Blob& b : blobs) sides.push_back(b.short_side);
-  // Letters (short side ~ letter width) or fused words (short side ~ word height).
+  for (const Blob &b : blobs) sides.push_back(b.short_side);
+  // Letters (short side ~ letter width) or fused words (short side ~ word
+  // height).
   const double s0 = std::max(o.min_char_height, Quantile(sides, 0.5));
   double angle = NeighborDirection(blobs, s0);
-  // Provisional words: close gaps of 0.45 s0 along the line, then measure word height.
+  // Provisional words: close gaps of 0.45 s0 along the line, then measure word
+  // height.
   cv::Mat words;
   cv::morphologyEx(ink1, words, cv::MORPH_CLOSE, LineKernel(0.45 * s0, angle));
   double h = 0;
@@ -169,45 +414,22 @@ WordKeypoints WordKeypointExtractor::Extract(const cv::Mat& gray) const {
   if (h < o.min_char_height || h > o.max_char_height) return result;
   angle = LineDirection(word_blobs, h);
 
-  // Pass 2: window matched to the text (a few word heights), final closing.
+  // Pass 2: window matched to the text (a few word heights); letters grouped
+  // into words.
   const int block2 = OddAtLeast(3.0 * h, 7);
   const cv::Mat ink = block2 == block1 ? ink1 : InkMask(smooth, block2, o.threshold_offset);
-  cv::morphologyEx(ink, words, cv::MORPH_CLOSE, LineKernel(o.gap_factor * h, angle));
   result.char_height = h;
   result.text_angle_rad = angle;
-
-  cv::Mat labels, stats, centroids;
-  const int n = cv::connectedComponentsWithStats(words, labels, stats, centroids, 8, CV_32S);
-  struct Word {
-    cv::Point2f c;
-    int area;
-  };
-  std::vector<Word> found;
-  blobs.reserve(n);
-  const double min_area = o.min_word_area_factor * h * h;
-  for (int i = 1; i < n; ++i) {
-    const int x = stats.at<int>(i, cv::CC_STAT_LEFT), y = stats.at<int>(i, cv::CC_STAT_TOP);
-    const int w = stats.at<int>(i, cv::CC_STAT_WIDTH), bh = stats.at<int>(i, cv::CC_STAT_HEIGHT);
-    const int area = stats.at<int>(i, cv::CC_STAT_AREA);
-    if (area < min_area) continue;
-    if (std::max(w, bh) > o.max_word_length_factor * h) continue;
-    // Figures and merged paragraphs: far more ink than the longest word could hold.
-    if (area > o.max_word_length_factor * o.max_word_height_factor * h * h) continue;
-    if (area < 0.08 * w * bh) continue;  // thin frames
-    if (o.drop_border_blobs &&
-        (x <= 1 || y <= 1 || x + w >= gray.cols - 1 || y + bh >= gray.rows - 1))
-      continue;
-    found.push_back({cv::Point2f(static_cast<float>(centroids.at<double>(i, 0)),
-                                 static_cast<float>(centroids.at<double>(i, 1))),
-                     area});
-  }
+  std::vector<Word> found = o.grouping == WordGrouping::kLetterGraph
+                                ? GroupLettersIntoWords(ink, h, angle, o)
+                                : CloseAlongLines(ink, h, angle, o);
   if (static_cast<int>(found.size()) > o.max_keypoints) {
     std::nth_element(found.begin(), found.begin() + o.max_keypoints, found.end(),
-                     [](const Word& a, const Word& b) { return a.area > b.area; });
+                     [](const Word &a, const Word &b) { return a.area > b.area; });
     found.resize(o.max_keypoints);
   }
   result.points.reserve(found.size());
-  for (const Word& w : found) result.points.push_back(w.c);
+  for (const Word &w : found) result.points.push_back(w.center);
   return result;
 }
 

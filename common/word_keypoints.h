@@ -1,43 +1,71 @@
-// WordKeypointExtractor: keypoints of printed text pages = centroids of word blobs.
+// WordKeypointExtractor: keypoints of printed text pages = centroids of word
+// blobs.
 //
-// The seed (2.3, 5.5) thresholds with a fixed filter, which fails when the camera is far
-// from or close to the page. Here every size is derived from the image itself:
-//   1. adaptive mean threshold (window from the image size) -> ink mask; uneven light is
+// The seed (2.3, 5.5) thresholds with a fixed filter, which fails when the
+// camera is far from or close to the page. Here every size is derived from the
+// image itself:
+//   1. adaptive mean threshold (window from the image size) -> ink mask; uneven
+//   light is
 //      absorbed by the local mean;
-//   2. minimum-area rectangles of the ink blobs -> a provisional size s0 and the text line
-//      direction (from each letter to its nearest neighbour); a closing along the line
-//      joins letters, and the short side of the elongated blobs gives the word height h,
-//      which is the same whether letters touch at this resolution or not;
-//   3. a second threshold with a window of 3 h, then a closing with a line-shaped kernel of
-//      gap_factor * h along the text direction: letters of a word join, words and lines
-//      do not;
-//   4. word blobs filtered by size relative to h; blobs cut by the image border are
+//   2. minimum-area rectangles of the ink blobs -> a provisional size s0 and
+//   the text line
+//      direction (from each letter to its nearest neighbour); a closing along
+//      the line joins letters, and the short side of the elongated blobs gives
+//      the word height h, which is the same whether letters touch at this
+//      resolution or not;
+//   3. a second threshold with a window of 3 h, then a closing with a
+//   line-shaped kernel of
+//      gap_factor * h along the text direction: letters of a word join, words
+//      and lines do not;
+//   4. word blobs filtered by size relative to h; blobs cut by the image border
+//   are
 //      dropped since their centroids move with the frame.
 #pragma once
 
-#include <vector>
-
 #include <opencv2/core.hpp>
+#include <vector>
 
 #include "absl/status/status.h"
 
 namespace texfree {
 
+// How letters are joined into words.
+enum class WordGrouping {
+  // One closing along the text direction for the whole image, gap_factor * word
+  // height.
+  kLineClosing,
+  // Letters joined pairwise on the same line when their gap is below a
+  // threshold relative
+  // to the local text height, the threshold split from the image's own gap
+  // statistics:
+  // copes with several text sizes in one image, perspective and wide
+  // (monospace) letter
+  // spacing, at the price of more sensitivity to blur.
+  kLetterGraph,
+};
+
 struct WordKeypointOptions {
-  // Offset below the local mean for ink, in gray levels: high enough that blur and JPEG
-  // haze between words stays paper, low enough for faint text (contrast 40+).
+  WordGrouping grouping = WordGrouping::kLineClosing;
+  // Offset below the local mean for ink, in gray levels: high enough that blur
+  // and JPEG haze between words stays paper, low enough for faint text
+  // (contrast 40+).
   double threshold_offset = 17.0;
-  // Letters closer than gap_factor * word height along the line are one word (letter
-  // gaps are ~0.13, word spaces ~0.4 word heights in common fonts).
+  // Letters closer than gap_factor * word height along the line are one word
+  // (letter gaps are ~0.13, word spaces ~0.4 word heights in common fonts).
   double gap_factor = 0.25;
-  // Character heights outside [min_char_height, max_char_height] pixels are not text.
+  // kLetterGraph: gap threshold relative to the local glyph height when the gap
+  // statistics show no clear split between letter and word spaces.
+  double letter_gap_factor = 0.3;
+  // Character heights outside [min_char_height, max_char_height] pixels are not
+  // text.
   double min_char_height = 2.5;
   double max_char_height = 200.0;
   // Word blobs smaller than min_word_area_factor * h^2 are dots or noise.
   double min_word_area_factor = 0.35;
   // Blobs longer than max_word_length_factor * h are rules, frames or figures.
   double max_word_length_factor = 30.0;
-  // Blobs with more ink than max_word_length_factor * max_word_height_factor * h^2 are figures.
+  // Blobs with more ink than max_word_length_factor * max_word_height_factor *
+  // h^2 are figures.
   double max_word_height_factor = 3.5;
   // Drop blobs touching the image border (their centroids are unstable).
   bool drop_border_blobs = true;
@@ -58,8 +86,8 @@ class WordKeypointExtractor {
  public:
   explicit WordKeypointExtractor(WordKeypointOptions options = {});
   // gray: CV_8UC1, dark text on light paper.
-  WordKeypoints Extract(const cv::Mat& gray) const;
-  const WordKeypointOptions& options() const { return options_; }
+  WordKeypoints Extract(const cv::Mat &gray) const;
+  const WordKeypointOptions &options() const { return options_; }
 
  private:
   WordKeypointOptions options_;

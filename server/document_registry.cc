@@ -1,10 +1,10 @@
 // DocumentRegistry implementation.
 #include "server/document_registry.h"
 
+#include <spdlog/spdlog.h>
+
 #include <chrono>
 #include <sstream>
-
-#include <spdlog/spdlog.h>
 
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
@@ -18,12 +18,12 @@ namespace {
 
 using Clock = SteadyClock;
 
-constexpr const char* kLlahOptionsKey = "llah.options";
-constexpr const char* kQuantizerKey = "llah.quantizer";
+constexpr const char *kLlahOptionsKey = "llah.options";
+constexpr const char *kQuantizerKey = "llah.quantizer";
 
-std::string FormatOptions(const LlahOptions& o) { return absl::StrCat(o.n, ",", o.m, ",", o.k); }
+std::string FormatOptions(const LlahOptions &o) { return absl::StrCat(o.n, ",", o.m, ",", o.k); }
 
-absl::StatusOr<LlahOptions> ParseOptions(const std::string& s) {
+absl::StatusOr<LlahOptions> ParseOptions(const std::string &s) {
   std::vector<std::string> parts = absl::StrSplit(s, ',');
   LlahOptions o;
   if (parts.size() != 3 || !absl::SimpleAtoi(parts[0], &o.n) || !absl::SimpleAtoi(parts[1], &o.m) ||
@@ -33,18 +33,19 @@ absl::StatusOr<LlahOptions> ParseOptions(const std::string& s) {
   return o;
 }
 
-std::string FormatThresholds(const std::vector<float>& t) {
+std::string FormatThresholds(const std::vector<float> &t) {
   std::ostringstream out;
   out.precision(9);
   for (size_t i = 0; i < t.size(); ++i) out << (i ? "," : "") << t[i];
   return out.str();
 }
 
-absl::StatusOr<InvariantQuantizer> ParseThresholds(const std::string& s, int k) {
+absl::StatusOr<InvariantQuantizer> ParseThresholds(const std::string &s, int k) {
   std::vector<float> t;
   for (absl::string_view part : absl::StrSplit(s, ',')) {
     float v;
-    if (!absl::SimpleAtof(part, &v)) return absl::DataLossError("stored LLAH thresholds are malformed");
+    if (!absl::SimpleAtof(part, &v))
+      return absl::DataLossError("stored LLAH thresholds are malformed");
     t.push_back(v);
   }
   if (static_cast<int>(t.size()) != k - 1)
@@ -54,8 +55,20 @@ absl::StatusOr<InvariantQuantizer> ParseThresholds(const std::string& s, int k) 
 
 }  // namespace
 
+std::vector<WordKeypointOptions> DefaultFallbackKeypointOptions() {
+  WordKeypointOptions letter_graph;
+  letter_graph.grouping = WordGrouping::kLetterGraph;
+  WordKeypointOptions wide_closing;
+  wide_closing.gap_factor = 0.35;
+  return {letter_graph, wide_closing};
+}
+
 absl::Status DocumentRegistryOptions::Validate() const {
   RETURN_IF_ERROR(keypoints.Validate());
+  for (size_t i = 0; i < fallback_keypoints.size(); ++i) {
+    if (absl::Status s = fallback_keypoints[i].Validate(); !s.ok())
+      return absl::InvalidArgumentError(absl::StrCat("fallback_keypoints[", i, "]: ", s.message()));
+  }
   RETURN_IF_ERROR(llah.Validate());
   RETURN_IF_ERROR(retrieval.Validate());
   if (min_keypoints < llah.n + 1)
@@ -70,7 +83,10 @@ absl::Status DocumentRegistryOptions::Validate() const {
 
 DocumentRegistry::DocumentRegistry(std::unique_ptr<DocumentStore> store,
                                    DocumentRegistryOptions options)
-    : options_(std::move(options)), store_(std::move(store)), extractor_(options_.keypoints) {}
+    : options_(std::move(options)), store_(std::move(store)), extractor_(options_.keypoints) {
+  for (const WordKeypointOptions &o : options_.fallback_keypoints)
+    fallback_extractors_.emplace_back(o);
+}
 
 absl::StatusOr<std::unique_ptr<DocumentRegistry>> DocumentRegistry::Open(
     std::unique_ptr<DocumentStore> store, DocumentRegistryOptions options) {
@@ -86,40 +102,47 @@ absl::Status DocumentRegistry::LoadIndex() {
   ASSIGN_OR_RETURN(auto stored_options, store_->GetSetting(kLlahOptionsKey));
   ASSIGN_OR_RETURN(auto stored_thresholds, store_->GetSetting(kQuantizerKey));
   if (!stored_options || !stored_thresholds) {
-    spdlog::info("document index: empty database, quantisation is learned from the first page");
+    spdlog::info(
+        "document index: empty database, quantisation is learned from "
+        "the first page");
     return absl::OkStatus();
   }
   ASSIGN_OR_RETURN(LlahOptions llah, ParseOptions(*stored_options));
   if (llah.n != options_.llah.n || llah.m != options_.llah.m || llah.k != options_.llah.k) {
-    spdlog::warn("document index: the database was built with LLAH n,m,k = {}; keeping it",
-                 *stored_options);
+    spdlog::warn(
+        "document index: the database was built with LLAH n,m,k = {}; "
+        "keeping it",
+        *stored_options);
   }
   options_.llah = llah;
   ASSIGN_OR_RETURN(InvariantQuantizer quantizer, ParseThresholds(*stored_thresholds, llah.k));
-  auto retriever = std::make_shared<LlahRetriever>(llah, std::move(quantizer), options_.log2_buckets);
+  auto retriever =
+      std::make_shared<LlahRetriever>(llah, std::move(quantizer), options_.log2_buckets);
 
   std::vector<DocumentKeypoints> documents;
-  RETURN_IF_ERROR(store_->ForEachKeypoints(
-      [&](const DocumentSummary& s, std::vector<cv::Point2f> points) {
+  RETURN_IF_ERROR(
+      store_->ForEachKeypoints([&](const DocumentSummary &s, std::vector<cv::Point2f> points) {
         summaries_[s.index_id] = s;
         documents.push_back({s.index_id, std::move(points), s.size});
       }));
   const double read_ms = MillisecondsSince(t0);
   const size_t n = documents.size();
-  RETURN_IF_ERROR(retriever->AddDocuments(std::move(documents), options_.rebuild_threads,
-                                          [](size_t done, size_t total) {
-                                            spdlog::info("document index: rebuilt {}/{} pages",
-                                                         done, total);
-                                          }));
+  RETURN_IF_ERROR(retriever->AddDocuments(
+      std::move(documents), options_.rebuild_threads, [](size_t done, size_t total) {
+        spdlog::info("document index: rebuilt {}/{} pages", done, total);
+      }));
   retriever_ = std::move(retriever);
   spdlog::info(
-      "document index: {} pages, {} entries, {:.1f} MiB, read {:.0f} ms, rebuilt in {:.0f} ms",
-      n, retriever_->entries(), retriever_->MemoryBytes() / 1048576.0, read_ms, MillisecondsSince(t0));
+      "document index: {} pages, {} entries, {:.1f} MiB, read {:.0f} "
+      "ms, rebuilt in {:.0f} ms",
+      n, retriever_->entries(), retriever_->MemoryBytes() / 1048576.0, read_ms,
+      MillisecondsSince(t0));
   return absl::OkStatus();
 }
 
-absl::Status DocumentRegistry::CreateRetriever(const std::vector<cv::Point2f>& training_points) {
-  // Thresholds at the quantiles of this page's invariants: every level equally used.
+absl::Status DocumentRegistry::CreateRetriever(const std::vector<cv::Point2f> &training_points) {
+  // Thresholds at the quantiles of this page's invariants: every level equally
+  // used.
   LlahDescriber sampler(options_.llah, InvariantQuantizer());
   std::vector<float> samples;
   sampler.CollectInvariants(training_points, &samples);
@@ -130,8 +153,8 @@ absl::Status DocumentRegistry::CreateRetriever(const std::vector<cv::Point2f>& t
   spdlog::info("document index: learned {} quantisation levels: {}", options_.llah.k,
                FormatThresholds(quantizer.thresholds()));
   std::unique_lock lock(mutex_);
-  retriever_ = std::make_shared<LlahRetriever>(options_.llah, std::move(quantizer),
-                                               options_.log2_buckets);
+  retriever_ =
+      std::make_shared<LlahRetriever>(options_.llah, std::move(quantizer), options_.log2_buckets);
   return absl::OkStatus();
 }
 
@@ -143,7 +166,7 @@ std::optional<DocumentSummary> DocumentRegistry::Summary(uint32_t index_id) cons
 }
 
 absl::StatusOr<DocumentRecord> DocumentRegistry::Register(
-    const cv::Mat& gray, std::string title, std::vector<AnnotationRecord> annotations) {
+    const cv::Mat &gray, std::string title, std::vector<AnnotationRecord> annotations) {
   const auto t0 = Clock::now();
   for (size_t i = 0; i < annotations.size(); ++i) {
     if (absl::Status s = annotations[i].Validate(gray.size()); !s.ok())
@@ -152,10 +175,10 @@ absl::StatusOr<DocumentRecord> DocumentRegistry::Register(
   if (title.size() > 1024) return absl::InvalidArgumentError("title is over 1024 bytes");
   WordKeypoints kp = extractor_.Extract(gray);
   if (static_cast<int>(kp.points.size()) < options_.min_keypoints) {
-    return absl::FailedPreconditionError(absl::StrCat(
-        "found ", kp.points.size(), " word keypoints in the ", gray.cols, "x", gray.rows,
-        " image, at least ", options_.min_keypoints,
-        " are needed: register a page of text, in focus, seen from above"));
+    return absl::FailedPreconditionError(
+        absl::StrCat("found ", kp.points.size(), " word keypoints in the ", gray.cols, "x",
+                     gray.rows, " image, at least ", options_.min_keypoints,
+                     " are needed: register a page of text, in focus, seen from above"));
   }
   const double extract_ms = MillisecondsSince(t0);
 
@@ -172,8 +195,8 @@ absl::StatusOr<DocumentRecord> DocumentRegistry::Register(
     if (!hits.empty() && hits[0].inliers >= options_.duplicate_min_inliers) {
       const auto existing = Summary(hits[0].document);
       return absl::AlreadyExistsError(absl::StrCat(
-          "this page is already registered as document '", existing ? existing->id : "?",
-          "' (\"", existing ? existing->title : "", "\", ", hits[0].inliers,
+          "this page is already registered as document '", existing ? existing->id : "?", "' (\"",
+          existing ? existing->title : "", "\", ", hits[0].inliers,
           " matching keypoints); delete it first to register it again"));
     }
   } else {
@@ -194,18 +217,22 @@ absl::StatusOr<DocumentRecord> DocumentRegistry::Register(
   }
   {
     std::unique_lock lock(mutex_);
-    summaries_[record.index_id] = {record.index_id, record.id, record.title, record.size,
+    summaries_[record.index_id] = {record.index_id,
+                                   record.id,
+                                   record.title,
+                                   record.size,
                                    static_cast<int>(record.keypoints.size()),
                                    record.created_unix_ms};
   }
-  spdlog::info("registered document {} \"{}\": {}x{}, {} keypoints, {} annotations "
-               "(extract {:.1f} ms, total {:.1f} ms)",
-               record.id, record.title, gray.cols, gray.rows, record.keypoints.size(),
-               record.annotations.size(), extract_ms, MillisecondsSince(t0));
+  spdlog::info(
+      "registered document {} \"{}\": {}x{}, {} keypoints, {} annotations "
+      "(extract {:.1f} ms, total {:.1f} ms)",
+      record.id, record.title, gray.cols, gray.rows, record.keypoints.size(),
+      record.annotations.size(), extract_ms, MillisecondsSince(t0));
   return record;
 }
 
-absl::Status DocumentRegistry::Delete(const std::string& id) {
+absl::Status DocumentRegistry::Delete(const std::string &id) {
   const auto t0 = Clock::now();
   std::lock_guard registering(register_mutex_);
   ASSIGN_OR_RETURN(uint32_t index_id, store_->Delete(id));
@@ -220,27 +247,41 @@ absl::Status DocumentRegistry::Delete(const std::string& id) {
   return absl::OkStatus();
 }
 
-absl::StatusOr<RetrievalResult> DocumentRegistry::Retrieve(
-    const cv::Mat& gray, const std::optional<CameraModel>& camera, int max_results) const {
+absl::StatusOr<RetrievalResult> DocumentRegistry::Retrieve(const cv::Mat &gray,
+                                                           const std::optional<CameraModel> &camera,
+                                                           int max_results) const {
   RetrievalResult result;
-  auto t = Clock::now();
-  WordKeypoints kp = extractor_.Extract(gray);
-  result.timings.Add("extract", MillisecondsSince(t));
-  result.query_keypoints = static_cast<int>(kp.points.size());
   std::shared_ptr<LlahRetriever> retriever;
   {
     std::shared_lock lock(mutex_);
     retriever = retriever_;
   }
-  if (!retriever) return result;
-  t = Clock::now();
   RetrievalOptions ro = options_.retrieval;
   ro.max_results = max_results;
-  std::vector<DocumentHit> hits = retriever->Retrieve(kp.points, kp.char_height, ro);
-  result.timings.Add("match", MillisecondsSince(t));
+  // The registration extractor first; when it finds nothing, the fallback
+  // extractors (other ways of joining letters into words, for fonts and blur
+  // the first one splits or merges differently than on the registered page).
+  // Verification keeps false matches out.
+  WordKeypoints kp;
+  std::vector<DocumentHit> hits;
+  double extract_ms = 0, match_ms = 0;
+  for (size_t attempt = 0; attempt <= fallback_extractors_.size(); ++attempt) {
+    auto t = Clock::now();
+    kp = attempt == 0 ? extractor_.Extract(gray) : fallback_extractors_[attempt - 1].Extract(gray);
+    extract_ms += MillisecondsSince(t);
+    if (attempt == 0) result.query_keypoints = static_cast<int>(kp.points.size());
+    if (!retriever) break;
+    t = Clock::now();
+    hits = retriever->Retrieve(kp.points, kp.char_height, ro);
+    match_ms += MillisecondsSince(t);
+    if (!hits.empty()) break;
+  }
+  result.timings.Add("extract", extract_ms);
+  if (!retriever) return result;
+  result.timings.Add("match", match_ms);
 
-  t = Clock::now();
-  for (const DocumentHit& hit : hits) {
+  auto t = Clock::now();
+  for (const DocumentHit &hit : hits) {
     auto summary = Summary(hit.document);
     if (!summary) continue;  // deleted meanwhile
     RetrievedDocument doc;
@@ -251,7 +292,7 @@ absl::StatusOr<RetrievalResult> DocumentRegistry::Retrieve(
     if (camera) {
       const std::vector<cv::Point2f> reference = retriever->Keypoints(hit.document);
       std::vector<cv::Point2f> plane, pixels;
-      for (const auto& [q, r] : hit.matches) {
+      for (const auto &[q, r] : hit.matches) {
         if (r < static_cast<int>(reference.size())) {
           plane.push_back(reference[r]);
           pixels.push_back(kp.points[q]);
@@ -267,7 +308,7 @@ absl::StatusOr<RetrievalResult> DocumentRegistry::Retrieve(
   return result;
 }
 
-absl::StatusOr<DocumentRecord> DocumentRegistry::Get(const std::string& id) const {
+absl::StatusOr<DocumentRecord> DocumentRegistry::Get(const std::string &id) const {
   return store_->Get(id);
 }
 
@@ -278,15 +319,15 @@ absl::StatusOr<std::vector<DocumentSummary>> DocumentRegistry::List(uint32_t aft
 
 absl::StatusOr<int64_t> DocumentRegistry::Count() const { return store_->Count(); }
 
-absl::StatusOr<AnnotationRecord> DocumentRegistry::AddAnnotation(const std::string& id,
+absl::StatusOr<AnnotationRecord> DocumentRegistry::AddAnnotation(const std::string &id,
                                                                  AnnotationRecord annotation) {
   ASSIGN_OR_RETURN(DocumentRecord doc, store_->Get(id));
   RETURN_IF_ERROR(annotation.Validate(doc.size));
   return store_->AddAnnotation(id, std::move(annotation));
 }
 
-absl::Status DocumentRegistry::DeleteAnnotation(const std::string& id,
-                                                const std::string& annotation_id) {
+absl::Status DocumentRegistry::DeleteAnnotation(const std::string &id,
+                                                const std::string &annotation_id) {
   return store_->DeleteAnnotation(id, annotation_id);
 }
 

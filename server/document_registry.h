@@ -1,18 +1,17 @@
-// DocumentRegistry: the document use cases (register, delete, retrieve, annotate) on top
-// of DocumentStore (persistence) and LlahRetriever (in-memory index). Plain C++ types in
-// and out; the gRPC layer converts.
+// DocumentRegistry: the document use cases (register, delete, retrieve,
+// annotate) on top of DocumentStore (persistence) and LlahRetriever (in-memory
+// index). Plain C++ types in and out; the gRPC layer converts.
 #pragma once
 
 #include <memory>
 #include <mutex>
+#include <opencv2/core.hpp>
 #include <optional>
 #include <shared_mutex>
 #include <string>
 #include <unordered_map>
 #include <utility>
 #include <vector>
-
-#include <opencv2/core.hpp>
 
 #include "absl/status/statusor.h"
 #include "common/llah.h"
@@ -23,14 +22,22 @@
 
 namespace texfree::server {
 
+// Query extractors tried, in order, when the registration extractor's keypoints
+// retrieve nothing: letters joined by the letter graph, then a wider closing
+// (monospace, blur).
+std::vector<WordKeypointOptions> DefaultFallbackKeypointOptions();
+
 struct DocumentRegistryOptions {
   WordKeypointOptions keypoints;
-  // Used for a new database; an existing one keeps the settings it was built with.
+  std::vector<WordKeypointOptions> fallback_keypoints = DefaultFallbackKeypointOptions();
+  // Used for a new database; an existing one keeps the settings it was built
+  // with.
   LlahOptions llah;
   RetrievalOptions retrieval;
   // A page with fewer word keypoints cannot be recognised reliably.
   int min_keypoints = 30;
-  // Registering a page that retrieves a registered one with this many inliers is refused.
+  // Registering a page that retrieves a registered one with this many inliers
+  // is refused.
   int duplicate_min_inliers = 16;
   // Index hash table size: 2^log2_buckets heads (16 MiB at 22).
   int log2_buckets = 22;
@@ -60,39 +67,40 @@ struct RetrievalResult {
   StageTimes timings;
 };
 
-// Thread-safe. Registrations are serialised (so the duplicate check cannot race);
-// retrievals run concurrently with each other.
+// Thread-safe. Registrations are serialised (so the duplicate check cannot
+// race); retrievals run concurrently with each other.
 class DocumentRegistry {
  public:
   static absl::StatusOr<std::unique_ptr<DocumentRegistry>> Open(
       std::unique_ptr<DocumentStore> store, DocumentRegistryOptions options);
 
-  absl::StatusOr<DocumentRecord> Register(const cv::Mat& gray, std::string title,
+  absl::StatusOr<DocumentRecord> Register(const cv::Mat &gray, std::string title,
                                           std::vector<AnnotationRecord> annotations);
-  absl::Status Delete(const std::string& id);
-  absl::StatusOr<RetrievalResult> Retrieve(const cv::Mat& gray,
-                                           const std::optional<CameraModel>& camera,
+  absl::Status Delete(const std::string &id);
+  absl::StatusOr<RetrievalResult> Retrieve(const cv::Mat &gray,
+                                           const std::optional<CameraModel> &camera,
                                            int max_results) const;
-  absl::StatusOr<DocumentRecord> Get(const std::string& id) const;
+  absl::StatusOr<DocumentRecord> Get(const std::string &id) const;
   absl::StatusOr<std::vector<DocumentSummary>> List(uint32_t after_index_id, int limit) const;
   absl::StatusOr<int64_t> Count() const;
-  absl::StatusOr<AnnotationRecord> AddAnnotation(const std::string& id,
+  absl::StatusOr<AnnotationRecord> AddAnnotation(const std::string &id,
                                                  AnnotationRecord annotation);
-  absl::Status DeleteAnnotation(const std::string& id, const std::string& annotation_id);
+  absl::Status DeleteAnnotation(const std::string &id, const std::string &annotation_id);
 
   size_t index_memory_bytes() const;
   size_t index_entries() const;
-  const DocumentRegistryOptions& options() const { return options_; }
+  const DocumentRegistryOptions &options() const { return options_; }
 
  private:
   DocumentRegistry(std::unique_ptr<DocumentStore> store, DocumentRegistryOptions options);
   absl::Status LoadIndex();
-  absl::Status CreateRetriever(const std::vector<cv::Point2f>& training_points);
+  absl::Status CreateRetriever(const std::vector<cv::Point2f> &training_points);
   std::optional<DocumentSummary> Summary(uint32_t index_id) const;
 
   DocumentRegistryOptions options_;
   std::unique_ptr<DocumentStore> store_;
   WordKeypointExtractor extractor_;
+  std::vector<WordKeypointExtractor> fallback_extractors_;
   std::mutex register_mutex_;
   mutable std::shared_mutex mutex_;  // guards retriever_ (pointer) and summaries_
   std::shared_ptr<LlahRetriever> retriever_;

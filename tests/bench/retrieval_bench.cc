@@ -1,10 +1,12 @@
-// Document retrieval benchmark: registers rendered pages (100 / 1,000 / 10,000 ...) into a
-// real DocumentRegistry on SQLite, then queries 640x480 camera views (tilt up to 40 deg,
-// random roll, scale 0.6-1.3, blur, noise, uneven light, JPEG) and prints a table:
-// top-1 accuracy, homography error, false matches on never-registered pages, median and
-// p95 server time (decode + extract + match + verify), index memory and start-up time.
+// Document retrieval benchmark: registers rendered pages (100 / 1,000 / 10,000
+// ...) into a real DocumentRegistry on SQLite, then queries 640x480 camera
+// views (tilt up to 40 deg, random roll, scale 0.6-1.3, blur, noise, uneven
+// light, JPEG) and prints a table: top-1 accuracy, homography error, false
+// matches on never-registered pages, median and p95 server time (decode +
+// extract + match + verify), index memory and start-up time.
 //
-//   texfree-bench-retrieval --pages 100,1000,10000 --queries 300 --unregistered 200
+//   texfree-bench-retrieval --pages 100,1000,10000 --queries 300 --unregistered
+//   200
 #include <spdlog/spdlog.h>
 
 #include <CLI/CLI.hpp>
@@ -79,7 +81,7 @@ std::vector<Query> MakeQueries(int count, int registered, uint64_t seed, bool un
 
 }  // namespace
 
-int main(int argc, char** argv) {
+int main(int argc, char **argv) {
   CLI::App app{"texfree document retrieval benchmark"};
   std::vector<int> checkpoints{100, 1000};
   int queries = 200, unregistered = 100;
@@ -90,7 +92,14 @@ int main(int argc, char** argv) {
   app.add_option("--unregistered", unregistered, "camera views of never-registered pages");
   app.add_option("--dir", dir, "working directory for the database");
   app.add_flag("--keep", keep, "reuse an existing database in --dir");
+  DocumentRegistryOptions registry_options;
+  app.add_option("--probes", registry_options.retrieval.query_probes,
+                 "query-side multi-probe: invariants per descriptor allowed "
+                 "across a boundary");
+  bool no_fallback = false;
+  app.add_flag("--no-fallback", no_fallback, "query with the registration extractor only");
   CLI11_PARSE(app, argc, argv);
+  if (no_fallback) registry_options.fallback_keypoints.clear();
   spdlog::set_level(spdlog::level::warn);
   std::sort(checkpoints.begin(), checkpoints.end());
 
@@ -105,7 +114,7 @@ int main(int argc, char** argv) {
       std::fprintf(stderr, "%s\n", store.status().ToString().c_str());
       std::exit(1);
     }
-    auto registry = DocumentRegistry::Open(std::move(*store), DocumentRegistryOptions{});
+    auto registry = DocumentRegistry::Open(std::move(*store), registry_options);
     if (!registry.ok()) {
       std::fprintf(stderr, "%s\n", registry.status().ToString().c_str());
       std::exit(1);
@@ -117,7 +126,8 @@ int main(int argc, char** argv) {
   int registered = static_cast<int>(*registry->Count());
   std::vector<std::string> ids;
   std::printf(
-      "| pages | top-1 | H err px (median) | false matches | median ms | p95 ms | "
+      "| pages | top-1 | H err px (median) | false matches | median ms "
+      "| p95 ms | "
       "index MiB | RSS MiB | start-up s | register ms/page |\n");
   std::printf("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
   const auto unregistered_queries = MakeQueries(unregistered, 1, 99, true);
@@ -150,7 +160,7 @@ int main(int argc, char** argv) {
     while (true) {
       auto page = registry->List(after, 1000);
       if (!page.ok() || page->empty()) break;
-      for (const auto& d : *page) {
+      for (const auto &d : *page) {
         const int n = std::stoi(d.title.substr(5));
         if (n < registered) id_of_page[n] = d.id;
         after = d.index_id;
@@ -161,13 +171,13 @@ int main(int argc, char** argv) {
     std::vector<double> times, errors;
     std::map<std::string, double> stage_ms;
     int correct = 0, false_matches = 0;
-    for (const Query& q : queries_now) {
+    for (const Query &q : queries_now) {
       const auto t0 = Clock::now();
       auto gray = texfree::DecodeImage(q.jpeg, limits);
       auto result = registry->Retrieve(*gray, std::nullopt, 0);
       times.push_back(texfree::MillisecondsSince(t0));
       if (result.ok())
-        for (const auto& [stage, ms] : result->timings.stages) stage_ms[stage] += ms;
+        for (const auto &[stage, ms] : result->timings.stages) stage_ms[stage] += ms;
       if (result.ok() && !result->documents.empty() &&
           result->documents[0].document.id == id_of_page[q.page]) {
         const double err = texfree::testdata::MeanHomographyError(
@@ -176,12 +186,12 @@ int main(int argc, char** argv) {
         if (err < 10) ++correct;
       }
       if (result.ok()) {
-        for (const auto& d : result->documents)
+        for (const auto &d : result->documents)
           if (d.document.id != id_of_page[q.page]) ++false_matches;
       }
     }
     int unreg_false = 0;
-    for (const Query& q : unregistered_queries) {
+    for (const Query &q : unregistered_queries) {
       const auto t0 = Clock::now();
       auto gray = texfree::DecodeImage(q.jpeg, limits);
       auto result = registry->Retrieve(*gray, std::nullopt, 0);
@@ -189,7 +199,8 @@ int main(int argc, char** argv) {
       if (result.ok()) unreg_false += static_cast<int>(result->documents.size());
     }
     std::printf(
-        "| %d | %.1f%% (%d/%d) | %.2f | %d of %d unregistered (+%d wrong) | %.1f | %.1f | %.0f | "
+        "| %d | %.1f%% (%d/%d) | %.2f | %d of %d unregistered (+%d "
+        "wrong) | %.1f | %.1f | %.0f | "
         "%.0f | %.2f | %.1f |\n",
         registered, 100.0 * correct / queries_now.size(), correct,
         static_cast<int>(queries_now.size()), Percentile(errors, 0.5), unreg_false,
@@ -197,7 +208,7 @@ int main(int argc, char** argv) {
         Percentile(times, 0.95), registry->index_memory_bytes() / 1048576.0, RssKiB() / 1024.0,
         startup_s, reg_ms);
     std::string stages;
-    for (const auto& [stage, ms] : stage_ms)
+    for (const auto &[stage, ms] : stage_ms)
       stages += stage + " " + std::to_string(ms / queries_now.size()).substr(0, 5) + " ms  ";
     std::fprintf(stderr, "mean stage times (registered-page queries): %s\n", stages.c_str());
     std::fflush(stdout);

@@ -1,6 +1,7 @@
-// Tests of the LLAH building blocks: the affine invariant, the learned quantiser and the
-// descriptor hashes (invariance to similarity/affine maps and to input order,
-// discrimination between unrelated point sets, degenerate inputs).
+// Tests of the LLAH building blocks: the affine invariant, the learned
+// quantiser and the descriptor hashes (invariance to similarity/affine maps and
+// to input order, discrimination between unrelated point sets, degenerate
+// inputs).
 #include "common/llah.h"
 
 #include <gtest/gtest.h>
@@ -22,7 +23,7 @@ std::vector<cv::Point2f> RandomPoints(uint32_t seed, int n, float w = 1000, floa
   std::mt19937 rng(seed);
   std::uniform_real_distribution<float> ux(0, w), uy(0, h);
   std::vector<cv::Point2f> pts(n);
-  for (auto& p : pts) p = {ux(rng), uy(rng)};
+  for (auto &p : pts) p = {ux(rng), uy(rng)};
   return pts;
 }
 
@@ -30,14 +31,14 @@ std::vector<cv::Point2f> RandomPoints(uint32_t seed, int n, float w = 1000, floa
 struct Affine {
   cv::Matx22d A;
   cv::Vec2d b;
-  cv::Point2f operator()(const cv::Point2f& p) const {
+  cv::Point2f operator()(const cv::Point2f &p) const {
     return {static_cast<float>(A(0, 0) * p.x + A(0, 1) * p.y + b[0]),
             static_cast<float>(A(1, 0) * p.x + A(1, 1) * p.y + b[1])};
   }
   double det() const { return cv::determinant(A); }
 };
 
-Affine RandomSimilarity(std::mt19937& rng) {
+Affine RandomSimilarity(std::mt19937 &rng) {
   std::uniform_real_distribution<double> angle(-kPi, kPi), log_scale(std::log(0.4), std::log(2.5)),
       shift(-300, 300);
   const double a = angle(rng), s = std::exp(log_scale(rng));
@@ -45,9 +46,9 @@ Affine RandomSimilarity(std::mt19937& rng) {
           cv::Vec2d(shift(rng), shift(rng))};
 }
 
-// Rotation * diag(s1, s2) * rotation: anisotropy s1/s2 up to max_anisotropy, plus an
-// optional reflection.
-Affine RandomAffine(std::mt19937& rng, double max_anisotropy, bool mirror = false) {
+// Rotation * diag(s1, s2) * rotation: anisotropy s1/s2 up to max_anisotropy,
+// plus an optional reflection.
+Affine RandomAffine(std::mt19937 &rng, double max_anisotropy, bool mirror = false) {
   std::uniform_real_distribution<double> angle(-kPi, kPi), scale(0.5, 2.0),
       aniso(1.0, max_anisotropy), shift(-300, 300);
   const double a = angle(rng), b = angle(rng), s = scale(rng), r = aniso(rng);
@@ -57,14 +58,14 @@ Affine RandomAffine(std::mt19937& rng, double max_anisotropy, bool mirror = fals
   return {Ra * D * Rb, cv::Vec2d(shift(rng), shift(rng))};
 }
 
-std::vector<cv::Point2f> Map(const std::vector<cv::Point2f>& pts, const Affine& f) {
+std::vector<cv::Point2f> Map(const std::vector<cv::Point2f> &pts, const Affine &f) {
   std::vector<cv::Point2f> out;
   out.reserve(pts.size());
-  for (const auto& p : pts) out.push_back(f(p));
+  for (const auto &p : pts) out.push_back(f(p));
   return out;
 }
 
-double Area2(const cv::Point2d& a, const cv::Point2d& b, const cv::Point2d& c) {
+double Area2(const cv::Point2d &a, const cv::Point2d &b, const cv::Point2d &c) {
   return (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x);
 }
 
@@ -76,7 +77,7 @@ double AngleDiff(double a, double b) {
   return d;
 }
 
-InvariantQuantizer LearnQuantizer(const LlahOptions& options, uint32_t seed) {
+InvariantQuantizer LearnQuantizer(const LlahOptions &options, uint32_t seed) {
   LlahDescriber raw(options, InvariantQuantizer());
   std::vector<float> samples;
   raw.CollectInvariants(RandomPoints(seed, 300), &samples);
@@ -86,7 +87,7 @@ InvariantQuantizer LearnQuantizer(const LlahOptions& options, uint32_t seed) {
 }
 
 // Brute-force set of the n nearest neighbours of point i.
-std::vector<int> NearestSet(const std::vector<cv::Point2f>& pts, int i, int n) {
+std::vector<int> NearestSet(const std::vector<cv::Point2f> &pts, int i, int n) {
   std::vector<std::pair<double, int>> d;
   for (int j = 0; j < static_cast<int>(pts.size()); ++j) {
     if (j == i) continue;
@@ -100,10 +101,11 @@ std::vector<int> NearestSet(const std::vector<cv::Point2f>& pts, int i, int n) {
   return out;
 }
 
-// Number of hashes of point i in `a` that also occur among point i's hashes in `b`, as
-// multisets. The slot of a descriptor depends on where the angular order starts, which a
-// rotation shifts; the multiset of a point's descriptors does not.
-int CommonHashes(const std::vector<uint64_t>& a, const std::vector<uint64_t>& b, int i, int per) {
+// Number of hashes of point i in `a` that also occur among point i's hashes in
+// `b`, as multisets. The slot of a descriptor depends on where the angular
+// order starts, which a rotation shifts; the multiset of a point's descriptors
+// does not.
+int CommonHashes(const std::vector<uint64_t> &a, const std::vector<uint64_t> &b, int i, int per) {
   std::vector<uint64_t> x(a.begin() + i * per, a.begin() + (i + 1) * per);
   std::vector<uint64_t> y(b.begin() + i * per, b.begin() + (i + 1) * per);
   std::sort(x.begin(), x.end());
@@ -113,7 +115,8 @@ int CommonHashes(const std::vector<uint64_t>& a, const std::vector<uint64_t>& b,
   return static_cast<int>(common.size());
 }
 
-// ---------------------------------------------------------------- AffineInvariant
+// ----------------------------------------------------------------
+// AffineInvariant
 
 TEST(AffineInvariantTest, MatchesDefinitionOnAreas) {
   std::mt19937 rng(1);
@@ -131,8 +134,8 @@ TEST(AffineInvariantTest, UnchangedByAffineMapsWithPositiveDeterminant) {
   int checked = 0;
   for (int t = 0; t < 2000; ++t) {
     const cv::Point2f a(u(rng), u(rng)), b(u(rng), u(rng)), c(u(rng), u(rng)), d(u(rng), u(rng));
-    // Skip near-degenerate quadruples where both areas are tiny: there the invariant is
-    // ill-conditioned in any float implementation.
+    // Skip near-degenerate quadruples where both areas are tiny: there the
+    // invariant is ill-conditioned in any float implementation.
     if (std::max(std::abs(Area2(a, c, d)), std::abs(Area2(a, b, c))) < 2000) continue;
     const Affine f = RandomAffine(rng, 3.0);
     ASSERT_GT(f.det(), 0);
@@ -145,7 +148,8 @@ TEST(AffineInvariantTest, UnchangedByAffineMapsWithPositiveDeterminant) {
 }
 
 TEST(AffineInvariantTest, MirrorShiftsByPi) {
-  // Both areas change sign under a reflection: atan2(-y, -x) = atan2(y, x) + pi.
+  // Both areas change sign under a reflection: atan2(-y, -x) = atan2(y, x) +
+  // pi.
   std::mt19937 rng(3);
   std::uniform_real_distribution<float> u(0, 1000);
   for (int t = 0; t < 500; ++t) {
@@ -167,23 +171,25 @@ TEST(AffineInvariantTest, DefinedForCollinearPoints) {
   EXPECT_TRUE(std::isfinite(AffineInvariant({0, 0}, {0, 0}, {0, 0}, {0, 0})));
 }
 
-// ---------------------------------------------------------------- InvariantQuantizer
+// ----------------------------------------------------------------
+// InvariantQuantizer
 
 TEST(InvariantQuantizerTest, LearnSplitsSamplesIntoEqualLevels) {
   std::mt19937 rng(4);
   std::normal_distribution<float> g(0.3f, 1.1f);
   for (int k : {2, 3, 5, 8}) {
     std::vector<float> samples(20000);
-    for (auto& s : samples) s = g(rng);
+    for (auto &s : samples) s = g(rng);
     auto q = InvariantQuantizer::Learn(samples, k);
     ASSERT_TRUE(q.ok()) << q.status();
     ASSERT_EQ(q->thresholds().size(), static_cast<size_t>(k - 1));
     EXPECT_EQ(q->levels(), k);
     EXPECT_TRUE(std::is_sorted(q->thresholds().begin(), q->thresholds().end()));
-    // Count levels on the training samples and on fresh samples of the same distribution.
+    // Count levels on the training samples and on fresh samples of the same
+    // distribution.
     for (int pass = 0; pass < 2; ++pass) {
       if (pass == 1)
-        for (auto& s : samples) s = g(rng);
+        for (auto &s : samples) s = g(rng);
       std::vector<int> count(k, 0);
       for (float s : samples) {
         const int level = q->Quantize(s);
@@ -254,7 +260,7 @@ TEST(LlahOptionsTest, CountsAreBinomials) {
   struct Case {
     int n, m, per_point, per_descriptor;
   };
-  for (const Case& c : {Case{7, 6, 7, 15}, Case{7, 5, 21, 5}, Case{8, 6, 28, 15}, Case{6, 4, 15, 1},
+  for (const Case &c : {Case{7, 6, 7, 15}, Case{7, 5, 21, 5}, Case{8, 6, 28, 15}, Case{6, 4, 15, 1},
                         Case{10, 5, 252, 5}, Case{10, 10, 1, 210}}) {
     LlahOptions o;
     o.n = c.n;
@@ -276,14 +282,17 @@ TEST(LlahOptionsTest, ValidateRejectsBadValues) {
     return o.Validate();
   };
   EXPECT_TRUE(with(7, 6, 3).ok());
-  EXPECT_EQ(with(7, 3, 3).code(), absl::StatusCode::kInvalidArgument);   // m < 4
-  EXPECT_EQ(with(5, 6, 3).code(), absl::StatusCode::kInvalidArgument);   // m > n
-  EXPECT_EQ(with(11, 6, 3).code(), absl::StatusCode::kInvalidArgument);  // n too large
-  EXPECT_EQ(with(7, 6, 1).code(), absl::StatusCode::kInvalidArgument);   // k < 2
-  EXPECT_EQ(with(7, 6, 65).code(), absl::StatusCode::kInvalidArgument);  // k > 64
+  EXPECT_EQ(with(7, 3, 3).code(), absl::StatusCode::kInvalidArgument);  // m < 4
+  EXPECT_EQ(with(5, 6, 3).code(), absl::StatusCode::kInvalidArgument);  // m > n
+  EXPECT_EQ(with(11, 6, 3).code(),
+            absl::StatusCode::kInvalidArgument);                        // n too large
+  EXPECT_EQ(with(7, 6, 1).code(), absl::StatusCode::kInvalidArgument);  // k < 2
+  EXPECT_EQ(with(7, 6, 65).code(),
+            absl::StatusCode::kInvalidArgument);  // k > 64
 }
 
-// ---------------------------------------------------------------- LlahDescriber
+// ----------------------------------------------------------------
+// LlahDescriber
 
 class LlahDescriberTest : public ::testing::Test {
  protected:
@@ -320,9 +329,10 @@ TEST_F(LlahDescriberTest, SimilarityMapKeepsHashes) {
 }
 
 TEST_F(LlahDescriberTest, AffineMapKeepsHashesOfPointsWithStableNeighbours) {
-  // An anisotropic map changes which points are nearest, which LLAH tolerates through
-  // redundancy (C(n, m) subsets), not through identical hashes. The invariants themselves
-  // must survive: where the n-nearest set is unchanged, the hashes must be too.
+  // An anisotropic map changes which points are nearest, which LLAH tolerates
+  // through redundancy (C(n, m) subsets), not through identical hashes. The
+  // invariants themselves must survive: where the n-nearest set is unchanged,
+  // the hashes must be too.
   std::mt19937 rng(9);
   const int per = describer_.descriptors_per_point();
   for (int trial = 0; trial < 4; ++trial) {
@@ -344,6 +354,38 @@ TEST_F(LlahDescriberTest, AffineMapKeepsHashesOfPointsWithStableNeighbours) {
   }
 }
 
+// Multi-probe: slot 0 of each descriptor is the exact hash; under point noise
+// (which moves invariants across level boundaries) the probes recover many
+// reference hashes the exact hashes lose, and never fewer.
+TEST_F(LlahDescriberTest, ProbesRecoverHashesLostToQuantisationNoise) {
+  std::mt19937 rng(12);
+  std::normal_distribution<float> noise(0.f, 1.5f);  // points ~60 px apart
+  const int per = describer_.descriptors_per_point();
+  const auto pts = RandomPoints(40, 400);
+  auto noisy = pts;
+  for (auto &p : noisy) p += cv::Point2f(noise(rng), noise(rng));
+  std::vector<uint64_t> reference, exact, probed;
+  describer_.Describe(pts, &reference);
+  describer_.Describe(noisy, &exact);
+  describer_.DescribeWithProbes(noisy, 2, &probed);
+  ASSERT_EQ(probed.size(), exact.size() * 4);
+  const std::unordered_set<uint64_t> registered(reference.begin(), reference.end());
+  int found_exact = 0, found_probed = 0;
+  for (size_t i = 0; i < pts.size(); ++i) {
+    for (int s = 0; s < per; ++s) {
+      const uint64_t *variants = &probed[(i * per + s) * 4];
+      ASSERT_EQ(variants[0], exact[i * per + s]) << "slot 0 is the exact descriptor";
+      bool any = false;
+      for (int v = 0; v < 4; ++v) any |= variants[v] != 0 && registered.count(variants[v]) > 0;
+      found_exact += registered.count(exact[i * per + s]) > 0;
+      found_probed += any;
+    }
+  }
+  EXPECT_LT(found_exact, 0.9 * exact.size()) << "the noise must disturb some descriptors";
+  EXPECT_GE(found_probed, 1.3 * found_exact)
+      << found_exact << " exact, " << found_probed << " with probes, of " << exact.size();
+}
+
 TEST_F(LlahDescriberTest, InputOrderDoesNotMatter) {
   const auto pts = RandomPoints(40, 300);
   std::vector<int> perm(pts.size());
@@ -363,13 +405,14 @@ TEST_F(LlahDescriberTest, InputOrderDoesNotMatter) {
 }
 
 TEST(LlahDescriberDefaultsTest, DifferentPointSetsRarelyCollide) {
-  // Six points have only 12 - 6 = 6 affine degrees of freedom, so the 15 quantised
-  // invariants of a descriptor are strongly dependent and the descriptors of random point
-  // sets are far from uniform over k^15 values: with the defaults (n=7, m=6, k=8) about 5%
-  // of one random set's hashes occur in another (measured 5.4% here; k=3 gives ~55%).
-  // Voting and RANSAC absorb that; the bound guards against a regression in entropy
-  // (e.g. a quantiser or rotation-canonicalisation bug), and the ratio to the ~100% kept
-  // under a similarity map is what makes retrieval work.
+  // Six points have only 12 - 6 = 6 affine degrees of freedom, so the 15
+  // quantised invariants of a descriptor are strongly dependent and the
+  // descriptors of random point sets are far from uniform over k^15 values:
+  // with the defaults (n=7, m=6, k=8) about 5% of one random set's hashes occur
+  // in another (measured 5.4% here; k=3 gives ~55%). Voting and RANSAC absorb
+  // that; the bound guards against a regression in entropy (e.g. a quantiser or
+  // rotation-canonicalisation bug), and the ratio to the ~100% kept under a
+  // similarity map is what makes retrieval work.
   LlahOptions options;
   options.n = 7;
   options.m = 6;

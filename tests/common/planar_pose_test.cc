@@ -1,5 +1,6 @@
-// Tests of planar pose recovery: PoseFromHomography / HomographyFromPose on exact synthetic
-// cameras, EstimatePlanarPose with lens distortion and pixel noise, CameraModel checks.
+// Tests of planar pose recovery: PoseFromHomography / HomographyFromPose on
+// exact synthetic cameras, EstimatePlanarPose with lens distortion and pixel
+// noise, CameraModel checks.
 #include "common/planar_pose.h"
 
 #include <gtest/gtest.h>
@@ -16,17 +17,18 @@ constexpr double kDeg = 3.14159265358979323846 / 180.0;
 
 const cv::Matx33d kK(800, 0, 320, 0, 800, 240, 0, 0, 1);
 
-cv::Matx33d Rotation(const cv::Vec3d& axis_angle) {
+cv::Matx33d Rotation(const cv::Vec3d &axis_angle) {
   cv::Matx33d R;
   cv::Rodrigues(axis_angle, R);
   return R;
 }
 
-// A camera looking at the plane Z = 0 from distance `distance` along its axis, with the
-// optical axis tilted by `tilt_deg` about an in-plane axis at `azimuth_deg`, and rolled by
-// `roll_deg`. The plane point (cx, cy, 0) is on the optical axis.
+// A camera looking at the plane Z = 0 from distance `distance` along its axis,
+// with the optical axis tilted by `tilt_deg` about an in-plane axis at
+// `azimuth_deg`, and rolled by `roll_deg`. The plane point (cx, cy, 0) is on
+// the optical axis.
 PlanarPose Camera(double tilt_deg, double azimuth_deg, double roll_deg, double distance,
-                  const cv::Point2d& centre = {300, 200}) {
+                  const cv::Point2d &centre = {300, 200}) {
   const double az = azimuth_deg * kDeg;
   const cv::Matx33d cam_to_world =
       Rotation(cv::Vec3d(-std::sin(az), std::cos(az), 0) * tilt_deg * kDeg) *
@@ -47,20 +49,20 @@ std::vector<PlanarPose> Cameras() {
   return out;
 }
 
-double RotationErrorDeg(const cv::Matx33d& a, const cv::Matx33d& b) {
+double RotationErrorDeg(const cv::Matx33d &a, const cv::Matx33d &b) {
   cv::Vec3d r;
   cv::Rodrigues(a.t() * b, r);
   return cv::norm(r) / kDeg;
 }
 
-double MaxAbs(const cv::Matx33d& a) {
+double MaxAbs(const cv::Matx33d &a) {
   double m = 0;
   for (double v : a.val) m = std::max(m, std::abs(v));
   return m;
 }
 
 TEST(PlanarPoseTest, SyntheticCamerasAreValidRotations) {
-  for (const PlanarPose& p : Cameras()) {
+  for (const PlanarPose &p : Cameras()) {
     EXPECT_LT(MaxAbs(p.R * p.R.t() - cv::Matx33d::eye()), 1e-12);
     EXPECT_NEAR(cv::determinant(p.R), 1.0, 1e-12);
     EXPECT_GT(p.t[2], 0) << "the plane origin must be in front of the camera";
@@ -68,7 +70,7 @@ TEST(PlanarPoseTest, SyntheticCamerasAreValidRotations) {
 }
 
 TEST(PlanarPoseTest, PoseFromHomographyRecoversPoseForAnyScale) {
-  for (const PlanarPose& truth : Cameras()) {
+  for (const PlanarPose &truth : Cameras()) {
     const cv::Matx33d Rt(truth.R(0, 0), truth.R(0, 1), truth.t[0], truth.R(1, 0), truth.R(1, 1),
                          truth.t[1], truth.R(2, 0), truth.R(2, 1), truth.t[2]);
     const cv::Matx33d H = kK * Rt;
@@ -82,12 +84,30 @@ TEST(PlanarPoseTest, PoseFromHomographyRecoversPoseForAnyScale) {
   }
 }
 
+// Close and steeply tilted (as when tracking at 80 deg): the plane's origin is
+// behind the camera while the looked-at point is in front. The sign must come
+// from a visible point.
+TEST(PlanarPoseTest, PoseFromHomographyWithPlaneOriginBehindCamera) {
+  const cv::Point2d looked_at(900, 1200);
+  const PlanarPose truth = Camera(75.0, 53.0, 30.0, 400.0, looked_at);
+  const cv::Vec3d origin_in_camera = truth.t;
+  ASSERT_LT(origin_in_camera[2], 0) << "test setup: the origin must be behind the camera";
+  const cv::Matx33d Rt(truth.R(0, 0), truth.R(0, 1), truth.t[0], truth.R(1, 0), truth.R(1, 1),
+                       truth.t[1], truth.R(2, 0), truth.R(2, 1), truth.t[2]);
+  for (double scale : {1.0, -1.0, 3.0}) {
+    auto pose = PoseFromHomography(kK * Rt * scale, kK, looked_at);
+    ASSERT_TRUE(pose.ok()) << pose.status();
+    EXPECT_LT(MaxAbs(pose->R - truth.R), 1e-6) << "scale " << scale;
+    EXPECT_LT(cv::norm(pose->t - truth.t), 1e-6 * cv::norm(truth.t)) << "scale " << scale;
+  }
+}
+
 TEST(PlanarPoseTest, HomographyFromPoseRoundTrip) {
-  for (const PlanarPose& truth : Cameras()) {
+  for (const PlanarPose &truth : Cameras()) {
     const cv::Matx33d H = HomographyFromPose(truth, kK);
     EXPECT_DOUBLE_EQ(H(2, 2), 1.0);
     // Projects plane points where the pinhole model does.
-    for (const cv::Point2d& X :
+    for (const cv::Point2d &X :
          {cv::Point2d(0, 0), cv::Point2d(300, 200), cv::Point2d(-150, 420)}) {
       const cv::Vec3d c = truth.R * cv::Vec3d(X.x, X.y, 0) + truth.t;
       const cv::Vec3d x = kK * c;
@@ -126,8 +146,9 @@ TEST(PlanarPoseTest, EstimatePlanarPoseWithDistortionAndNoise) {
   std::mt19937 rng(5);
   std::normal_distribution<double> noise(0, 0.3);
   int tested = 0;
-  for (const PlanarPose& truth : Cameras()) {
-    // A 600 x 400 grid of plane points around the looked-at point, kept where visible.
+  for (const PlanarPose &truth : Cameras()) {
+    // A 600 x 400 grid of plane points around the looked-at point, kept where
+    // visible.
     std::vector<cv::Point3f> object;
     for (int y = 0; y <= 400; y += 40)
       for (int x = 0; x <= 600; x += 40) object.emplace_back(x, y, 0);
@@ -137,7 +158,7 @@ TEST(PlanarPoseTest, EstimatePlanarPoseWithDistortionAndNoise) {
     cv::projectPoints(object, rvec, truth.t, cv::Mat(kK), cv::Mat(camera.distortion), projected);
     std::vector<cv::Point2f> plane, pixels;
     for (size_t i = 0; i < object.size(); ++i) {
-      const cv::Point2f& p = projected[i];
+      const cv::Point2f &p = projected[i];
       if (p.x < 0 || p.y < 0 || p.x > 639 || p.y > 479) continue;
       plane.emplace_back(object[i].x, object[i].y);
       pixels.emplace_back(static_cast<float>(p.x + noise(rng)),

@@ -1,6 +1,7 @@
-// Tests of WordKeypointExtractor on rendered text pages with ground-truth word boxes:
-// keypoints land on words, words get keypoints, and the keypoints are stable under uneven
-// light, scale changes and rotation; a blank page gives none.
+// Tests of WordKeypointExtractor on rendered text pages with ground-truth word
+// boxes: keypoints land on words, words get keypoints, and the keypoints are
+// stable under uneven light, scale changes and rotation; a blank page gives
+// none.
 #include "common/word_keypoints.h"
 
 #include <gtest/gtest.h>
@@ -20,8 +21,8 @@ namespace texfree {
 namespace {
 
 // Rendered once per seed for the whole binary (rendering is the slow part).
-const testdata::RenderedPage& Page(uint64_t seed) {
-  static std::map<uint64_t, testdata::RenderedPage>* pages =
+const testdata::RenderedPage &Page(uint64_t seed) {
+  static std::map<uint64_t, testdata::RenderedPage> *pages =
       new std::map<uint64_t, testdata::RenderedPage>();
   auto it = pages->find(seed);
   if (it == pages->end()) it = pages->emplace(seed, testdata::RenderTextPage(seed)).first;
@@ -32,16 +33,16 @@ cv::Mat Gray(uint64_t seed) { return ToGray(Page(seed).image); }
 
 constexpr uint64_t kSeeds[] = {1, 2};
 
-// Fraction of `reference` points that have a `moved` point within `tolerance`, each moved
-// point used once at most (greedy by distance).
-double MatchedFraction(const std::vector<cv::Point2f>& reference,
-                       const std::vector<cv::Point2f>& moved, double tolerance) {
+// Fraction of `reference` points that have a `moved` point within `tolerance`,
+// each moved point used once at most (greedy by distance).
+double MatchedFraction(const std::vector<cv::Point2f> &reference,
+                       const std::vector<cv::Point2f> &moved, double tolerance) {
   if (reference.empty()) return 0;
   NeighborGrid grid(moved);
   std::vector<char> taken(moved.size(), 0);
   std::vector<int> near;
   int matched = 0;
-  for (const auto& p : reference) {
+  for (const auto &p : reference) {
     grid.NearestTo(p, 3, -1, &near);
     for (int j : near) {
       if (taken[j]) continue;
@@ -55,64 +56,105 @@ double MatchedFraction(const std::vector<cv::Point2f>& reference,
   return static_cast<double>(matched) / reference.size();
 }
 
-bool Inside(const cv::Rect& box, const cv::Point2f& p, float margin) {
+bool Inside(const cv::Rect &box, const cv::Point2f &p, float margin) {
   return p.x >= box.x - margin && p.x <= box.x + box.width + margin && p.y >= box.y - margin &&
          p.y <= box.y + box.height + margin;
 }
 
+WordKeypointExtractor Extractor(WordGrouping grouping) {
+  WordKeypointOptions o;
+  o.grouping = grouping;
+  return WordKeypointExtractor(o);
+}
+
 TEST(WordKeypointsTest, KeypointsLieOnWordsAndWordsGetKeypoints) {
-  const WordKeypointExtractor extractor;
-  for (uint64_t seed : kSeeds) {
-    SCOPED_TRACE("seed " + std::to_string(seed));
-    const auto& page = Page(seed);
-    const WordKeypoints kp = extractor.Extract(Gray(seed));
-    ASSERT_GT(kp.points.size(), page.word_boxes.size() / 3);
-    EXPECT_GT(kp.char_height, 4);
-    EXPECT_LT(kp.char_height, 60);
-    EXPECT_NEAR(kp.text_angle_rad, 0, 0.05) << "upright page";
+  for (WordGrouping grouping : {WordGrouping::kLineClosing, WordGrouping::kLetterGraph})
+    for (uint64_t seed : kSeeds) {
+      const WordKeypointExtractor extractor = Extractor(grouping);
+      SCOPED_TRACE("seed " + std::to_string(seed) + " grouping " +
+                   std::to_string(static_cast<int>(grouping)));
+      const auto &page = Page(seed);
+      const WordKeypoints kp = extractor.Extract(Gray(seed));
+      ASSERT_GT(kp.points.size(), page.word_boxes.size() / 3);
+      EXPECT_GT(kp.char_height, 4);
+      EXPECT_LT(kp.char_height, 60);
+      EXPECT_NEAR(kp.text_angle_rad, 0, 0.05) << "upright page";
 
-    int on_word = 0;
-    for (const auto& p : kp.points) {
-      for (const auto& box : page.word_boxes) {
-        if (Inside(box, p, 2)) {
-          ++on_word;
-          break;
-        }
-      }
-    }
-    EXPECT_GE(on_word, 0.85 * kp.points.size()) << on_word << "/" << kp.points.size();
-
-    // Coverage. A fair measure must not penalise words merged into one blob (short words,
-    // tight spacing, punctuation): their blob has one centroid, usually inside one of the
-    // words or in the space between them. So a word box counts as covered when a keypoint
-    // lies in it, or in the union box of it and its neighbour on the same line when they
-    // are less than one word height apart (the pair became one blob and is counted once).
-    const auto& boxes = page.word_boxes;
-    int covered = 0;
-    for (size_t i = 0; i < boxes.size(); ++i) {
-      std::vector<cv::Rect> regions = {boxes[i]};
-      for (size_t j = 0; j < boxes.size(); ++j) {
-        if (j == i) continue;
-        const cv::Rect &a = boxes[i], &b = boxes[j];
-        const int overlap_y = std::min(a.y + a.height, b.y + b.height) - std::max(a.y, b.y);
-        const int gap_x = std::max(a.x, b.x) - std::min(a.x + a.width, b.x + b.width);
-        if (overlap_y > 0.5 * std::min(a.height, b.height) && gap_x < std::min(a.height, b.height))
-          regions.push_back(a | b);
-      }
-      bool hit = false;
-      for (const auto& r : regions) {
-        for (const auto& p : kp.points) {
-          if (Inside(r, p, 2)) {
-            hit = true;
+      int on_word = 0;
+      for (const auto &p : kp.points) {
+        for (const auto &box : page.word_boxes) {
+          if (Inside(box, p, 2)) {
+            ++on_word;
             break;
           }
         }
-        if (hit) break;
       }
-      covered += hit;
+      EXPECT_GE(on_word, 0.85 * kp.points.size()) << on_word << "/" << kp.points.size();
+
+      // Coverage. A fair measure must not penalise words merged into one blob
+      // (short words, tight spacing, punctuation): their blob has one centroid,
+      // usually inside one of the words or in the space between them. So a word
+      // box counts as covered when a keypoint lies in it, or in the union box
+      // of it and its neighbour on the same line when they are less than one
+      // word height apart (the pair became one blob and is counted once).
+      const auto &boxes = page.word_boxes;
+      int covered = 0;
+      for (size_t i = 0; i < boxes.size(); ++i) {
+        std::vector<cv::Rect> regions = {boxes[i]};
+        for (size_t j = 0; j < boxes.size(); ++j) {
+          if (j == i) continue;
+          const cv::Rect &a = boxes[i], &b = boxes[j];
+          const int overlap_y = std::min(a.y + a.height, b.y + b.height) - std::max(a.y, b.y);
+          const int gap_x = std::max(a.x, b.x) - std::min(a.x + a.width, b.x + b.width);
+          if (overlap_y > 0.5 * std::min(a.height, b.height) &&
+              gap_x < std::min(a.height, b.height))
+            regions.push_back(a | b);
+        }
+        bool hit = false;
+        for (const auto &r : regions) {
+          for (const auto &p : kp.points) {
+            if (Inside(r, p, 2)) {
+              hit = true;
+              break;
+            }
+          }
+          if (hit) break;
+        }
+        covered += hit;
+      }
+      EXPECT_GE(covered, 0.75 * boxes.size()) << covered << "/" << boxes.size();
     }
-    EXPECT_GE(covered, 0.75 * boxes.size()) << covered << "/" << boxes.size();
-  }
+}
+
+// Two text sizes in one image (a page beside the same page at 40 %): the letter
+// graph measures sizes locally, so each half gets the keypoints it gets when
+// extracted alone.
+TEST(WordKeypointsTest, LetterGraphHandlesTwoTextSizesInOneImage) {
+  const cv::Mat big = Gray(1)(cv::Rect(0, 0, 700, 900));
+  cv::Mat small_full;
+  cv::resize(Gray(2), small_full, cv::Size(), 0.4, 0.4, cv::INTER_AREA);
+  const cv::Mat small = small_full(cv::Rect(0, 0, 380, 540));
+  cv::Mat both(900, 700 + 380, CV_8UC1, cv::Scalar(235));
+  big.copyTo(both(cv::Rect(0, 0, 700, 900)));
+  small.copyTo(both(cv::Rect(700, 0, 380, 540)));
+  const WordKeypointExtractor extractor = Extractor(WordGrouping::kLetterGraph);
+  const WordKeypoints alone_big = extractor.Extract(big);
+  const WordKeypoints alone_small = extractor.Extract(small);
+  ASSERT_GT(alone_big.points.size(), 40u);
+  ASSERT_GT(alone_small.points.size(), 40u);
+  const WordKeypoints together = extractor.Extract(both);
+  std::vector<cv::Point2f> small_shifted;
+  for (const auto &p : alone_small.points) small_shifted.push_back(p + cv::Point2f(700, 0));
+  // Keypoints at the cut edges of the crops differ; the bulk must agree.
+  EXPECT_GT(MatchedFraction(alone_big.points, together.points, 2.0), 0.8);
+  EXPECT_GT(MatchedFraction(small_shifted, together.points, 1.5), 0.7);
+  // One global word height (the line closing) sizes the small text wrongly:
+  // this is why retrieval falls back to the letter graph.
+  const WordKeypointExtractor closing = Extractor(WordGrouping::kLineClosing);
+  const WordKeypoints closing_small = closing.Extract(small);
+  std::vector<cv::Point2f> closing_shifted;
+  for (const auto &p : closing_small.points) closing_shifted.push_back(p + cv::Point2f(700, 0));
+  EXPECT_LT(MatchedFraction(closing_shifted, closing.Extract(both).points, 1.5), 0.3);
 }
 
 TEST(WordKeypointsTest, StableUnderUnevenLight) {
@@ -121,7 +163,8 @@ TEST(WordKeypointsTest, StableUnderUnevenLight) {
     SCOPED_TRACE("seed " + std::to_string(seed));
     const cv::Mat gray = Gray(seed);
     const WordKeypoints clean = extractor.Extract(gray);
-    // Smooth light: a diagonal ramp times a soft radial falloff, from 0.35 to 1.0.
+    // Smooth light: a diagonal ramp times a soft radial falloff, from 0.35
+    // to 1.0.
     cv::Mat gain(gray.size(), CV_32F);
     for (int y = 0; y < gray.rows; ++y) {
       for (int x = 0; x < gray.cols; ++x) {
@@ -159,7 +202,7 @@ TEST(WordKeypointsTest, StableUnderScaleChange) {
       EXPECT_NEAR(kp.char_height / scale, original.char_height, 0.25 * original.char_height);
       // Pixel centres: x_original = (x + 0.5) / scale - 0.5.
       std::vector<cv::Point2f> back;
-      for (const auto& p : kp.points)
+      for (const auto &p : kp.points)
         back.emplace_back(static_cast<float>((p.x + 0.5) / scale - 0.5),
                           static_cast<float>((p.y + 0.5) / scale - 0.5));
       EXPECT_GE(MatchedFraction(original.points, back, 0.35 * original.char_height), 0.7);
@@ -179,7 +222,7 @@ TEST(WordKeypointsTest, RotationBy90DegreesRotatesKeypoints) {
     EXPECT_NEAR(std::abs(kp.text_angle_rad), CV_PI / 2, 0.05);
     // Clockwise: (x, y) -> (rows - 1 - y, x); back: x = y', y = rows - 1 - x'.
     std::vector<cv::Point2f> back;
-    for (const auto& p : kp.points) back.emplace_back(p.y, static_cast<float>(gray.rows - 1) - p.x);
+    for (const auto &p : kp.points) back.emplace_back(p.y, static_cast<float>(gray.rows - 1) - p.x);
     EXPECT_GE(MatchedFraction(original.points, back, 0.3 * original.char_height), 0.8);
   }
 }
@@ -203,6 +246,9 @@ TEST(WordKeypointsTest, OptionsValidate) {
   EXPECT_FALSE(o.Validate().ok());
   o = WordKeypointOptions();
   o.max_char_height = o.min_char_height;
+  EXPECT_FALSE(o.Validate().ok());
+  o = WordKeypointOptions();
+  o.letter_gap_factor = 0;
   EXPECT_FALSE(o.Validate().ok());
   o = WordKeypointOptions();
   o.max_keypoints = 0;

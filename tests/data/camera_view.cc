@@ -24,14 +24,14 @@ constexpr double kDeg = kPi / 180.0;
 
 // Portable uniform numbers from raw engine bits (std distributions differ
 // between standard libraries).
-double Unit(std::mt19937_64& rng) {
+double Unit(std::mt19937_64 &rng) {
   return static_cast<double>(rng() >> 11) * 0x1.0p-53;
 }
-double Uniform(std::mt19937_64& rng, double lo, double hi) {
+double Uniform(std::mt19937_64 &rng, double lo, double hi) {
   return lo + (hi - lo) * Unit(rng);
 }
 
-cv::Matx33d AxisAngle(const cv::Vec3d& axis, double angle) {
+cv::Matx33d AxisAngle(const cv::Vec3d &axis, double angle) {
   cv::Matx33d r;
   cv::Rodrigues(axis * angle, r);
   return r;
@@ -42,7 +42,7 @@ cv::Matx33d AxisAngle(const cv::Vec3d& axis, double angle) {
 // Jacobian determinant d. The footprint lies between isotropic and worst
 // axis (s_max^0.7 * s_min^0.3): close to what a sensor pixel integrates
 // without over-blurring strongly tilted views.
-float FootprintLevel(const cv::Matx33d& g, double x, double y, double w,
+float FootprintLevel(const cv::Matx33d &g, double x, double y, double w,
                      double d) {
   const double j00 = (g(0, 0) - x * g(2, 0)) / w;
   const double j01 = (g(0, 1) - x * g(2, 1)) / w;
@@ -59,8 +59,8 @@ float FootprintLevel(const cv::Matx33d& g, double x, double y, double w,
 
 // Desk surface: the base colour with blotchy and streaky low-frequency
 // texture (wood / laminate) and fine grain.
-cv::Mat MakeDesk(const cv::Size& size, const cv::Scalar& colour,
-                 std::mt19937_64& rng) {
+cv::Mat MakeDesk(const cv::Size &size, const cv::Scalar &colour,
+                 std::mt19937_64 &rng) {
   cv::RNG cvrng(rng());
   cv::Mat blotch(std::max(2, size.height / 40), std::max(2, size.width / 40),
                  CV_32FC1);
@@ -76,10 +76,10 @@ cv::Mat MakeDesk(const cv::Size& size, const cv::Scalar& colour,
   cvrng.fill(grain, cv::RNG::NORMAL, 0, 2.5);
   cv::Mat desk(size, CV_32FC3);
   for (int y = 0; y < size.height; ++y) {
-    const float* b = blotch.ptr<float>(y);
-    const float* s = streak.ptr<float>(y);
-    const float* g = grain.ptr<float>(y);
-    cv::Vec3f* d = desk.ptr<cv::Vec3f>(y);
+    const float *b = blotch.ptr<float>(y);
+    const float *s = streak.ptr<float>(y);
+    const float *g = grain.ptr<float>(y);
+    cv::Vec3f *d = desk.ptr<cv::Vec3f>(y);
     for (int x = 0; x < size.width; ++x) {
       const float v = b[x] + s[x] + g[x];
       for (int c = 0; c < 3; ++c) {
@@ -108,8 +108,8 @@ cv::Mat DiskKernel(double radius) {
 // Multiplicative light field: linear ramp + vignette + a soft shadow (hand
 // or phone between lamp and page) + a slight colour cast, all scaled by
 // strength. strength = 0 gives exactly 1.
-cv::Mat LightField(const cv::Size& full_size, double strength,
-                   std::mt19937_64& rng) {
+cv::Mat LightField(const cv::Size &full_size, double strength,
+                   std::mt19937_64 &rng) {
   // The field is smooth: compute it on a coarse grid and upsample.
   constexpr int kStep = 8;
   const cv::Size size(full_size.width / kStep + 2,
@@ -132,7 +132,7 @@ cv::Mat LightField(const cv::Size& full_size, double strength,
   const double sx = std::cos(shadow_dir), sy = std::sin(shadow_dir);
   cv::Mat field(size, CV_32FC3);
   for (int y = 0; y < size.height; ++y) {
-    cv::Vec3f* f = field.ptr<cv::Vec3f>(y);
+    cv::Vec3f *f = field.ptr<cv::Vec3f>(y);
     for (int x = 0; x < size.width; ++x) {
       const double nx = (x * kStep - cx) / half_diag,
                    ny = (y * kStep - cy) / half_diag;
@@ -154,7 +154,7 @@ cv::Mat LightField(const cv::Size& full_size, double strength,
   return full;
 }
 
-void AppendMatrix(std::ostringstream& os, const double* v, int n) {
+void AppendMatrix(std::ostringstream &os, const double *v, int n) {
   os << "[";
   char buf[40];
   for (int i = 0; i < n; ++i) {
@@ -166,8 +166,8 @@ void AppendMatrix(std::ostringstream& os, const double* v, int n) {
 
 }  // namespace
 
-CameraView ComputeCameraGeometry(const cv::Size& page_size,
-                                 const CameraViewOptions& options) {
+CameraView ComputeCameraGeometry(const cv::Size &page_size,
+                                 const CameraViewOptions &options) {
   CameraView view;
   const cv::Size size = options.image_size;
   const double fx =
@@ -195,18 +195,21 @@ CameraView ComputeCameraGeometry(const cv::Size& page_size,
   view.rotation = cam_to_world.t();
   view.translation = -(view.rotation * centre);
 
-  const cv::Matx33d& r = view.rotation;
-  const cv::Vec3d& t = view.translation;
+  const cv::Matx33d &r = view.rotation;
+  const cv::Vec3d &t = view.translation;
   const cv::Matx33d rt(r(0, 0), r(0, 1), t[0], r(1, 0), r(1, 1), t[1], r(2, 0),
                        r(2, 1), t[2]);
   cv::Matx33d h = view.camera_matrix * rt;
-  h *= 1.0 / h(2, 2);
+  // Scale to h22 = 1 unless that flips the sign: when the camera is close and
+  // steeply tilted, the page origin lies behind the camera (h22 < 0) and the
+  // visible part of the page must keep w > 0 (w is the depth of a page point).
+  h *= 1.0 / (std::abs(h(2, 2)) > 1e-9 ? std::abs(h(2, 2)) : cv::norm(h));
   view.homography = h;
   return view;
 }
 
-CameraView RenderCameraView(const cv::Mat& page_in,
-                            const CameraViewOptions& options, uint64_t seed) {
+CameraView RenderCameraView(const cv::Mat &page_in,
+                            const CameraViewOptions &options, uint64_t seed) {
   CV_Assert(!page_in.empty() && page_in.depth() == CV_8U);
   cv::Mat page;
   if (page_in.channels() == 1) {
@@ -229,8 +232,8 @@ CameraView RenderCameraView(const cv::Mat& page_in,
   const double page_w = page.cols, page_h = page.rows;
   const double det_g = cv::determinant(g);
   for (int v = 0; v < size.height; ++v) {
-    float* al = alpha_map.ptr<float>(v);
-    float* sh = shadow_map.ptr<float>(v);
+    float *al = alpha_map.ptr<float>(v);
+    float *sh = shadow_map.ptr<float>(v);
     for (int u = 0; u < size.width; ++u) {
       const double w = g(2, 0) * u + g(2, 1) * v + g(2, 2);
       if (w <= 1e-12) {  // ray does not meet the page plane
@@ -270,8 +273,8 @@ CameraView RenderCameraView(const cv::Mat& page_in,
                  cv::INTER_LINEAR, cv::BORDER_REPLICATE);
   float max_level = 0;
   for (int v = 0; v < size.height; ++v) {
-    const float* lv = level_map.ptr<float>(v);
-    const float* al = alpha_map.ptr<float>(v);
+    const float *lv = level_map.ptr<float>(v);
+    const float *al = alpha_map.ptr<float>(v);
     for (int u = 0; u < size.width; ++u) {
       if (al[u] > 0) max_level = std::max(max_level, lv[u]);
     }
@@ -292,18 +295,18 @@ CameraView RenderCameraView(const cv::Mat& page_in,
 
   cv::Mat image = MakeDesk(size, options.background, rng);
   for (int v = 0; v < size.height; ++v) {
-    const float* lv = level_map.ptr<float>(v);
-    const float* al = alpha_map.ptr<float>(v);
-    const float* sh = shadow_map.ptr<float>(v);
-    cv::Vec3f* out = image.ptr<cv::Vec3f>(v);
+    const float *lv = level_map.ptr<float>(v);
+    const float *al = alpha_map.ptr<float>(v);
+    const float *sh = shadow_map.ptr<float>(v);
+    cv::Vec3f *out = image.ptr<cv::Vec3f>(v);
     for (int u = 0; u < size.width; ++u) {
       out[u] *= sh[u];
       if (al[u] <= 0) continue;
       const int k0 = std::min(levels - 1, static_cast<int>(lv[u]));
       const int k1 = std::min(levels - 1, k0 + 1);
       const float frac = lv[u] - static_cast<float>(k0);
-      const cv::Vec3b& p0 = warped[static_cast<size_t>(k0)].at<cv::Vec3b>(v, u);
-      const cv::Vec3b& p1 = warped[static_cast<size_t>(k1)].at<cv::Vec3b>(v, u);
+      const cv::Vec3b &p0 = warped[static_cast<size_t>(k0)].at<cv::Vec3b>(v, u);
+      const cv::Vec3b &p1 = warped[static_cast<size_t>(k1)].at<cv::Vec3b>(v, u);
       for (int c = 0; c < 3; ++c) {
         const float p = p0[c] + frac * (static_cast<float>(p1[c]) - p0[c]);
         out[u][c] = al[u] * p + (1 - al[u]) * out[u][c];
@@ -351,8 +354,8 @@ CameraView RenderCameraView(const cv::Mat& page_in,
   return view;
 }
 
-CameraViewOptions RandomViewOptions(std::mt19937_64& rng,
-                                    const cv::Size& page_size,
+CameraViewOptions RandomViewOptions(std::mt19937_64 &rng,
+                                    const cv::Size &page_size,
                                     double max_tilt_deg, double min_scale,
                                     double max_scale) {
   CameraViewOptions o;
@@ -379,8 +382,8 @@ CameraViewOptions RandomViewOptions(std::mt19937_64& rng,
   return o;
 }
 
-std::string CameraViewGroundTruthJson(const CameraView& view,
-                                      const CameraViewOptions& o) {
+std::string CameraViewGroundTruthJson(const CameraView &view,
+                                      const CameraViewOptions &o) {
   std::ostringstream os;
   os << "{\n  \"homography\": ";
   AppendMatrix(os, view.homography.val, 9);
@@ -402,7 +405,7 @@ std::string CameraViewGroundTruthJson(const CameraView& view,
                             o.blur_sigma,
                             o.noise_sigma,
                             o.illumination_gradient};
-  const char* names[] = {"horizontal_fov_deg",
+  const char *names[] = {"horizontal_fov_deg",
                          "tilt_deg",
                          "tilt_azimuth_deg",
                          "roll_deg",
@@ -424,9 +427,10 @@ std::string CameraViewGroundTruthJson(const CameraView& view,
   return os.str();
 }
 
-double MeanHomographyError(const cv::Matx33d& estimated, const cv::Matx33d& truth,
-                           const cv::Size& page_size, const cv::Size& image_size) {
-  auto apply = [](const cv::Matx33d& H, const cv::Point2d& p) {
+double MeanHomographyError(const cv::Matx33d &estimated,
+                           const cv::Matx33d &truth, const cv::Size &page_size,
+                           const cv::Size &image_size) {
+  auto apply = [](const cv::Matx33d &H, const cv::Point2d &p) {
     const cv::Vec3d q = H * cv::Vec3d(p.x, p.y, 1.0);
     return cv::Point2d(q[0] / q[2], q[1] / q[2]);
   };
@@ -434,9 +438,12 @@ double MeanHomographyError(const cv::Matx33d& estimated, const cv::Matx33d& trut
   int n = 0;
   for (int y = 0; y <= 10; ++y) {
     for (int x = 0; x <= 10; ++x) {
-      const cv::Point2d p(page_size.width * x / 10.0, page_size.height * y / 10.0);
+      const cv::Point2d p(page_size.width * x / 10.0,
+                          page_size.height * y / 10.0);
       const cv::Point2d t = apply(truth, p);
-      if (t.x < 0 || t.y < 0 || t.x >= image_size.width || t.y >= image_size.height) continue;
+      if (t.x < 0 || t.y < 0 || t.x >= image_size.width ||
+          t.y >= image_size.height)
+        continue;
       sum += cv::norm(apply(estimated, p) - t);
       ++n;
     }

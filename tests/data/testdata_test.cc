@@ -16,14 +16,14 @@
 namespace texfree::testdata {
 namespace {
 
-bool SameBytes(const cv::Mat& a, const cv::Mat& b) {
+bool SameBytes(const cv::Mat &a, const cv::Mat &b) {
   if (a.size() != b.size() || a.type() != b.type()) return false;
   cv::Mat diff;
   cv::absdiff(a, b, diff);
   return cv::countNonZero(diff.reshape(1)) == 0;
 }
 
-cv::Point2d Apply(const cv::Matx33d& h, const cv::Point2d& p) {
+cv::Point2d Apply(const cv::Matx33d &h, const cv::Point2d &p) {
   const cv::Vec3d q = h * cv::Vec3d(p.x, p.y, 1);
   return {q[0] / q[2], q[1] / q[2]};
 }
@@ -85,14 +85,14 @@ TEST(PageRendererTest, WordBoxesAreInsideThePageHoldInkAndBarelyOverlap) {
     }
     int overlapping = 0;
     for (size_t i = 0; i < page.word_boxes.size(); ++i) {
-      const cv::Rect& b = page.word_boxes[i];
+      const cv::Rect &b = page.word_boxes[i];
       ASSERT_GT(b.area(), 0);
       ASSERT_EQ(b & frame, b) << "seed " << seed;
       double min_value = 255;
       cv::minMaxLoc(gray(b), &min_value);
       EXPECT_LT(min_value, paper - 80) << "seed " << seed << " box " << i;
       for (size_t j = i + 1; j < page.word_boxes.size(); ++j) {
-        const cv::Rect& o = page.word_boxes[j];
+        const cv::Rect &o = page.word_boxes[j];
         const int inter = (b & o).area();
         if (inter > 0.2 * std::min(b.area(), o.area())) ++overlapping;
       }
@@ -107,7 +107,7 @@ TEST(PageRendererTest, LayoutsVaryBetweenSeeds) {
   for (uint64_t seed = 0; seed < 30; ++seed) {
     const RenderedPage page = RenderTextPage(seed);
     std::vector<int> heights, lefts;
-    for (const auto& b : page.word_boxes) {
+    for (const auto &b : page.word_boxes) {
       heights.push_back(b.height);
       lefts.push_back(b.x);
     }
@@ -158,7 +158,7 @@ TEST(CameraViewTest, HomographyMapsPagePointsToWhereTheyAppear) {
                {30, 20, 15, 0.8},
                {55, -120, 170, 1.2},
                {45, 75, -60, 0.6}};
-  for (const auto& pose : poses) {
+  for (const auto &pose : poses) {
     CameraViewOptions options;
     options.tilt_deg = pose.tilt;
     options.tilt_azimuth_deg = pose.azimuth;
@@ -169,7 +169,7 @@ TEST(CameraViewTest, HomographyMapsPagePointsToWhereTheyAppear) {
     cv::Mat gray;
     cv::cvtColor(view.image, gray, cv::COLOR_BGR2GRAY);
     int checked = 0;
-    for (const auto& dot : dots) {
+    for (const auto &dot : dots) {
       const cv::Point2d q = Apply(view.homography, dot);
       if (q.x < 15 || q.y < 15 || q.x > gray.cols - 16 ||
           q.y > gray.rows - 16) {
@@ -209,7 +209,7 @@ TEST(CameraViewTest, PageCornersMapToThePageOutline) {
   const cv::Point2d centre = Apply(view.homography, {199.5, 299.5});
   const cv::Point2d corners[] = {
       {-0.5, -0.5}, {399.5, -0.5}, {399.5, 599.5}, {-0.5, 599.5}};
-  for (const auto& c : corners) {
+  for (const auto &c : corners) {
     const cv::Point2d q = Apply(view.homography, c);
     ASSERT_TRUE(cv::Rect(5, 5, gray.cols - 10, gray.rows - 10).contains(q))
         << q;
@@ -220,11 +220,35 @@ TEST(CameraViewTest, PageCornersMapToThePageOutline) {
   }
 }
 
+// Close and tilted so that the page origin (a corner) is behind the camera: the
+// page must still be drawn around the looked-at point (it was not, when h22 < 0
+// flipped w).
+TEST(CameraViewTest, PageOriginBehindTheCameraStillRendersThePage) {
+  cv::Mat page(1414, 1000, CV_8UC3, cv::Scalar::all(240));
+  CameraViewOptions options;
+  options.tilt_deg = 38;
+  options.tilt_azimuth_deg =
+      -135;  // leaning towards the far corner, away from (0, 0)
+  options.scale = 1.3;
+  options.look_at = {700, 1000};
+  options.background = cv::Scalar::all(30);
+  const CameraView view = RenderCameraView(page, options, 9);
+  const cv::Vec3d origin_in_camera = view.translation;
+  ASSERT_LT(origin_in_camera[2], 0)
+      << "test setup: the origin must be behind the camera";
+  const cv::Point2d centre = Apply(view.homography, options.look_at);
+  EXPECT_NEAR(centre.x, 319.5, 1e-6);
+  EXPECT_NEAR(centre.y, 239.5, 1e-6);
+  cv::Mat gray;
+  cv::cvtColor(view.image, gray, cv::COLOR_BGR2GRAY);
+  EXPECT_GT(gray.at<uint8_t>(240, 320), 200);
+}
+
 TEST(CameraViewTest, UntiltedViewAtScaleOneIsAPureTranslation) {
   const RenderedPage page = RenderTextPage(17);
   CameraViewOptions options;  // default look_at: page centre
   const CameraView view = RenderCameraView(page.image, options, 3);
-  const cv::Matx33d& h = view.homography;
+  const cv::Matx33d &h = view.homography;
   EXPECT_NEAR(h(0, 0), 1, 1e-9);
   EXPECT_NEAR(h(1, 1), 1, 1e-9);
   EXPECT_NEAR(h(0, 1), 0, 1e-9);
@@ -335,7 +359,7 @@ TEST(CameraViewTest, GroundTruthJsonHasTheKeys) {
   options.tilt_deg = 20;
   const CameraView view = ComputeCameraGeometry({1000, 1414}, options);
   const std::string json = CameraViewGroundTruthJson(view, options);
-  for (const char* key :
+  for (const char *key :
        {"\"homography\"", "\"camera_matrix\"", "\"rotation\"",
         "\"translation\"", "\"tilt_deg\"", "\"jpeg_quality\""}) {
     EXPECT_NE(json.find(key), std::string::npos) << key;
