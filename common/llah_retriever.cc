@@ -41,8 +41,9 @@ absl::Status LlahRetriever::AddDocument(DocumentKeypoints document) {
   if (document.keypoints.size() > 65535)
     return absl::InvalidArgumentError(absl::StrCat("document has ", document.keypoints.size(),
                                                    " keypoints; at most 65535 are indexed"));
-  std::vector<uint64_t> hashes;
-  describer_.Describe(document.keypoints, &hashes);
+  std::vector<uint64_t> hashes = std::move(document.hashes);
+  if (hashes.size() != document.keypoints.size() * describer_.descriptors_per_point())
+    describer_.Describe(document.keypoints, &hashes);
   auto model = std::make_shared<Model>(Model{std::move(document.keypoints), document.size});
   std::unique_lock lock(mutex_);
   if (models_.count(document.id))
@@ -52,8 +53,10 @@ absl::Status LlahRetriever::AddDocument(DocumentKeypoints document) {
   return absl::OkStatus();
 }
 
-absl::Status LlahRetriever::AddDocuments(std::vector<DocumentKeypoints> documents, int threads,
-                                         const std::function<void(size_t, size_t)> &progress) {
+absl::Status LlahRetriever::AddDocuments(
+    std::vector<DocumentKeypoints> documents, int threads,
+    const std::function<void(size_t, size_t)> &progress,
+    const std::function<void(uint32_t, const std::vector<uint64_t> &)> &computed) {
   const size_t total = documents.size();
   size_t total_points = 0;
   for (const auto &d : documents) {
@@ -76,7 +79,15 @@ absl::Status LlahRetriever::AddDocuments(std::vector<DocumentKeypoints> document
       const size_t i = next.fetch_add(1);
       if (i >= total) return;
       DocumentKeypoints &d = documents[i];
-      describer_.Describe(d.keypoints, &hashes);
+      if (d.hashes.size() == d.keypoints.size() * describer_.descriptors_per_point()) {
+        hashes = std::move(d.hashes);
+      } else {
+        describer_.Describe(d.keypoints, &hashes);
+        if (computed) {
+          std::lock_guard g(insert_mutex);
+          computed(d.id, hashes);
+        }
+      }
       auto model = std::make_shared<Model>(Model{std::move(d.keypoints), d.size});
       {
         std::unique_lock lock(mutex_);

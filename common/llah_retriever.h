@@ -64,6 +64,9 @@ struct DocumentKeypoints {
   uint32_t id = 0;
   std::vector<cv::Point2f> keypoints;
   cv::Size size;
+  // Descriptor hashes as LlahDescriber::Describe lays them out, when already known (stored);
+  // computed when empty or of the wrong size.
+  std::vector<uint64_t> hashes;
 };
 
 // Thread-safe: retrievals run concurrently; adding and removing take an
@@ -76,10 +79,13 @@ class LlahRetriever {
   // Fails with ALREADY_EXISTS for a known id, INVALID_ARGUMENT for over 65535
   // keypoints.
   absl::Status AddDocument(DocumentKeypoints document);
-  // Bulk load at start-up: descriptors computed on `threads` threads.
+  // Bulk load at start-up: descriptors not given are computed on `threads` threads and
+  // handed to `computed(id, hashes)` (serialised) so the caller can store them.
   // `progress(done, total)` is called now and then.
-  absl::Status AddDocuments(std::vector<DocumentKeypoints> documents, int threads,
-                            const std::function<void(size_t, size_t)> &progress = nullptr);
+  absl::Status AddDocuments(
+      std::vector<DocumentKeypoints> documents, int threads,
+      const std::function<void(size_t, size_t)> &progress = nullptr,
+      const std::function<void(uint32_t, const std::vector<uint64_t> &)> &computed = nullptr);
   // Removes a document's keypoints and every index entry; false if unknown.
   bool RemoveDocument(uint32_t id);
   bool Contains(uint32_t id) const;

@@ -20,6 +20,9 @@ using Clock = SteadyClock;
 
 constexpr const char *kLlahOptionsKey = "llah.options";
 constexpr const char *kQuantizerKey = "llah.quantizer";
+// Version of the descriptor hash function; stored hashes of another version are recomputed.
+constexpr const char *kHashVersionKey = "llah.hash_version";
+constexpr const char *kHashVersion = "1";
 
 std::string FormatOptions(const LlahOptions &o) { return absl::StrCat(o.n, ",", o.m, ",", o.k); }
 
@@ -119,18 +122,32 @@ absl::Status DocumentRegistry::LoadIndex() {
   auto retriever =
       std::make_shared<LlahRetriever>(llah, std::move(quantizer), options_.log2_buckets);
 
+  ASSIGN_OR_RETURN(auto stored_hash_version, store_->GetSetting(kHashVersionKey));
+  const bool hashes_valid = stored_hash_version && *stored_hash_version == kHashVersion;
   std::vector<DocumentKeypoints> documents;
-  RETURN_IF_ERROR(
-      store_->ForEachKeypoints([&](const DocumentSummary &s, std::vector<cv::Point2f> points) {
+  RETURN_IF_ERROR(store_->ForEachKeypoints(
+      [&](const DocumentSummary &s, std::vector<cv::Point2f> points, std::vector<uint64_t> hashes) {
         summaries_[s.index_id] = s;
-        documents.push_back({s.index_id, std::move(points), s.size});
+        if (!hashes_valid) hashes.clear();
+        documents.push_back({s.index_id, std::move(points), s.size, std::move(hashes)});
       }));
   const double read_ms = MillisecondsSince(t0);
   const size_t n = documents.size();
+  std::vector<std::pair<uint32_t, std::vector<uint64_t>>> computed;
   RETURN_IF_ERROR(retriever->AddDocuments(
-      std::move(documents), options_.rebuild_threads, [](size_t done, size_t total) {
+      std::move(documents), options_.rebuild_threads,
+      [](size_t done, size_t total) {
         spdlog::info("document index: rebuilt {}/{} pages", done, total);
+      },
+      [&](uint32_t id, const std::vector<uint64_t> &hashes) {
+        computed.emplace_back(id, hashes);
       }));
+  if (!computed.empty()) {
+    // Stored once, so that the next start-up reads them.
+    RETURN_IF_ERROR(store_->PutHashes(computed));
+    spdlog::info("document index: stored descriptors of {} pages", computed.size());
+  }
+  RETURN_IF_ERROR(store_->PutSetting(kHashVersionKey, kHashVersion));
   retriever_ = std::move(retriever);
   spdlog::info(
       "document index: {} pages, {} entries, {:.1f} MiB, read {:.0f} "
@@ -150,6 +167,7 @@ absl::Status DocumentRegistry::CreateRetriever(const std::vector<cv::Point2f> &t
                    InvariantQuantizer::Learn(std::move(samples), options_.llah.k));
   RETURN_IF_ERROR(store_->PutSetting(kQuantizerKey, FormatThresholds(quantizer.thresholds())));
   RETURN_IF_ERROR(store_->PutSetting(kLlahOptionsKey, FormatOptions(options_.llah)));
+  RETURN_IF_ERROR(store_->PutSetting(kHashVersionKey, kHashVersion));
   spdlog::info("document index: learned {} quantisation levels: {}", options_.llah.k,
                FormatThresholds(quantizer.thresholds()));
   std::unique_lock lock(mutex_);
@@ -209,9 +227,12 @@ absl::StatusOr<DocumentRecord> DocumentRegistry::Register(
   record.title = std::move(title);
   record.size = gray.size();
   record.keypoints = kp.points;
+  retriever->describer().Describe(kp.points, &record.hashes);
   record.annotations = std::move(annotations);
   ASSIGN_OR_RETURN(record, store_->Insert(std::move(record)));
-  if (absl::Status s = retriever->AddDocument({record.index_id, kp.points, gray.size()}); !s.ok()) {
+  if (absl::Status s =
+          retriever->AddDocument({record.index_id, kp.points, gray.size(), record.hashes});
+      !s.ok()) {
     store_->Delete(record.id).IgnoreError();  // keep database and index in step
     return s;
   }

@@ -46,6 +46,11 @@ CREATE TABLE annotations (
 );
 CREATE INDEX annotations_by_document ON annotations(document);
 )sql",
+    // v2: the LLAH descriptor hashes of each page, so that start-up reads them instead of
+    // recomputing them (NULL: recomputed at start-up and written back).
+    R"sql(
+ALTER TABLE documents ADD COLUMN hashes BLOB;
+)sql",
 };
 
 int64_t NowUnixMs() {
@@ -64,6 +69,18 @@ std::vector<cv::Point2f> UnpackPoints(const std::string& blob) {
   std::vector<cv::Point2f> points(blob.size() / (2 * sizeof(float)));
   if (!points.empty()) std::memcpy(points.data(), blob.data(), points.size() * 2 * sizeof(float));
   return points;
+}
+
+std::string PackHashes(const std::vector<uint64_t>& hashes) {
+  std::string out(hashes.size() * sizeof(uint64_t), '\0');
+  if (!hashes.empty()) std::memcpy(out.data(), hashes.data(), out.size());
+  return out;
+}
+
+std::vector<uint64_t> UnpackHashes(const std::string& blob) {
+  std::vector<uint64_t> hashes(blob.size() / sizeof(uint64_t));
+  if (!hashes.empty()) std::memcpy(hashes.data(), blob.data(), hashes.size() * sizeof(uint64_t));
+  return hashes;
 }
 
 uint32_t PackRgba(const Rgba& c) {
@@ -98,8 +115,8 @@ AnnotationRecord ReadAnnotation(const SqliteStatement& s) {
 }  // namespace
 
 std::string NewPublicId() {
-  thread_local std::mt19937_64 rng{std::random_device{}() ^
-                                   static_cast<uint64_t>(NowUnixMs()) << 20};
+  thread_local std::mt19937_64 rng{std::random_device{}() ^ static_cast<uint64_t>(NowUnixMs())
+                                                                << 20};
   return absl::StrFormat("%016x", rng());
 }
 
@@ -112,15 +129,18 @@ absl::StatusOr<std::unique_ptr<DocumentStore>> DocumentStore::Open(const std::st
 
 absl::Status DocumentStore::Migrate() {
   std::lock_guard lock(mutex_);
-  ASSIGN_OR_RETURN(auto version_stmt, db_->Prepare("PRAGMA user_version"));
-  ASSIGN_OR_RETURN(auto has_row, version_stmt.Step());
-  const int version = has_row ? static_cast<int>(version_stmt.ColumnInt(0)) : 0;
+  int version = 0;
+  {  // finalised before any schema change
+    ASSIGN_OR_RETURN(auto version_stmt, db_->Prepare("PRAGMA user_version"));
+    ASSIGN_OR_RETURN(auto has_row, version_stmt.Step());
+    version = has_row ? static_cast<int>(version_stmt.ColumnInt(0)) : 0;
+  }
   constexpr int kKnown = sizeof(kMigrations) / sizeof(kMigrations[0]);
   static_assert(kKnown == kSchemaVersion);
   if (version > kKnown) {
-    return absl::FailedPreconditionError(absl::StrCat(
-        "database schema version ", version, " is newer than this server understands (",
-        kKnown, "); upgrade texfree-server"));
+    return absl::FailedPreconditionError(absl::StrCat("database schema version ", version,
+                                                      " is newer than this server understands (",
+                                                      kKnown, "); upgrade texfree-server"));
   }
   for (int v = version; v < kKnown; ++v) {
     SqliteTransaction tx(db_.get());
@@ -134,9 +154,9 @@ absl::Status DocumentStore::Migrate() {
 
 absl::Status DocumentStore::InsertAnnotationLocked(uint32_t index_id, AnnotationRecord* a) {
   if (a->id.empty()) a->id = NewPublicId();
-  ASSIGN_OR_RETURN(auto s, db_->Prepare(absl::StrCat("INSERT INTO annotations (document, ",
-                                                kAnnotationColumns,
-                                                ") VALUES (?,?,?,?,?,?,?,?,?,?,?,?,?,?)")));
+  ASSIGN_OR_RETURN(
+      auto s, db_->Prepare(absl::StrCat("INSERT INTO annotations (document, ", kAnnotationColumns,
+                                        ") VALUES (?,?,?,?,?,?,?,?,?,?,?,?,?,?)")));
   const bool is_text = a->kind == AnnotationRecord::Kind::kText;
   RETURN_IF_ERROR(s.BindInt(1, index_id));
   RETURN_IF_ERROR(s.BindText(2, a->id));
@@ -166,10 +186,11 @@ absl::StatusOr<DocumentRecord> DocumentStore::Insert(DocumentRecord record) {
   SqliteTransaction tx(db_.get());
   RETURN_IF_ERROR(tx.Begin());
   {
-    ASSIGN_OR_RETURN(auto s, db_->Prepare(
-                            "INSERT INTO documents (public_id, title, width, height, "
-                            "created_unix_ms, keypoint_count, keypoints) VALUES (?,?,?,?,?,?,?)"));
+    ASSIGN_OR_RETURN(auto s, db_->Prepare("INSERT INTO documents (public_id, title, width, height, "
+                                          "created_unix_ms, keypoint_count, keypoints, hashes) "
+                                          "VALUES (?,?,?,?,?,?,?,?)"));
     const std::string blob = PackPoints(record.keypoints);
+    const std::string hashes = PackHashes(record.hashes);
     RETURN_IF_ERROR(s.BindText(1, record.id));
     RETURN_IF_ERROR(s.BindText(2, record.title));
     RETURN_IF_ERROR(s.BindInt(3, record.size.width));
@@ -177,6 +198,11 @@ absl::StatusOr<DocumentRecord> DocumentStore::Insert(DocumentRecord record) {
     RETURN_IF_ERROR(s.BindInt(5, record.created_unix_ms));
     RETURN_IF_ERROR(s.BindInt(6, static_cast<int64_t>(record.keypoints.size())));
     RETURN_IF_ERROR(s.BindBlob(7, blob.data(), blob.size()));
+    if (hashes.empty()) {
+      RETURN_IF_ERROR(s.BindNull(8));
+    } else {
+      RETURN_IF_ERROR(s.BindBlob(8, hashes.data(), hashes.size()));
+    }
     RETURN_IF_ERROR(s.Run());
   }
   record.index_id = static_cast<uint32_t>(db_->LastInsertRowId());
@@ -217,10 +243,11 @@ absl::StatusOr<DocumentRecord> DocumentStore::Get(const std::string& id, bool wi
   DocumentRecord r;
   {
     std::lock_guard lock(mutex_);
-    ASSIGN_OR_RETURN(auto s, db_->Prepare(absl::StrCat(
-                            "SELECT index_id, public_id, title, width, height, created_unix_ms, keypoint_count",
-                            with_keypoints ? ", keypoints" : "",
-                            " FROM documents WHERE public_id = ?")));
+    ASSIGN_OR_RETURN(
+        auto s,
+        db_->Prepare(absl::StrCat(
+            "SELECT index_id, public_id, title, width, height, created_unix_ms, keypoint_count",
+            with_keypoints ? ", keypoints" : "", " FROM documents WHERE public_id = ?")));
     RETURN_IF_ERROR(s.BindText(1, id));
     ASSIGN_OR_RETURN(auto row, s.Step());
     if (!row) return absl::NotFoundError(absl::StrCat("document '", id, "' does not exist"));
@@ -240,8 +267,8 @@ absl::StatusOr<DocumentRecord> DocumentStore::Get(const std::string& id, bool wi
 absl::StatusOr<std::vector<AnnotationRecord>> DocumentStore::Annotations(uint32_t index_id) {
   std::lock_guard lock(mutex_);
   ASSIGN_OR_RETURN(auto s, db_->Prepare(absl::StrCat("SELECT ", kAnnotationColumns,
-                                                " FROM annotations WHERE document = ? "
-                                                "ORDER BY annotation_row")));
+                                                     " FROM annotations WHERE document = ? "
+                                                     "ORDER BY annotation_row")));
   RETURN_IF_ERROR(s.BindInt(1, index_id));
   std::vector<AnnotationRecord> out;
   while (true) {
@@ -255,10 +282,10 @@ absl::StatusOr<std::vector<AnnotationRecord>> DocumentStore::Annotations(uint32_
 absl::StatusOr<std::vector<DocumentSummary>> DocumentStore::List(uint32_t after_index_id,
                                                                  int limit) {
   std::lock_guard lock(mutex_);
-  ASSIGN_OR_RETURN(auto s, db_->Prepare(
-                          "SELECT index_id, public_id, title, width, height, keypoint_count, "
-                          "created_unix_ms FROM documents WHERE index_id > ? "
-                          "ORDER BY index_id LIMIT ?"));
+  ASSIGN_OR_RETURN(auto s,
+                   db_->Prepare("SELECT index_id, public_id, title, width, height, keypoint_count, "
+                                "created_unix_ms FROM documents WHERE index_id > ? "
+                                "ORDER BY index_id LIMIT ?"));
   RETURN_IF_ERROR(s.BindInt(1, after_index_id));
   RETURN_IF_ERROR(s.BindInt(2, limit));
   std::vector<DocumentSummary> out;
@@ -297,7 +324,8 @@ absl::Status DocumentStore::DeleteAnnotation(const std::string& document_id,
   SqliteTransaction tx(db_.get());
   RETURN_IF_ERROR(tx.Begin());
   ASSIGN_OR_RETURN(auto index_id, IndexIdLocked(document_id));
-  ASSIGN_OR_RETURN(auto s, db_->Prepare("DELETE FROM annotations WHERE document = ? AND public_id = ?"));
+  ASSIGN_OR_RETURN(auto s,
+                   db_->Prepare("DELETE FROM annotations WHERE document = ? AND public_id = ?"));
   RETURN_IF_ERROR(s.BindInt(1, index_id));
   RETURN_IF_ERROR(s.BindText(2, annotation_id));
   RETURN_IF_ERROR(s.Run());
@@ -309,20 +337,39 @@ absl::Status DocumentStore::DeleteAnnotation(const std::string& document_id,
 }
 
 absl::Status DocumentStore::ForEachKeypoints(
-    const std::function<void(const DocumentSummary&, std::vector<cv::Point2f>)>& f) {
+    const std::function<void(const DocumentSummary&, std::vector<cv::Point2f>,
+                             std::vector<uint64_t>)>& f) {
   std::lock_guard lock(mutex_);
-  ASSIGN_OR_RETURN(auto s, db_->Prepare(
-                          "SELECT index_id, public_id, title, width, height, keypoint_count, "
-                          "created_unix_ms, keypoints FROM documents ORDER BY index_id"));
+  ASSIGN_OR_RETURN(
+      auto s, db_->Prepare("SELECT index_id, public_id, title, width, height, keypoint_count, "
+                           "created_unix_ms, keypoints, hashes FROM documents ORDER BY index_id"));
   while (true) {
     ASSIGN_OR_RETURN(auto row, s.Step());
     if (!row) break;
-    DocumentSummary d{static_cast<uint32_t>(s.ColumnInt(0)), s.ColumnText(1), s.ColumnText(2),
+    DocumentSummary d{static_cast<uint32_t>(s.ColumnInt(0)),
+                      s.ColumnText(1),
+                      s.ColumnText(2),
                       cv::Size(static_cast<int>(s.ColumnInt(3)), static_cast<int>(s.ColumnInt(4))),
-                      static_cast<int>(s.ColumnInt(5)), s.ColumnInt(6)};
-    f(d, UnpackPoints(s.ColumnBlob(7)));
+                      static_cast<int>(s.ColumnInt(5)),
+                      s.ColumnInt(6)};
+    f(d, UnpackPoints(s.ColumnBlob(7)), UnpackHashes(s.ColumnBlob(8)));
   }
   return absl::OkStatus();
+}
+
+absl::Status DocumentStore::PutHashes(
+    const std::vector<std::pair<uint32_t, std::vector<uint64_t>>>& hashes) {
+  std::lock_guard lock(mutex_);
+  SqliteTransaction tx(db_.get());
+  RETURN_IF_ERROR(tx.Begin());
+  for (const auto& [index_id, h] : hashes) {
+    ASSIGN_OR_RETURN(auto s, db_->Prepare("UPDATE documents SET hashes = ? WHERE index_id = ?"));
+    const std::string blob = PackHashes(h);
+    RETURN_IF_ERROR(s.BindBlob(1, blob.data(), blob.size()));
+    RETURN_IF_ERROR(s.BindInt(2, index_id));
+    RETURN_IF_ERROR(s.Run());
+  }
+  return tx.Commit();
 }
 
 absl::StatusOr<std::optional<std::string>> DocumentStore::GetSetting(const std::string& key) {
@@ -336,9 +383,8 @@ absl::StatusOr<std::optional<std::string>> DocumentStore::GetSetting(const std::
 
 absl::Status DocumentStore::PutSetting(const std::string& key, const std::string& value) {
   std::lock_guard lock(mutex_);
-  ASSIGN_OR_RETURN(auto s, db_->Prepare(
-                          "INSERT INTO settings (key, value) VALUES (?, ?) "
-                          "ON CONFLICT(key) DO UPDATE SET value = excluded.value"));
+  ASSIGN_OR_RETURN(auto s, db_->Prepare("INSERT INTO settings (key, value) VALUES (?, ?) "
+                                        "ON CONFLICT(key) DO UPDATE SET value = excluded.value"));
   RETURN_IF_ERROR(s.BindText(1, key));
   RETURN_IF_ERROR(s.BindBlob(2, value.data(), value.size()));
   return s.Run();

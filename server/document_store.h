@@ -28,7 +28,7 @@ struct DocumentSummary {
 class DocumentStore {
  public:
   // Current schema version; Open() migrates older files forward, refuses newer ones.
-  static constexpr int kSchemaVersion = 1;
+  static constexpr int kSchemaVersion = 2;
 
   static absl::StatusOr<std::unique_ptr<DocumentStore>> Open(const std::string& path);
 
@@ -47,9 +47,14 @@ class DocumentStore {
                                                  AnnotationRecord annotation);
   absl::Status DeleteAnnotation(const std::string& document_id, const std::string& annotation_id);
 
-  // Streams every document's summary and keypoints (start-up index rebuild).
+  // Streams every document's summary, keypoints and stored descriptor hashes (empty when
+  // none are stored) for the start-up index rebuild.
   absl::Status ForEachKeypoints(
-      const std::function<void(const DocumentSummary&, std::vector<cv::Point2f>)>& f);
+      const std::function<void(const DocumentSummary&, std::vector<cv::Point2f>,
+                               std::vector<uint64_t>)>& f);
+
+  // Stores descriptor hashes of documents (index_id -> hashes), in one transaction.
+  absl::Status PutHashes(const std::vector<std::pair<uint32_t, std::vector<uint64_t>>>& hashes);
 
   absl::StatusOr<std::optional<std::string>> GetSetting(const std::string& key);
   absl::Status PutSetting(const std::string& key, const std::string& value);

@@ -2,10 +2,9 @@
 #pragma once
 
 #include <cstdint>
+#include <opencv2/core.hpp>
 #include <string>
 #include <vector>
-
-#include <opencv2/core.hpp>
 
 #include "absl/status/status.h"
 
@@ -20,15 +19,15 @@ struct AnnotationRecord {
   enum class Kind { kText, kHighlight, kLink, kMedia };
   std::string id;  // assigned by the store
   Kind kind = Kind::kText;
-  std::string text;            // kText
-  cv::Point2d position;        // kText: baseline start
-  double font_size_px = 0;     // kText
-  cv::Rect2d rect;             // kHighlight, kLink, kMedia
-  Rgba color;                  // kText, kHighlight
-  double opacity = 1.0;        // kHighlight
-  std::string uri;             // kLink: URL; kMedia: URI (or empty with data)
-  std::string mime_type;       // kMedia
-  std::string data;            // kMedia inline bytes
+  std::string text;         // kText
+  cv::Point2d position;     // kText: baseline start
+  double font_size_px = 0;  // kText
+  cv::Rect2d rect;          // kHighlight, kLink, kMedia
+  Rgba color;               // kText, kHighlight
+  double opacity = 1.0;     // kHighlight
+  std::string uri;          // kLink: URL; kMedia: URI (or empty with data)
+  std::string mime_type;    // kMedia
+  std::string data;         // kMedia inline bytes
 
   // Checks the fields this kind needs against the page size; the message names the field.
   absl::Status Validate(const cv::Size& page) const;
@@ -42,6 +41,9 @@ struct DocumentRecord {
   int64_t created_unix_ms = 0;
   int keypoint_count = 0;  // stored count (keypoints may be left unloaded)
   std::vector<cv::Point2f> keypoints;
+  // LLAH descriptor hashes of the keypoints (LlahDescriber::Describe layout); stored so
+  // that start-up need not recompute them. May be empty.
+  std::vector<uint64_t> hashes;
   std::vector<AnnotationRecord> annotations;
 };
 

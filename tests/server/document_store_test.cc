@@ -2,9 +2,10 @@
 // and errors for unknown ids.
 #include "server/document_store.h"
 
-#include <filesystem>
-
 #include <gtest/gtest.h>
+
+#include <filesystem>
+#include <map>
 
 namespace texfree::server {
 namespace {
@@ -80,11 +81,78 @@ TEST_F(DocumentStoreTest, InsertGetSurvivesReopen) {
   EXPECT_EQ(*(*store)->Count(), 2);
 
   int seen = 0;
-  ASSERT_TRUE((*store)->ForEachKeypoints([&](const DocumentSummary& s, std::vector<cv::Point2f> p) {
-    EXPECT_EQ(static_cast<int>(p.size()), s.keypoints);
-    ++seen;
-  }).ok());
+  ASSERT_TRUE((*store)
+                  ->ForEachKeypoints([&](const DocumentSummary& s, std::vector<cv::Point2f> p,
+                                         std::vector<uint64_t> hashes) {
+                    EXPECT_EQ(static_cast<int>(p.size()), s.keypoints);
+                    EXPECT_TRUE(hashes.empty()) << "none were stored";
+                    ++seen;
+                  })
+                  .ok());
   EXPECT_EQ(seen, 2);
+}
+
+// Descriptor hashes are stored with the page or later (start-up writes back what it had to
+// compute) and read back bit for bit.
+TEST_F(DocumentStoreTest, HashesAreStoredAndUpdated) {
+  uint32_t with_hashes = 0, without = 0;
+  {
+    auto store = DocumentStore::Open(path_);
+    ASSERT_TRUE(store.ok());
+    DocumentRecord r = MakeRecord("hashed", 4);
+    r.hashes = {1, 0xFFFFFFFFFFFFFFFFull, 42, 0x8000000000000000ull};
+    auto a = (*store)->Insert(r);
+    auto b = (*store)->Insert(MakeRecord("plain", 4));
+    ASSERT_TRUE(a.ok() && b.ok());
+    with_hashes = a->index_id;
+    without = b->index_id;
+    ASSERT_TRUE((*store)->PutHashes({{without, {7, 8, 9}}}).ok());
+  }
+  auto store = DocumentStore::Open(path_);
+  ASSERT_TRUE(store.ok());
+  std::map<uint32_t, std::vector<uint64_t>> seen;
+  ASSERT_TRUE((*store)
+                  ->ForEachKeypoints(
+                      [&](const DocumentSummary& s, std::vector<cv::Point2f>,
+                          std::vector<uint64_t> hashes) { seen[s.index_id] = std::move(hashes); })
+                  .ok());
+  EXPECT_EQ(seen[with_hashes],
+            (std::vector<uint64_t>{1, 0xFFFFFFFFFFFFFFFFull, 42, 0x8000000000000000ull}));
+  EXPECT_EQ(seen[without], (std::vector<uint64_t>{7, 8, 9}));
+}
+
+// A database written by schema version 1 (before hashes were stored) is migrated in place
+// and keeps its pages.
+TEST_F(DocumentStoreTest, MigratesVersionOneDatabase) {
+  {
+    auto db = SqliteDb::Open(path_);
+    ASSERT_TRUE(db.ok());
+    ASSERT_TRUE((*db)
+                    ->Exec(R"sql(
+CREATE TABLE settings (key TEXT PRIMARY KEY, value BLOB NOT NULL);
+CREATE TABLE documents (index_id INTEGER PRIMARY KEY, public_id TEXT NOT NULL UNIQUE,
+  title TEXT NOT NULL, width INTEGER NOT NULL, height INTEGER NOT NULL,
+  created_unix_ms INTEGER NOT NULL, keypoint_count INTEGER NOT NULL, keypoints BLOB NOT NULL);
+CREATE TABLE annotations (annotation_row INTEGER PRIMARY KEY, public_id TEXT NOT NULL UNIQUE,
+  document INTEGER NOT NULL REFERENCES documents(index_id) ON DELETE CASCADE,
+  kind INTEGER NOT NULL, text TEXT NOT NULL DEFAULT '', x REAL NOT NULL DEFAULT 0,
+  y REAL NOT NULL DEFAULT 0, width REAL NOT NULL DEFAULT 0, height REAL NOT NULL DEFAULT 0,
+  font_size REAL NOT NULL DEFAULT 0, rgba INTEGER NOT NULL DEFAULT 0,
+  opacity REAL NOT NULL DEFAULT 1, uri TEXT NOT NULL DEFAULT '',
+  mime_type TEXT NOT NULL DEFAULT '', data BLOB);
+INSERT INTO documents VALUES (1, 'old-page', 'Old', 100, 200, 0, 1, x'0000803F00000040');
+PRAGMA user_version = 1;
+)sql")
+                    .ok());
+  }
+  auto store = DocumentStore::Open(path_);
+  ASSERT_TRUE(store.ok()) << store.status();
+  auto got = (*store)->Get("old-page", /*with_keypoints=*/true);
+  ASSERT_TRUE(got.ok()) << got.status();
+  ASSERT_EQ(got->keypoints.size(), 1u);
+  EXPECT_FLOAT_EQ(got->keypoints[0].x, 1.0f);
+  EXPECT_FLOAT_EQ(got->keypoints[0].y, 2.0f);
+  ASSERT_TRUE((*store)->PutHashes({{1, {5}}}).ok());
 }
 
 TEST_F(DocumentStoreTest, DeleteRemovesAnnotationsAndUnknownIdsAreNotFound) {
@@ -124,7 +192,8 @@ TEST_F(DocumentStoreTest, AnnotationsAddAndDelete) {
 TEST_F(DocumentStoreTest, ListPagesInOrder) {
   auto store = DocumentStore::Open(path_);
   ASSERT_TRUE(store.ok());
-  for (int i = 0; i < 5; ++i) ASSERT_TRUE((*store)->Insert(MakeRecord("d" + std::to_string(i), 3)).ok());
+  for (int i = 0; i < 5; ++i)
+    ASSERT_TRUE((*store)->Insert(MakeRecord("d" + std::to_string(i), 3)).ok());
   auto first = (*store)->List(0, 3);
   ASSERT_TRUE(first.ok());
   ASSERT_EQ(first->size(), 3u);
