@@ -26,7 +26,7 @@ struct RetrievalOptions {
   // Query-side multi-probe (LlahDescriber::DescribeWithProbes): 2^query_probes
   // lookups per descriptor, forgiving that many invariants quantised across a
   // level boundary.
-  int query_probes = 2;
+  int query_probes = 1;
   // A document needs this many query keypoints voting for it to be verified.
   int min_votes = 12;
   // ...of which this many agree on one reference keypoint with two or more
