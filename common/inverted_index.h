@@ -38,6 +38,21 @@ class InvertedIndex {
     }
   }
 
+  // One walk of the chain: calls f(document, keypoint) for the entries of `hash` and returns
+  // their number, or stops and returns limit + 1 as soon as there are more than `limit`
+  // (f has then been called for the first `limit` only; callers discard those).
+  template <typename F>
+  int ForEachUpTo(uint64_t hash, int limit, F&& f) const {
+    int n = 0;
+    for (uint32_t e = heads_[Bucket(hash)]; e != kNil; e = pool_[e].next) {
+      const Entry& entry = pool_[e];
+      if (entry.check != Check(hash)) continue;
+      if (++n > limit) return n;
+      f(entry.document, entry.keypoint);
+    }
+    return n;
+  }
+
   // Number of entries under a hash (with the check), stopping at `limit`.
   int Count(uint64_t hash, int limit) const;
 

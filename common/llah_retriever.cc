@@ -260,10 +260,12 @@ std::vector<DocumentHit> LlahRetriever::Retrieve(const std::vector<cv::Point2f> 
       for (int j = 0; j < per; ++j) {
         const uint64_t h = hashes[q * per + j];
         if (h == 0) continue;
-        if (index_.Count(h, o.max_hits_per_descriptor + 1) > o.max_hits_per_descriptor) continue;
-        index_.ForEach(h, [&](uint32_t doc, uint16_t kp) {
-          hits.push_back({doc, static_cast<int>(q), kp});
-        });
+        // Descriptors under more than max_hits entries are stop words: their hits are dropped.
+        const size_t before = hits.size();
+        if (index_.ForEachUpTo(h, o.max_hits_per_descriptor, [&](uint32_t doc, uint16_t kp) {
+              hits.push_back({doc, static_cast<int>(q), kp});
+            }) > o.max_hits_per_descriptor)
+          hits.resize(before);
       }
     }
     std::sort(hits.begin(), hits.end());

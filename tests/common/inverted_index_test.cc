@@ -155,6 +155,17 @@ TEST(InvertedIndexTest, CountStopsAtLimit) {
   EXPECT_EQ(index.Count(h, 1), 1);
   EXPECT_EQ(index.Count(h, 0), 0);
   EXPECT_EQ(index.Count(0x1234, 100), 0);
+  // One walk: every entry up to the limit, then limit + 1 to say "more".
+  int calls = 0;
+  EXPECT_EQ(index.ForEachUpTo(h, 100, [&](uint32_t doc, uint16_t) { calls += doc == 1; }), 30);
+  EXPECT_EQ(calls, 30);
+  calls = 0;
+  EXPECT_EQ(index.ForEachUpTo(h, 30, [&](uint32_t, uint16_t) { ++calls; }), 30);
+  EXPECT_EQ(calls, 30);
+  calls = 0;
+  EXPECT_EQ(index.ForEachUpTo(h, 24, [&](uint32_t, uint16_t) { ++calls; }), 25);
+  EXPECT_EQ(calls, 24);
+  EXPECT_EQ(index.ForEachUpTo(0x1234, 5, [&](uint32_t, uint16_t) { ++calls; }), 0);
 }
 
 TEST(InvertedIndexTest, MemoryGrowsWithEntries) {
