@@ -200,7 +200,9 @@ CameraView ComputeCameraGeometry(const cv::Size& page_size,
   const cv::Matx33d rt(r(0, 0), r(0, 1), t[0], r(1, 0), r(1, 1), t[1], r(2, 0),
                        r(2, 1), t[2]);
   cv::Matx33d h = view.camera_matrix * rt;
-  h *= 1.0 / h(2, 2);
+  // h(2, 2) is the depth of the page origin: negative when that corner is behind the
+  // camera (steep tilts). Dividing by its magnitude keeps w > 0 in front of the camera.
+  if (std::abs(h(2, 2)) > 1e-12) h *= 1.0 / std::abs(h(2, 2));
   view.homography = h;
   return view;
 }
