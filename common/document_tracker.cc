@@ -105,6 +105,12 @@ absl::Status TrackerOptions::Validate() const {
         "min_inliers must be >= 6 (a homography has 4 points of freedom), got ", min_inliers));
   if (max_hits_per_descriptor < 1)
     return absl::InvalidArgumentError("max_hits_per_descriptor must be >= 1");
+  if (min_llah_confirm < 1)
+    return absl::InvalidArgumentError("min_llah_confirm must be >= 1");
+  if (!(min_match_ratio >= 0 && min_match_ratio <= 1))
+    return absl::InvalidArgumentError("min_match_ratio must be in [0, 1]");
+  if (!(max_mean_residual > 0 && max_mean_residual <= 1))
+    return absl::InvalidArgumentError("max_mean_residual must be in (0, 1]");
   if (!(max_jump_fraction > 0))
     return absl::InvalidArgumentError("max_jump_fraction must be > 0");
   if (reacquire_min_llah_inliers < min_inliers)
@@ -262,6 +268,46 @@ Fit RansacFit(const Pairs& pairs, const Pairs& sample, const std::vector<cv::Poi
   return fit;
 }
 
+// Guided refinement: project with the estimate, match mutual nearest neighbours within
+// the inlier distance, refit; keep the estimate when a round does not improve it.
+template <typename FrameT>
+Fit Refine(Fit fit, const std::vector<cv::Point2f>& ref, const FrameT& frame, int min_inliers) {
+  for (int round = 0; round < 2; ++round) {
+    const Pairs guided = ProjectionMatch(fit.H, ref, frame.points, frame.grid, frame.used,
+                                         frame.size, frame.inlier_px, 0);
+    if (guided.size() < fit.inliers.size()) break;
+    Fit refined = RansacFit(guided, {}, ref, frame.points, frame.inlier_px, 100, min_inliers);
+    if (!refined.ok || refined.inliers.size() < fit.inliers.size()) break;
+    fit = std::move(refined);
+  }
+  return fit;
+}
+
+// How well a pose explains the frame: the share of reference keypoints it puts in the
+// image that found a frame keypoint, and their mean distance.
+struct Evidence {
+  double match_ratio = 0;
+  double mean_residual = 1e9;
+};
+
+template <typename FrameT>
+Evidence Measure(const Fit& fit, const std::vector<cv::Point2f>& ref, const FrameT& frame) {
+  Evidence e;
+  int visible = 0;
+  for (const auto& r : ref) {
+    if (W(fit.H, r) <= 1e-9) continue;
+    const cv::Point2d p = ApplyHomography(fit.H, r);
+    if (p.x >= 0 && p.y >= 0 && p.x < frame.size.width && p.y < frame.size.height) ++visible;
+  }
+  if (visible == 0 || fit.inliers.empty()) return e;
+  double sum = 0;
+  for (const auto& [q, r] : fit.inliers)
+    sum += cv::norm(ApplyHomography(fit.H, ref[r]) - cv::Point2d(frame.points[q]));
+  e.match_ratio = static_cast<double>(fit.inliers.size()) / visible;
+  e.mean_residual = sum / fit.inliers.size();
+  return e;
+}
+
 }  // namespace
 
 DocumentTracker::DocumentTracker(TrackerOptions options, std::optional<CameraModel> camera)
@@ -305,6 +351,42 @@ void DocumentTracker::Learn(Followed& doc, Frame& frame, const Pairs& matches,
   out.learned = added;
 }
 
+void DocumentTracker::MatchLlah(const Followed& doc, Frame& frame, Pairs* all,
+                                Pairs* strong) const {
+  const auto& ref = doc.reference;
+  std::vector<int> which;
+  for (int q = 0; q < static_cast<int>(frame.points.size()); ++q)
+    if (!frame.used[q]) which.push_back(q);
+  frame.EnsureHashes(which);
+  std::vector<std::pair<uint16_t, int>> votes;  // (reference keypoint, hits)
+  for (int q : which) {
+    votes.clear();
+    for (int j = 0; j < frame.per; ++j) {
+      const uint64_t h = frame.hashes[static_cast<size_t>(q) * frame.per + j];
+      if (h == 0) continue;
+      if (session_.Count(h, options_.max_hits_per_descriptor + 1) >
+          options_.max_hits_per_descriptor)
+        continue;  // too common to tell keypoints apart
+      session_.ForEach(h, [&](uint32_t d, uint16_t kp) {
+        if (d != doc.id || kp >= ref.size()) return;
+        for (auto& v : votes) {
+          if (v.first == kp) {
+            ++v.second;
+            return;
+          }
+        }
+        votes.emplace_back(kp, 1);
+      });
+    }
+    if (votes.empty()) continue;
+    const auto best = std::max_element(votes.begin(), votes.end(), [](const auto& a, const auto& b) {
+      return a.second < b.second || (a.second == b.second && a.first > b.first);
+    });
+    all->emplace_back(q, best->first);
+    if (best->second >= 2) strong->emplace_back(q, best->first);
+  }
+}
+
 TrackedDocument DocumentTracker::TrackOne(Followed& doc, Frame& frame,
                                           TrackerTimings& timings) {
   auto t = SteadyClock::now();
@@ -324,86 +406,60 @@ TrackedDocument DocumentTracker::TrackOne(Followed& doc, Frame& frame,
         predicted = moved;
     }
   }
-
-  Fit fit;
+  Fit projected;
   if (predicted) {
     const Pairs candidates = ProjectionMatch(*predicted, ref, frame.points, frame.grid,
                                              frame.used, frame.size, frame.search_px, 0.8);
-    fit = RansacFit(candidates, {}, ref, frame.points, frame.inlier_px, 200,
-                    options_.min_inliers);
-    if (fit.ok) out.method = "projection";
+    projected = RansacFit(candidates, {}, ref, frame.points, frame.inlier_px, 200,
+                          options_.min_inliers);
+    if (projected.ok) projected = Refine(projected, ref, frame, options_.min_inliers);
   }
 
-  // LLAH matching against the session index.
-  Pairs llah;
-  bool llah_ran = false;
-  if (!fit.ok || !options_.predict || options_.llah_interval <= 1 ||
-      frame_count_ - doc.last_llah >= static_cast<uint64_t>(options_.llah_interval)) {
-    llah_ran = true;
+  Pairs llah, strong;
+  const bool llah_ran =
+      !projected.ok || !options_.predict || options_.llah_interval <= 1 ||
+      frame_count_ - doc.last_llah >= static_cast<uint64_t>(options_.llah_interval);
+  if (llah_ran) {
     doc.last_llah = frame_count_;
-    std::vector<int> which;
-    for (int q = 0; q < static_cast<int>(frame.points.size()); ++q)
-      if (!frame.used[q]) which.push_back(q);
-    frame.EnsureHashes(which);
-    Pairs strong;
-    std::vector<std::pair<uint16_t, int>> votes;  // (reference keypoint, hits)
-    for (int q : which) {
-      votes.clear();
-      for (int j = 0; j < frame.per; ++j) {
-        const uint64_t h = frame.hashes[static_cast<size_t>(q) * frame.per + j];
-        if (h == 0) continue;
-        if (session_.Count(h, options_.max_hits_per_descriptor + 1) >
-            options_.max_hits_per_descriptor)
-          continue;
-        session_.ForEach(h, [&](uint32_t d, uint16_t kp) {
-          if (d != doc.id || kp >= ref.size()) return;
-          for (auto& v : votes) {
-            if (v.first == kp) {
-              ++v.second;
-              return;
-            }
-          }
-          votes.emplace_back(kp, 1);
-        });
-      }
-      if (votes.empty()) continue;
-      auto best = std::max_element(votes.begin(), votes.end(), [](const auto& a, const auto& b) {
-        return a.second < b.second || (a.second == b.second && a.first > b.first);
-      });
-      llah.emplace_back(q, best->first);
-      if (best->second >= 2) strong.emplace_back(q, best->first);
-    }
-    if (!fit.ok) {
-      fit = RansacFit(llah, strong, ref, frame.points, frame.inlier_px,
-                      options_.ransac_iterations, options_.min_inliers);
-      if (fit.ok) out.method = "llah";
-    }
+    MatchLlah(doc, frame, &llah, &strong);
   }
   timings.match_ms += MillisecondsSince(t);
 
   t = SteadyClock::now();
-  bool accepted = fit.ok;
-  Pairs matches;
-  cv::Matx33d H = fit.H;
-  if (accepted) {
-    // Guided refinement: project with the estimate, match within the inlier distance,
-    // refit; keep the estimate when a round does not improve.
-    matches = fit.inliers;
-    for (int round = 0; round < 2; ++round) {
-      const Pairs guided = ProjectionMatch(H, ref, frame.points, frame.grid, frame.used,
-                                           frame.size, frame.inlier_px, 0);
-      if (guided.size() < matches.size()) break;
-      Fit refined = RansacFit(guided, {}, ref, frame.points, frame.inlier_px, 100,
-                              options_.min_inliers);
-      if (!refined.ok || refined.inliers.size() < matches.size()) break;
-      H = refined.H;
-      matches = std::move(refined.inliers);
+  // A projection pose is trusted when LLAH agrees with it, or when it explains most of
+  // the page it claims to see, tightly. Chance alignments (the text lines of another
+  // page, or of a mirror image, fall on the predicted lines) meet neither.
+  Fit chosen;
+  if (projected.ok) {
+    const int agree = llah_ran ? static_cast<int>(
+                                     InliersOf(projected.H, llah, ref, frame.points,
+                                               frame.inlier_px).size())
+                               : -1;
+    const Evidence evidence = Measure(projected, ref, frame);
+    if (agree >= options_.min_llah_confirm ||
+        (evidence.match_ratio >= options_.min_match_ratio &&
+         evidence.mean_residual <= options_.max_mean_residual * frame.inlier_px)) {
+      chosen = std::move(projected);
+      out.method = "projection";
     }
+  }
+  if (!chosen.ok && llah_ran) {
+    // LLAH correspondences agreeing on one homography are evidence of their own.
+    chosen = RansacFit(llah, strong, ref, frame.points, frame.inlier_px,
+                       options_.ransac_iterations, options_.min_inliers);
+    if (chosen.ok) {
+      chosen = Refine(chosen, ref, frame, options_.min_inliers);
+      out.method = "llah";
+    }
+  }
+  bool accepted = chosen.ok;
+  const cv::Matx33d H = chosen.H;
+  const Pairs& matches = chosen.inliers;
+  if (accepted) {
     out.inliers = static_cast<int>(matches.size());
     if (llah_ran)
       out.llah_inliers =
           static_cast<int>(InliersOf(H, llah, ref, frame.points, frame.inlier_px).size());
-    accepted = out.inliers >= options_.min_inliers;
   }
   std::vector<cv::Point2f> plane, pixels;
   for (const auto& [q, r] : matches) {
@@ -414,7 +470,8 @@ TrackedDocument DocumentTracker::TrackOne(Followed& doc, Frame& frame,
   if (accepted && doc.has_homography && doc.lost_frames == 0) {
     const cv::Matx33d& expected = predicted ? *predicted : doc.homography;
     double moved = 0;
-    for (const auto& p : plane) moved += cv::norm(ApplyHomography(H, p) - ApplyHomography(expected, p));
+    for (const auto& p : plane)
+      moved += cv::norm(ApplyHomography(H, p) - ApplyHomography(expected, p));
     moved /= std::max<size_t>(1, plane.size());
     const double diagonal = std::hypot(frame.size.width, frame.size.height);
     if (moved > options_.max_jump_fraction * diagonal &&

@@ -81,6 +81,13 @@ struct TrackerOptions {
   int min_inliers = 12;
   // Descriptors with more session-index entries than this do not vote.
   int max_hits_per_descriptor = 8;
+  // A pose found by projection is trusted when this many LLAH correspondences agree with
+  // it, or else when it matches at least min_match_ratio of the reference keypoints it
+  // puts in the image with a mean residual under max_mean_residual inlier distances
+  // (chance alignments with other text score about 0.15 and 0.5).
+  int min_llah_confirm = 4;
+  double min_match_ratio = 0.4;
+  double max_mean_residual = 0.35;
 
   // Plausibility: the page's seen points may move at most this fraction of the image
   // diagonal away from the prediction between two frames ...
@@ -154,6 +161,10 @@ class DocumentTracker {
   void Follow(uint32_t document, const DocumentHit& hit, Frame& frame,
               TrackerFrameResult& result);
   TrackedDocument TrackOne(Followed& doc, Frame& frame, TrackerTimings& timings);
+  // LLAH correspondences of the page in the frame from the session index: per free frame
+  // keypoint, the reference keypoint most of its descriptors hit (`strong`: two or more).
+  void MatchLlah(const Followed& doc, Frame& frame, std::vector<std::pair<int, int>>* all,
+                 std::vector<std::pair<int, int>>* strong) const;
   void Learn(Followed& doc, Frame& frame, const std::vector<std::pair<int, int>>& matches,
              TrackedDocument& out);
   bool ShouldLearn(int llah_inliers) const;
