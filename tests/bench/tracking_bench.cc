@@ -39,7 +39,7 @@
 #include "common/word_keypoints.h"
 #include "server/document_registry.h"
 #include "server/document_store.h"
-// GRPCINC
+#include "tests/bench/tracking_bench_grpc.h"
 #include "tests/data/camera_sequence.h"
 #include "tests/data/page_renderer.h"
 
@@ -74,9 +74,12 @@ struct Sequence {
 // Texture baseline: features of the registered page image matched to each frame.
 class FeatureBaseline {
  public:
-  FeatureBaseline(cv::Ptr<cv::Feature2D> detector, int norm, const cv::Mat& page_gray)
-      : detector_(std::move(detector)), matcher_(norm) {
+  FeatureBaseline(cv::Ptr<cv::Feature2D> detector, cv::Ptr<cv::DescriptorMatcher> matcher,
+                  const cv::Mat& page_gray)
+      : detector_(std::move(detector)), matcher_(std::move(matcher)) {
     detector_->detectAndCompute(page_gray, cv::noArray(), page_keypoints_, page_descriptors_);
+    matcher_->add(std::vector<cv::Mat>{page_descriptors_});
+    matcher_->train();  // the page's index is built once
   }
   Sample Run(const cv::Mat& gray, const cv::Matx33d& truth, const cv::Size& page_size) {
     Sample s;
@@ -87,7 +90,7 @@ class FeatureBaseline {
     std::vector<cv::Point2f> src, dst;
     if (!descriptors.empty() && page_descriptors_.rows >= 2) {
       std::vector<std::vector<cv::DMatch>> knn;
-      matcher_.knnMatch(descriptors, page_descriptors_, knn, 2);
+      matcher_->knnMatch(descriptors, knn, 2);
       for (const auto& m : knn) {
         if (m.size() == 2 && m[0].distance < 0.8f * m[1].distance) {
           src.push_back(page_keypoints_[m[0].trainIdx].pt);
@@ -113,7 +116,7 @@ class FeatureBaseline {
 
  private:
   cv::Ptr<cv::Feature2D> detector_;
-  cv::BFMatcher matcher_;
+  cv::Ptr<cv::DescriptorMatcher> matcher_;
   std::vector<cv::KeyPoint> page_keypoints_;
   cv::Mat page_descriptors_;
 };
@@ -242,10 +245,11 @@ int main(int argc, char** argv) {
       std::unique_ptr<texfree::DocumentTracker> tracker;
       std::unique_ptr<FeatureBaseline> baseline;
       if (method.baseline == 1)
-        baseline = std::make_unique<FeatureBaseline>(cv::ORB::create(3000), cv::NORM_HAMMING,
-                                                     page_gray);
+        baseline = std::make_unique<FeatureBaseline>(
+            cv::ORB::create(3000), cv::makePtr<cv::BFMatcher>(cv::NORM_HAMMING), page_gray);
       else if (method.baseline == 2)
-        baseline = std::make_unique<FeatureBaseline>(cv::SIFT::create(), cv::NORM_L2, page_gray);
+        baseline = std::make_unique<FeatureBaseline>(  // KD-tree: the page has ~10^4 SIFTs
+            cv::SIFT::create(), cv::makePtr<cv::FlannBasedMatcher>(), page_gray);
       else
         tracker = std::make_unique<texfree::DocumentTracker>(method.options);
       for (const auto& view : seq.views) {
@@ -342,7 +346,7 @@ int main(int argc, char** argv) {
       cv::imencode(".jpg", v.image, bytes, {cv::IMWRITE_JPEG_QUALITY, 85});
       jpegs.emplace_back(bytes.begin(), bytes.end());
     }
-    // GRPCCALL
+    texfree::bench::RunGrpcThroughput(registry->get(), jpegs, streams, fps, seconds);
   }
   return 0;
 }
