@@ -122,7 +122,9 @@ TEST_F(DocumentTrackerTest, KeepsThePoseWithinAFewPixelsFromTopViewTo76DegreesTi
     ASSERT_TRUE(steps[i].found);
     EXPECT_LE(steps[i].error, 3.0);
     EXPECT_GE(steps[i].doc.inliers, 12);
-    if (i > 0) EXPECT_EQ(steps[i].doc.state, TrackState::kTracking);
+    if (i > 0) {
+      EXPECT_EQ(steps[i].doc.state, TrackState::kTracking);
+    }
   }
   EXPECT_GT(tracker.session_index().learned_entries(), 0u) << "tilted views were learned";
 }
