@@ -352,6 +352,16 @@ absl::Status DocumentRegistry::DeleteAnnotation(const std::string &id,
   return store_->DeleteAnnotation(id, annotation_id);
 }
 
+std::shared_ptr<const LlahRetriever> DocumentRegistry::retriever() const {
+  std::shared_lock lock(mutex_);
+  return retriever_;
+}
+
+absl::StatusOr<std::vector<AnnotationRecord>> DocumentRegistry::AnnotationsByIndexId(
+    uint32_t index_id) const {
+  return store_->Annotations(index_id);
+}
+
 size_t DocumentRegistry::index_memory_bytes() const {
   std::shared_lock lock(mutex_);
   return retriever_ ? retriever_->MemoryBytes() : 0;

@@ -87,6 +87,13 @@ class DocumentRegistry {
                                                  AnnotationRecord annotation);
   absl::Status DeleteAnnotation(const std::string &id, const std::string &annotation_id);
 
+  // For tracking sessions: the shared LLAH index (null until the first page is
+  // registered; read-only for sessions), a document's summary by index id (nullopt once
+  // deleted) and its annotations.
+  std::shared_ptr<const LlahRetriever> retriever() const;
+  std::optional<DocumentSummary> FindByIndexId(uint32_t index_id) const { return Summary(index_id); }
+  absl::StatusOr<std::vector<AnnotationRecord>> AnnotationsByIndexId(uint32_t index_id) const;
+
   size_t index_memory_bytes() const;
   size_t index_entries() const;
   const DocumentRegistryOptions &options() const { return options_; }

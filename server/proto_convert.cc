@@ -207,6 +207,36 @@ void PoseToProto(const PlanarPose& pose, v1::Pose* out) {
   for (int i = 0; i < 3; ++i) out->add_translation(pose.t[i]);
 }
 
+void MappedAnnotationToProto(const AnnotationRecord& a, const cv::Matx33d& H,
+                             v1::MappedAnnotation* m) {
+  AnnotationToProto(a, m->mutable_annotation());
+  if (a.kind == AnnotationRecord::Kind::kText) {
+    PointToProto(ApplyHomography(H, a.position), m->mutable_anchor());
+    m->set_font_size_px(a.font_size_px * LocalScale(H, a.position));
+    // Text box: baseline start, one font size up, a rough advance of 0.6 em per byte.
+    const double len = 0.6 * a.font_size_px * a.text.size();
+    const cv::Point2d p = a.position;
+    for (const cv::Point2d& c :
+         {p + cv::Point2d(0, -a.font_size_px), p + cv::Point2d(len, -a.font_size_px),
+          p + cv::Point2d(len, 0.25 * a.font_size_px), p + cv::Point2d(0, 0.25 * a.font_size_px)})
+      PointToProto(ApplyHomography(H, c), m->add_quad());
+  } else {
+    const cv::Rect2d& r = a.rect;
+    for (const cv::Point2d& c : {r.tl(), cv::Point2d(r.x + r.width, r.y), r.br(),
+                                 cv::Point2d(r.x, r.y + r.height)})
+      PointToProto(ApplyHomography(H, c), m->add_quad());
+    PointToProto(ApplyHomography(H, r.tl()), m->mutable_anchor());
+  }
+}
+
+void OutlineToProto(const cv::Matx33d& H, const cv::Size& page,
+                    google::protobuf::RepeatedPtrField<v1::Point2>* out) {
+  const double w = page.width, h = page.height;
+  for (const cv::Point2d& c : {cv::Point2d(0, 0), cv::Point2d(w, 0), cv::Point2d(w, h),
+                               cv::Point2d(0, h)})
+    PointToProto(ApplyHomography(H, c), out->Add());
+}
+
 void MatchToProto(const RetrievedDocument& doc, v1::DocumentMatch* out) {
   const cv::Matx33d& H = doc.homography;
   out->set_document_id(doc.document.id);
@@ -217,31 +247,9 @@ void MatchToProto(const RetrievedDocument& doc, v1::DocumentMatch* out) {
   if (doc.pose) PoseToProto(*doc.pose, out->mutable_pose());
   out->set_inliers(doc.inliers);
   out->set_votes(doc.votes);
-  const double w = doc.document.size.width, h = doc.document.size.height;
-  for (const cv::Point2d& c : {cv::Point2d(0, 0), cv::Point2d(w, 0), cv::Point2d(w, h),
-                               cv::Point2d(0, h)})
-    PointToProto(ApplyHomography(H, c), out->add_outline());
-  for (const AnnotationRecord& a : doc.annotations) {
-    auto* m = out->add_annotations();
-    AnnotationToProto(a, m->mutable_annotation());
-    if (a.kind == AnnotationRecord::Kind::kText) {
-      PointToProto(ApplyHomography(H, a.position), m->mutable_anchor());
-      m->set_font_size_px(a.font_size_px * LocalScale(H, a.position));
-      // Text box: baseline start, one font size up, a rough advance of 0.6 em per byte.
-      const double len = 0.6 * a.font_size_px * a.text.size();
-      const cv::Point2d p = a.position;
-      for (const cv::Point2d& c :
-           {p + cv::Point2d(0, -a.font_size_px), p + cv::Point2d(len, -a.font_size_px),
-            p + cv::Point2d(len, 0.25 * a.font_size_px), p + cv::Point2d(0, 0.25 * a.font_size_px)})
-        PointToProto(ApplyHomography(H, c), m->add_quad());
-    } else {
-      const cv::Rect2d& r = a.rect;
-      for (const cv::Point2d& c : {r.tl(), cv::Point2d(r.x + r.width, r.y), r.br(),
-                                   cv::Point2d(r.x, r.y + r.height)})
-        PointToProto(ApplyHomography(H, c), m->add_quad());
-      PointToProto(ApplyHomography(H, r.tl()), m->mutable_anchor());
-    }
-  }
+  OutlineToProto(H, doc.document.size, out->mutable_outline());
+  for (const AnnotationRecord& a : doc.annotations)
+    MappedAnnotationToProto(a, H, out->add_annotations());
 }
 
 }  // namespace texfree::server

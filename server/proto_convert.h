@@ -37,4 +37,11 @@ void PoseToProto(const PlanarPose& pose, v1::Pose* out);
 // Places a document's annotations and outline in the query image with its homography.
 void MatchToProto(const RetrievedDocument& doc, v1::DocumentMatch* out);
 
+// One annotation placed in an image by a homography (registration pixels -> image).
+void MappedAnnotationToProto(const AnnotationRecord& a, const cv::Matx33d& H,
+                             v1::MappedAnnotation* out);
+// The page's four corners (tl, tr, br, bl) mapped by H.
+void OutlineToProto(const cv::Matx33d& H, const cv::Size& page,
+                    google::protobuf::RepeatedPtrField<v1::Point2>* out);
+
 }  // namespace texfree::server

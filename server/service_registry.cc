@@ -10,6 +10,7 @@
 #include "server/document_registry.h"
 #include "server/document_service.h"
 #include "server/document_store.h"
+#include "server/tracking_service.h"
 #include "server/unimplemented_services.h"
 
 namespace texfree::server {
@@ -17,6 +18,7 @@ namespace texfree::server {
 struct ServiceRegistry::Impl {
   std::unique_ptr<DocumentRegistry> documents;
   std::unique_ptr<DocumentServiceImpl> document_service;
+  std::unique_ptr<TrackingServiceImpl> tracking_service;
   std::vector<std::unique_ptr<grpc::Service>> pending;
 };
 
@@ -42,6 +44,12 @@ absl::StatusOr<std::unique_ptr<ServiceRegistry>> ServiceRegistry::Create(
   RETURN_IF_ERROR(limits.Validate());
   registry->impl_->document_service =
       std::make_unique<DocumentServiceImpl>(documents.get(), limits);
+  TrackingServiceOptions tracking;
+  tracking.idle_timeout = std::chrono::seconds(config.idle_stream_timeout_s);
+  tracking.limits = limits;
+  RETURN_IF_ERROR(tracking.Validate());
+  registry->impl_->tracking_service =
+      std::make_unique<TrackingServiceImpl>(documents.get(), std::move(tracking));
   registry->impl_->documents = std::move(documents);
   registry->impl_->pending = MakeNotYetImplementedServices();
   return registry;
@@ -49,12 +57,14 @@ absl::StatusOr<std::unique_ptr<ServiceRegistry>> ServiceRegistry::Create(
 
 void ServiceRegistry::RegisterAll(grpc::ServerBuilder& builder) {
   builder.RegisterService(impl_->document_service.get());
+  builder.RegisterService(impl_->tracking_service.get());
   for (auto& service : impl_->pending) builder.RegisterService(service.get());
 }
 
 void ServiceRegistry::Close() {
   if (!impl_) return;
   impl_->document_service.reset();
+  impl_->tracking_service.reset();
   impl_->documents.reset();  // closes the database
   spdlog::info("storage closed");
 }

@@ -1,4 +1,4 @@
-// Placeholder tracking, map, survey and pool services: every method answers
+// Placeholder map, survey and pool services: every method answers
 // UNIMPLEMENTED with a message naming the service, the method and the
 // capability that is still to come.
 #include "server/unimplemented_services.h"
@@ -19,7 +19,6 @@ grpc::Status NotYet(const char* service, const char* method,
           capability + ")");
 }
 
-constexpr char kTracking[] = "live tracking of documents and maps";
 constexpr char kMaps[] = "augmented maps";
 constexpr char kSurvey[] = "light photogrammetry";
 constexpr char kPool[] = "the pool assistant";
@@ -29,12 +28,6 @@ constexpr char kPool[] = "the pool assistant";
 using grpc::ServerContext;
 using grpc::Status;
 namespace v1 = ::texfree::v1;
-
-Status TrackingService::Track(
-    ServerContext*,
-    grpc::ServerReaderWriter<v1::TrackResponse, v1::TrackRequest>*) {
-  return NotYet("TrackingService", "Track", kTracking);
-}
 
 Status MapService::ImportGis(ServerContext*, const v1::ImportGisRequest*,
                              v1::ImportGisResponse*) {
@@ -114,7 +107,6 @@ Status PoolService::TrackTable(
 
 std::vector<std::unique_ptr<grpc::Service>> MakeNotYetImplementedServices() {
   std::vector<std::unique_ptr<grpc::Service>> services;
-  services.push_back(std::make_unique<unimplemented::TrackingService>());
   services.push_back(std::make_unique<unimplemented::MapService>());
   services.push_back(std::make_unique<unimplemented::SurveyService>());
   services.push_back(std::make_unique<unimplemented::PoolService>());

@@ -1,4 +1,4 @@
-// Placeholder gRPC services (tracking, maps, survey, pool) whose every method
+// Placeholder gRPC services (maps, survey, pool) whose every method
 // answers UNIMPLEMENTED with a message naming the missing capability, so that
 // clients and reflection see the whole texfree.v1 API from the first version.
 #pragma once
@@ -11,18 +11,9 @@
 #include "texfree/v1/map.grpc.pb.h"
 #include "texfree/v1/pool.grpc.pb.h"
 #include "texfree/v1/survey.grpc.pb.h"
-#include "texfree/v1/tracking.grpc.pb.h"
 
 namespace texfree::server {
 namespace unimplemented {
-
-class TrackingService final : public texfree::v1::TrackingService::Service {
- public:
-  grpc::Status Track(
-      grpc::ServerContext* context,
-      grpc::ServerReaderWriter<texfree::v1::TrackResponse,
-                               texfree::v1::TrackRequest>* stream) override;
-};
 
 class MapService final : public texfree::v1::MapService::Service {
  public:

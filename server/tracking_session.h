@@ -1,0 +1,144 @@
+// TrackingSession: the work of one TrackingService.Track stream, off gRPC's threads, as
+// a two-stage pipeline (seed 5.4): stage 1 decodes frame t+1 and extracts its word
+// keypoints while stage 2 matches frame t, estimates the pose, learns and writes the
+// result, so one stream keeps two cores busy. Queues are bounded: stage 1 waits for stage
+// 2 (one frame in between), and frames arriving while `queue_frames` wait already push
+// the oldest waiting frame out. A server that falls behind thus drops stale frames, and
+// says so in the next result, instead of queueing without bound and answering late.
+//
+// IdleWatchdog ends a stream that stays silent.
+#pragma once
+
+#include <chrono>
+#include <condition_variable>
+#include <cstdint>
+#include <deque>
+#include <functional>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <thread>
+#include <unordered_map>
+#include <vector>
+
+#include "absl/status/status.h"
+#include "common/document_tracker.h"
+#include "common/image_io.h"
+#include "common/planar_pose.h"
+#include "common/timing.h"
+#include "common/word_keypoints.h"
+#include "server/document_registry.h"
+#include "texfree/v1/tracking.pb.h"
+
+namespace texfree::server {
+
+struct TrackingSessionOptions {
+  // Frames waiting for stage 1; when a frame arrives and this many wait, the oldest is
+  // dropped. 2 absorbs network jitter at video rate without adding much latency.
+  int queue_frames = 2;
+  ImageLimits limits;
+  TrackerOptions tracker;
+  std::optional<CameraModel> camera;  // frames must have its size when it has one
+
+  absl::Status Validate() const;
+};
+
+struct TrackingSessionStats {
+  uint64_t frames = 0;   // frames received
+  uint64_t results = 0;  // results written
+  uint64_t dropped = 0;
+  uint64_t errors = 0;   // error results
+  double server_ms = 0;  // sum of per-frame processing times
+};
+
+// Thread-safe: Push/PushError/Finish/Cancel are called by the stream's reader thread
+// while the session's two threads work; the writer is only called from stage 2.
+class TrackingSession {
+ public:
+  // Writes one result to the client; returns false when the client is gone.
+  using Writer = std::function<bool(const v1::TrackResponse&)>;
+
+  TrackingSession(const DocumentRegistry* registry, TrackingSessionOptions options,
+                  Writer writer);
+  ~TrackingSession();  // Cancel()
+  TrackingSession(const TrackingSession&) = delete;
+  TrackingSession& operator=(const TrackingSession&) = delete;
+
+  // Queues a frame without blocking. False once the session has stopped.
+  bool Push(v1::Frame frame);
+  // Queues an error result (a message that is not a frame), in order with the frames.
+  void PushError(uint64_t frame_index, std::string message);
+  // No more frames: processes what is queued, then stops. Blocks until done.
+  void Finish();
+  // Stops now, discarding queued frames. Blocks until the threads have stopped.
+  void Cancel();
+
+  TrackingSessionStats stats() const;
+
+ private:
+  struct Pending {
+    v1::Frame frame;
+    SteadyClock::time_point arrived;
+    std::string error;  // set: answer with this error, do not decode
+  };
+  struct Extracted {
+    uint64_t frame_index = 0;
+    int64_t timestamp_us = 0;
+    SteadyClock::time_point arrived;
+    std::string error;
+    WordKeypoints keypoints;
+    cv::Size size;
+    double decode_ms = 0, extract_ms = 0;
+  };
+
+  void ExtractLoop();
+  void MatchLoop();
+  Extracted Extract(Pending pending) const;
+  v1::TrackResponse Respond(const Extracted& frame, const TrackerFrameResult* tracked);
+  void Stop(bool drain);
+
+  const DocumentRegistry* registry_;
+  const TrackingSessionOptions options_;
+  const Writer writer_;
+  WordKeypointExtractor extractor_;
+  DocumentTracker tracker_;  // stage 2 only
+  // Annotations of the followed pages (stage 2 only), fetched when a page is found.
+  std::unordered_map<uint32_t, std::vector<AnnotationRecord>> annotations_;
+
+  mutable std::mutex mutex_;
+  std::condition_variable input_cv_;  // input_ has frames, or stopping
+  std::condition_variable stage_cv_;  // stage_ changed, or stopping
+  std::deque<Pending> input_;
+  std::deque<Extracted> stage_;       // at most one frame between the stages
+  std::vector<uint64_t> dropped_;     // since the last result
+  bool finishing_ = false;            // no more input; drain
+  bool cancelled_ = false;            // stop now
+  bool extract_done_ = false;
+  TrackingSessionStats stats_;
+
+  std::thread extract_thread_;
+  std::thread match_thread_;
+};
+
+// Calls `on_idle` once when Touch() has not been called for `timeout`. Thread-safe.
+class IdleWatchdog {
+ public:
+  IdleWatchdog(std::chrono::milliseconds timeout, std::function<void()> on_idle);
+  ~IdleWatchdog();
+  IdleWatchdog(const IdleWatchdog&) = delete;
+  IdleWatchdog& operator=(const IdleWatchdog&) = delete;
+
+  void Touch();
+  bool fired() const;
+
+ private:
+  const std::chrono::milliseconds timeout_;
+  const std::function<void()> on_idle_;
+  mutable std::mutex mutex_;
+  std::condition_variable cv_;
+  SteadyClock::time_point last_;
+  bool stop_ = false, fired_ = false;
+  std::thread thread_;
+};
+
+}  // namespace texfree::server

@@ -1,0 +1,17 @@
+// gRPC loopback throughput of TrackingService for the tracking benchmark: one stream
+// sending JPEG frames as fast as results come back (two frames in flight), then N streams
+// sending at a fixed frame rate like cameras; prints fps, server time, latency, drops.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "server/document_registry.h"
+
+namespace texfree::bench {
+
+void RunGrpcThroughput(const server::DocumentRegistry* registry,
+                       const std::vector<std::string>& jpegs, int streams, double fps,
+                       double seconds);
+
+}  // namespace texfree::bench
