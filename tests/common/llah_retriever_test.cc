@@ -255,6 +255,44 @@ TEST_P(LlahRetrieverTest, FindsDocumentOfAPerspectiveWindowWithAccurateHomograph
                      GetParam() == Layout::kUniform ? 31 : 32);
 }
 
+// Close and steeply tilted: the page origin is behind the camera, so a homography scaled to
+// h22 = 1 has w < 0 at every visible point. The retriever must still accept the page and
+// return the homography with w > 0 where the page is seen (its sign is what pose recovery
+// and drawing rely on).
+// Uniform layout: text lines at this tilt and distance are beyond plain LLAH's reach, which
+// is not what this test is about.
+class LlahRetrieverSignTest : public LlahRetrieverTest {};
+
+TEST_F(LlahRetrieverSignTest, FindsPageWhoseOriginIsBehindTheCamera) {
+  const int d = 23;
+  const Database& database = Shared(Layout::kUniform);
+  const auto& document = database.documents[d];
+  testdata::CameraViewOptions view;
+  view.tilt_deg = 40;
+  view.tilt_azimuth_deg = 55;
+  view.roll_deg = 10;
+  view.scale = 0.9;
+  view.look_at = {0.65 * kPageSize.width, 0.65 * kPageSize.height};
+  const testdata::CameraView camera = testdata::ComputeCameraGeometry(kPageSize, view);
+  ASSERT_LT(camera.translation[2], 0) << "test setup: the origin must be behind the camera";
+  Query q;
+  q.homography = camera.homography;
+  for (const auto& p : document) {
+    const cv::Point2d m = ApplyHomography(q.homography, p);
+    const double w = q.homography(2, 0) * p.x + q.homography(2, 1) * p.y + q.homography(2, 2);
+    if (w <= 0 || m.x < 0 || m.y < 0 || m.x >= 640 || m.y >= 480) continue;
+    q.window_points.push_back(p);
+    q.points.emplace_back(static_cast<float>(m.x), static_cast<float>(m.y));
+  }
+  ASSERT_GT(q.points.size(), 40u);
+  const auto hits = database.retriever->Retrieve(q.points, kQueryCharHeight, RetrievalOptions());
+  ASSERT_FALSE(hits.empty());
+  ASSERT_EQ(hits[0].document, DocumentId(d)) << Describe(hits);
+  EXPECT_LT(MaxHomographyError(hits[0].homography, q), 1.0);
+  const cv::Matx33d& h = hits[0].homography;
+  for (const auto& p : q.window_points) EXPECT_GT(h(2, 0) * p.x + h(2, 1) * p.y + h(2, 2), 0);
+}
+
 TEST_P(LlahRetrieverTest, FindsDocumentUnderTwentyPercentOutliersAndTenPercentDropped) {
   GTEST_SKIP() << "known defect: with the default LlahOptions (n=7, m=6, k=8, "
                   "common/llah.h) 20% extra + 10% missing keypoints break too many 7-point "
