@@ -106,7 +106,8 @@ class FontCache {
     return *font;
   }
 
-  const WordGlyphs& Word(int font_id, int size, const std::string& text) {
+  // Shared ownership: a line being typeset holds its words while the cache may be cleared.
+  std::shared_ptr<const WordGlyphs> Word(int font_id, int size, const std::string& text) {
     std::string key;
     key.reserve(text.size() + 3);
     key.push_back(static_cast<char>(font_id));
@@ -116,7 +117,7 @@ class FontCache {
     auto it = words_.find(key);
     if (it != words_.end()) return it->second;
     if (words_.size() > 40000) words_.clear();  // bound the memory
-    WordGlyphs glyphs;
+    auto glyphs = std::make_shared<WordGlyphs>();
     const int w = static_cast<int>(text.size()) * size + 2 * size;
     const int h = 2 * size + 8;
     const cv::Point org(size / 2, size * 13 / 10 + 2);
@@ -127,9 +128,9 @@ class FontCache {
     cv::extractChannel(scratch_, channel_, 0);
     const cv::Rect ink = cv::boundingRect(channel_);
     if (ink.area() > 0) {
-      glyphs.alpha = channel_(ink).clone();
-      glyphs.dx = ink.x - org.x;
-      glyphs.dy = ink.y - org.y;
+      glyphs->alpha = channel_(ink).clone();
+      glyphs->dx = ink.x - org.x;
+      glyphs->dy = ink.y - org.y;
     }
     return words_.emplace(std::move(key), std::move(glyphs)).first->second;
   }
@@ -147,7 +148,7 @@ class FontCache {
 
  private:
   std::array<cv::Ptr<cv::freetype::FreeType2>, kNumFonts> fonts_;
-  std::unordered_map<std::string, WordGlyphs> words_;
+  std::unordered_map<std::string, std::shared_ptr<const WordGlyphs>> words_;
   std::unordered_map<int, int> spaces_;
   cv::Mat scratch_, channel_;
 };
@@ -427,13 +428,14 @@ class Typesetter {
       : page_(page), boxes_(boxes), cache_(Cache()) {}
 
   struct Measured {
-    const WordGlyphs* glyphs;
+    std::shared_ptr<const WordGlyphs> glyphs;
     int width;
   };
 
   Measured Measure(int font_id, int size, const std::string& text) {
-    const WordGlyphs& g = cache_.Word(font_id, size, text);
-    return {&g, g.alpha.cols};
+    std::shared_ptr<const WordGlyphs> g = cache_.Word(font_id, size, text);
+    const int width = g->alpha.cols;
+    return {std::move(g), width};
   }
 
   int Space(int font_id, int size) { return cache_.SpaceWidth(font_id, size); }
