@@ -104,12 +104,6 @@ absl::Status SequenceDecoderOptions::Validate() const {
   if (!(max_clock_drift >= 0 && max_clock_drift <= 0.05)) {
     return absl::InvalidArgumentError("max_clock_drift must be in [0, 0.05]");
   }
-  if (!(clock_step > 0 && clock_step <= 0.01)) {
-    return absl::InvalidArgumentError("clock_step must be in (0, 0.01]");
-  }
-  if (phase_steps < 1 || phase_steps > 64) {
-    return absl::InvalidArgumentError("phase_steps must be in [1, 64]");
-  }
   if (max_idle_samples < 0 || max_idle_samples > 48) {
     return absl::InvalidArgumentError("max_idle_samples must be in [0, 48]");
   }
@@ -138,8 +132,21 @@ absl::StatusOr<SequenceDecode> DecodeLightSequence(const float* soft, int count,
     return signs;
   }();
 
-  const int ratio_steps = static_cast<int>(std::floor(options.max_clock_drift / options.clock_step));
-  const int max_len = static_cast<int>(std::ceil((count - 1) * (1 + options.max_clock_drift))) + 2;
+  // Slip hypotheses: none first, then one slip at every frame, then (when the drift allows a
+  // second within the burst) two slips at least 1/max_drift frames apart; either direction.
+  std::vector<std::vector<int>> hypotheses = {{}};
+  if (options.max_clock_drift > 0) {
+    const int min_spacing = static_cast<int>(std::floor(1.0 / options.max_clock_drift));
+    for (int direction : {1, -1}) {
+      for (int s1 = 1; s1 < count; ++s1) {
+        hypotheses.push_back({direction * s1});
+        for (int s2 = s1 + min_spacing; s2 < count; ++s2) {
+          hypotheses.push_back({direction * s1, direction * s2});
+        }
+      }
+    }
+  }
+  const int max_len = count + 3;
   std::vector<int> sample_of_frame(count);
   std::vector<float> sum(max_len), resampled(max_len);
   std::vector<int> hits(max_len);
@@ -151,101 +158,113 @@ absl::StatusOr<SequenceDecode> DecodeLightSequence(const float* soft, int count,
   SequenceDecode best;
   double best_rank = -1;
 
-  for (int ri = -ratio_steps; ri <= ratio_steps; ++ri) {
-    const double ratio = 1.0 + ri * options.clock_step;
-    for (int pi = 0; pi < options.phase_steps; ++pi) {
-      const double phase = (pi + 0.5) / options.phase_steps;
-      // Resample frames onto the LED sample grid: a sample seen twice is averaged, a lost
-      // sample is an erasure (weight 0).
-      const int length = static_cast<int>(std::floor(phase + (count - 1) * ratio)) + 1;
-      std::fill(sum.begin(), sum.begin() + length, 0.f);
-      std::fill(hits.begin(), hits.begin() + length, 0);
-      for (int k = 0; k < count; ++k) {
-        const int j = static_cast<int>(std::floor(phase + k * ratio));
-        sample_of_frame[k] = j;
-        sum[j] += Clamp1(soft[k]);
-        hits[j] += 1;
+  for (size_t hi = 0; hi < hypotheses.size(); ++hi) {
+    // A clean fit without slips ends the search.
+    if (hi == 1 && have_best && best.agreement >= 0.985) break;
+    const std::vector<int>& slips = hypotheses[hi];
+    // Map frames onto LED samples: a sample seen twice is averaged, a lost one is an erasure.
+    int shift = 1;  // room for one sample seen twice before frame 0's sample
+    size_t next_slip = 0;
+    for (int k = 0; k < count; ++k) {
+      while (next_slip < slips.size() && std::abs(slips[next_slip]) == k) {
+        shift += slips[next_slip] > 0 ? 1 : -1;
+        ++next_slip;
       }
-      prefix[0] = 0;
-      for (int j = 0; j < length; ++j) {
-        resampled[j] = hits[j] ? sum[j] / hits[j] : 0.f;
-        prefix[j + 1] = prefix[j] + resampled[j];
+      sample_of_frame[k] = k + shift;
+    }
+    const int length = sample_of_frame[count - 1] + 1;
+    std::fill(sum.begin(), sum.begin() + length, 0.f);
+    std::fill(hits.begin(), hits.begin() + length, 0);
+    for (int k = 0; k < count; ++k) {
+      sum[sample_of_frame[k]] += Clamp1(soft[k]);
+      hits[sample_of_frame[k]] += 1;
+    }
+    prefix[0] = 0;
+    for (int j = 0; j < length; ++j) {
+      resampled[j] = hits[j] ? sum[j] / hits[j] : 0.f;
+      prefix[j + 1] = prefix[j] + resampled[j];
+    }
+    const int first_sample = sample_of_frame[0];
+    const int last_start = length - kPacketSamples;
+    if (last_start < first_sample) continue;
+    // Header 111111000000: correlation by prefix sums, normalised to 1.
+    for (int p = first_sample; p + kHeaderSamples <= length; ++p) {
+      header_score[p] = ((prefix[p + 6] - prefix[p]) - (prefix[p + 12] - prefix[p + 6])) / 12.f;
+    }
+    found.clear();
+    for (int p = first_sample; p <= last_start; ++p) {
+      const float h = header_score[p];
+      if (h < options.min_header_score) continue;
+      if (p > first_sample && header_score[p - 1] > h) continue;
+      if (p + 1 + kHeaderSamples <= length && header_score[p + 1] >= h) continue;
+      uint32_t word = 0;
+      double margin_sum = 0;
+      bool clear = true;
+      for (int b = 0; b < kIdBits + kCrcBits; ++b) {
+        const int q = p + kHeaderSamples + b * kSamplesPerBit;
+        // Nearest code: 1100 -> +, 0011 -> -.
+        const float s =
+            (resampled[q] + resampled[q + 1] - resampled[q + 2] - resampled[q + 3]) / 4.f;
+        if (std::fabs(s) < options.min_bit_margin) {
+          clear = false;
+          break;
+        }
+        margin_sum += std::fabs(s);
+        word = (word << 1) | (s > 0 ? 1u : 0u);
       }
-      // Header 111111000000: correlation by prefix sums, normalised to 1.
-      const int last_start = length - kPacketSamples;
-      if (last_start < 0) continue;
-      for (int p = 0; p + kHeaderSamples <= length; ++p) {
-        header_score[p] = ((prefix[p + 6] - prefix[p]) - (prefix[p + 12] - prefix[p + 6])) / 12.f;
+      if (!clear) continue;
+      const uint32_t id = word >> kCrcBits;
+      if ((word & 0b111) != LightCrc3(id)) continue;
+      found.push_back({p, id, h + margin_sum / (kIdBits + kCrcBits)});
+    }
+    // Verify each distinct ID over the whole burst with its periodic model.
+    for (size_t f = 0; f < found.size(); ++f) {
+      bool seen = false;
+      for (size_t g = 0; g < f; ++g) seen |= found[g].id == found[f].id;
+      if (seen) continue;
+      const uint32_t id = found[f].id;
+      int valid = 0;
+      double score = 0;
+      for (const auto& p : found) {
+        if (p.id == id) {
+          ++valid;
+          score += p.score;
+        }
       }
-      found.clear();
-      for (int p = 0; p <= last_start; ++p) {
-        const float h = header_score[p];
-        if (h < options.min_header_score) continue;
-        if (p > 0 && header_score[p - 1] > h) continue;
-        if (p + 1 + kHeaderSamples <= length && header_score[p + 1] >= h) continue;
-        uint32_t word = 0;
-        double margin_sum = 0;
-        bool clear = true;
-        for (int b = 0; b < kIdBits + kCrcBits; ++b) {
-          const int q = p + kHeaderSamples + b * kSamplesPerBit;
-          // Nearest code: 1100 -> +, 0011 -> -.
-          const float s =
-              (resampled[q] + resampled[q + 1] - resampled[q + 2] - resampled[q + 3]) / 4.f;
-          if (std::fabs(s) < options.min_bit_margin) {
-            clear = false;
-            break;
-          }
-          margin_sum += std::fabs(s);
-          word = (word << 1) | (s > 0 ? 1u : 0u);
+      int best_idle = 0;
+      double best_agreement = -1;
+      for (int idle = 0; idle <= options.max_idle_samples; ++idle) {
+        const double a =
+            Agreement(soft, count, sample_of_frame, kSigns[id].data(), found[f].start, idle);
+        if (a > best_agreement) {
+          best_agreement = a;
+          best_idle = idle;
         }
-        if (!clear) continue;
-        const uint32_t id = word >> kCrcBits;
-        if ((word & 0b111) != LightCrc3(id)) continue;
-        found.push_back({p, id, h + margin_sum / (kIdBits + kCrcBits)});
       }
-      if (found.empty()) continue;
-      // Verify each distinct ID over the whole burst with its periodic model.
-      for (size_t f = 0; f < found.size(); ++f) {
-        bool seen = false;
-        for (size_t g = 0; g < f; ++g) seen |= found[g].id == found[f].id;
-        if (seen) continue;
-        const uint32_t id = found[f].id;
-        int valid = 0;
-        double score = 0;
-        for (const auto& p : found) {
-          if (p.id == id) {
-            ++valid;
-            score += p.score;
-          }
+      // Rank: agreement first, then fewer slips (simpler model), then packet clarity.
+      const double rank = best_agreement * 100 - 0.01 * slips.size() + valid * 1e-3 + score * 1e-5;
+      if (rank > best_rank) {
+        best_rank = rank;
+        have_best = true;
+        best.id = id;
+        best.slips = 0;
+        best.slip_frames.clear();
+        for (int s : slips) {
+          best.slips += s > 0 ? 1 : -1;
+          best.slip_frames.push_back(std::abs(s));
         }
-        int best_idle = 0;
-        double best_agreement = -1;
-        for (int idle = 0; idle <= options.max_idle_samples; ++idle) {
-          const double a = Agreement(soft, count, sample_of_frame, kSigns[id].data(),
-                                     found[f].start, idle);
-          if (a > best_agreement) {
-            best_agreement = a;
-            best_idle = idle;
-          }
+        best.clock_ratio = 1.0 + static_cast<double>(best.slips) / count;
+        best.packet_start = found[f].start - first_sample;
+        best.idle_samples = best_idle;
+        best.valid_packets = valid;
+        best.agreement = best_agreement;
+        const int period = kPacketSamples + best_idle;
+        int packets = 0;
+        for (int p = first_sample + (found[f].start - first_sample) % period;
+             p + kPacketSamples <= length; p += period) {
+          ++packets;
         }
-        // Rank: agreement first, then how clearly the packets decoded.
-        const double rank = best_agreement * 100 + valid + score * 0.01;
-        if (rank > best_rank) {
-          best_rank = rank;
-          have_best = true;
-          best.id = id;
-          best.clock_ratio = ratio;
-          best.phase = phase;
-          best.packet_start = found[f].start;
-          best.idle_samples = best_idle;
-          best.valid_packets = valid;
-          best.agreement = best_agreement;
-          const int period = kPacketSamples + best_idle;
-          int first = found[f].start % period;
-          int packets = 0;
-          for (int p = first; p + kPacketSamples <= length; p += period) ++packets;
-          best.packets = std::max(packets, valid);
-        }
+        best.packets = std::max(packets, valid);
       }
     }
   }
@@ -264,22 +283,17 @@ double IntensitiesToSoft(const uint16_t* values, int count, float* soft) {
     lo = std::min<double>(lo, values[k]);
     hi = std::max<double>(hi, values[k]);
   }
-  // 2-means: the on and off levels, so that transition frames and noise do not set them.
+  // 2-medians: the on and off levels, so that transition frames and noise do not set them.
+  std::vector<uint16_t> low, high;
   for (int iter = 0; iter < 8 && hi > lo; ++iter) {
     const double mid = 0.5 * (lo + hi);
-    double sum_lo = 0, sum_hi = 0;
-    int n_lo = 0, n_hi = 0;
-    for (int k = 0; k < count; ++k) {
-      if (values[k] <= mid) {
-        sum_lo += values[k];
-        ++n_lo;
-      } else {
-        sum_hi += values[k];
-        ++n_hi;
-      }
-    }
-    if (n_lo == 0 || n_hi == 0) break;
-    const double new_lo = sum_lo / n_lo, new_hi = sum_hi / n_hi;
+    low.clear();
+    high.clear();
+    for (int k = 0; k < count; ++k) (values[k] <= mid ? low : high).push_back(values[k]);
+    if (low.empty() || high.empty()) break;
+    std::nth_element(low.begin(), low.begin() + low.size() / 2, low.end());
+    std::nth_element(high.begin(), high.begin() + high.size() / 2, high.end());
+    const double new_lo = low[low.size() / 2], new_hi = high[high.size() / 2];
     if (new_lo == lo && new_hi == hi) break;
     lo = new_lo;
     hi = new_hi;

@@ -42,12 +42,11 @@ std::string LightIdBits(uint32_t id);
 
 struct SequenceDecoderOptions {
   // Largest |camera frame interval / LED sample period - 1| searched. 0.012 covers the 1%
-  // clock difference a user may leave after setting the LED rate to the camera's.
+  // clock difference a user may leave after setting the LED rate to the camera's. The drift
+  // shows as slips: every 1/drift frames one LED sample is seen twice (camera faster) or
+  // lost (camera slower); the decoder tries every slip position, so slips may also come
+  // from jitter rather than a constant rate.
   double max_clock_drift = 0.012;
-  // Steps of the clock ratio and of the sub-sample phase. Over 100 frames a ratio step of
-  // 0.002 shifts the last sample by 0.2 samples at most.
-  double clock_step = 0.002;
-  int phase_steps = 8;
   // Idle (off) samples the LED may put between packets. At most 4 keeps a whole packet
   // inside any 100-frame burst.
   int max_idle_samples = 4;
@@ -62,12 +61,14 @@ struct SequenceDecoderOptions {
   absl::Status Validate() const;
 };
 
-// One decoded sequence. The model: frame k shows LED sample floor(phase + k * clock_ratio).
+// One decoded sequence. The model: frame k shows LED sample k + (slips before k) * direction.
 struct SequenceDecode {
   uint32_t id = 0;
-  double clock_ratio = 1.0;  // camera frame interval / LED sample period
-  double phase = 0.0;        // LED sample position of frame 0, in [0, 1)
-  int packet_start = 0;      // LED sample index (from floor(phase)) of the first full header
+  // Slips found: > 0 samples lost (camera slower than the LED), < 0 samples seen twice.
+  int slips = 0;
+  std::vector<int> slip_frames;  // frames at which a slip happened
+  double clock_ratio = 1.0;      // rough: 1 + slips / frames
+  int packet_start = 0;          // LED sample index of the first full header
   int idle_samples = 0;
   int packets = 0;        // complete packets inside the burst
   int valid_packets = 0;  // of those, with a valid CRC and the decoded ID
@@ -76,8 +77,9 @@ struct SequenceDecode {
 
 // Decodes soft samples (one per camera frame; > 0 means on, < 0 off, magnitude = confidence,
 // about +-1 for clear samples, near 0 for frames exposed during a transition). Searches the
-// clock ratio and phase, finds headers, decides each bit by the nearest code (0011/1100) and
-// checks the CRC, then verifies the whole burst against the periodic stream of that ID.
+// slips (clock drift), finds headers, decides each bit by the nearest code (0011/1100) and
+// checks the CRC, then verifies the whole burst against the periodic stream of that ID. The
+// slip hypotheses are tried after the no-slip one only when it does not fit cleanly.
 // Returns nullopt-like NOT_FOUND when no ID fits; INVALID_ARGUMENT for bad options.
 absl::StatusOr<SequenceDecode> DecodeLightSequence(const float* soft, int count,
                                                    const SequenceDecoderOptions& options);
