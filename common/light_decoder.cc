@@ -203,8 +203,10 @@ void BurstDecoder::PruneIrregular() {
     const int32_t index = active_index_[i];
     const double threshold = 0.5 * (static_cast<double>(lo[index]) + hi[index]);  // seed (3.2)
     if (SwitchesRegularly(samples_[i].data(), n, threshold, max_run)) {
-      active_index_[kept] = index;
-      samples_[kept] = std::move(samples_[i]);
+      if (kept != i) {  // (self-move-assignment would empty the vector)
+        active_index_[kept] = index;
+        samples_[kept] = std::move(samples_[i]);
+      }
       ++kept;
     } else {
       state[index] = 2;

@@ -89,7 +89,7 @@ LightScene MakeTunnelScene(const LightSceneOptions& options) {
 }
 
 survey::CameraPose TunnelViewPose(int view) {
-  const cv::Point3d target(50.0, 79.0, 15.0);
+  const cv::Point3d target = view == 0 ? cv::Point3d(50.4, 79.0, 15.0) : cv::Point3d(49.2, 79.0, 15.0);
   const cv::Point3d eye = view == 0 ? cv::Point3d(45.8, 36.2, 12.4) : cv::Point3d(54.3, 36.0, 12.7);
   survey::CameraPose pose;
   pose.R = LookAt(eye, target);
