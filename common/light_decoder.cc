@@ -526,6 +526,11 @@ absl::StatusOr<BurstResult> StreamingBurstDecoder::Finish() {
   return decoder_->Finish();
 }
 
+cv::Size StreamingBurstDecoder::frame_size() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return feeding_ ? cv::Size() : decoder_->frame_size();
+}
+
 int StreamingBurstDecoder::frames_decoded() const {
   std::lock_guard<std::mutex> lock(mutex_);
   return next_to_feed_;

@@ -145,6 +145,8 @@ class StreamingBurstDecoder {
   absl::StatusOr<BurstResult> Finish();
 
   int frames_pushed() const { return pushed_; }
+  // Size of the burst's frames (valid once a frame was decoded; call after Finish()).
+  cv::Size frame_size() const;
   int frames_decoded() const;
   int64_t active_pixels() const;
   double image_decode_ms() const;
