@@ -7,6 +7,10 @@
 #include <cmath>
 #include <unordered_map>
 
+#include <csetjmp>
+#include <cstdio>
+
+#include <jpeglib.h>
 #include <opencv2/imgproc.hpp>
 
 #include "absl/strings/str_cat.h"
@@ -43,6 +47,62 @@ bool SwitchesRegularly(const uint16_t* samples, int n, double threshold, int max
     previous = current;
   }
   return transitions >= 3 && single_frame_runs <= 1 + interior_runs / 8;
+}
+
+struct JpegError {
+  jpeg_error_mgr manager;
+  std::jmp_buf jump;
+};
+
+void OnJpegError(j_common_ptr cinfo) {
+  std::longjmp(reinterpret_cast<JpegError*>(cinfo->err)->jump, 1);
+}
+
+// Decodes only the rows marked in `rows` of an 8-bit JPEG to gray (libjpeg-turbo skips the
+// inverse DCT of the others); the other rows are left unset. False when the bytes are not a
+// JPEG this path handles (the caller then decodes the whole image).
+bool DecodeJpegRows(const std::string& bytes, const std::vector<uint8_t>& rows,
+                    const ImageLimits& limits, cv::Mat* out) {
+  if (bytes.size() < 4 || static_cast<uint8_t>(bytes[0]) != 0xFF ||
+      static_cast<uint8_t>(bytes[1]) != 0xD8) {
+    return false;
+  }
+  jpeg_decompress_struct cinfo;
+  JpegError error;
+  cinfo.err = jpeg_std_error(&error.manager);
+  error.manager.error_exit = OnJpegError;
+  if (setjmp(error.jump)) {
+    jpeg_destroy_decompress(&cinfo);
+    return false;
+  }
+  jpeg_create_decompress(&cinfo);
+  jpeg_mem_src(&cinfo, reinterpret_cast<const unsigned char*>(bytes.data()),
+               static_cast<unsigned long>(bytes.size()));
+  jpeg_read_header(&cinfo, TRUE);
+  const int64_t pixels = static_cast<int64_t>(cinfo.image_width) * cinfo.image_height;
+  if (cinfo.image_height != rows.size() || pixels > limits.max_pixels ||
+      cinfo.data_precision != 8) {
+    jpeg_destroy_decompress(&cinfo);
+    return false;
+  }
+  cinfo.out_color_space = JCS_GRAYSCALE;
+  jpeg_start_decompress(&cinfo);
+  out->create(static_cast<int>(cinfo.output_height), static_cast<int>(cinfo.output_width), CV_8UC1);
+  const JDIMENSION height = cinfo.output_height;
+  while (cinfo.output_scanline < height) {
+    const JDIMENSION y = cinfo.output_scanline;
+    if (rows[y]) {
+      JSAMPROW row = out->ptr<uint8_t>(static_cast<int>(y));
+      jpeg_read_scanlines(&cinfo, &row, 1);
+      continue;
+    }
+    JDIMENSION skip = 0;
+    while (y + skip < height && !rows[y + skip]) ++skip;
+    if (jpeg_skip_scanlines(&cinfo, skip) == 0) break;
+  }
+  jpeg_abort_decompress(&cinfo);
+  jpeg_destroy_decompress(&cinfo);
+  return true;
 }
 
 struct PixelDecode {
@@ -217,6 +277,9 @@ void BurstDecoder::PruneIrregular() {
   active_index_.shrink_to_fit();
   samples_.shrink_to_fit();
   stats_.candidate_pixels = static_cast<int64_t>(kept);
+  auto rows = std::make_shared<std::vector<uint8_t>>(size_.height, 0);
+  for (int32_t index : active_index_) (*rows)[index / size_.width] = 1;
+  candidate_rows_ = std::move(rows);
 }
 
 absl::Status BurstDecoder::AddFrame(const cv::Mat& input) {
@@ -445,6 +508,7 @@ absl::StatusOr<std::unique_ptr<StreamingBurstDecoder>> StreamingBurstDecoder::Cr
   stream->decoder_ = std::move(*decoder);
   stream->limits_ = limits;
   stream->max_in_flight_ = options.threads + 2;
+  stream->candidate_frames_ = options.CandidateFrames();
   for (int t = 0; t < options.threads; ++t) stream->workers_.emplace_back([s = stream.get()] { s->Work(); });
   return stream;
 }
@@ -466,10 +530,16 @@ void StreamingBurstDecoder::Work() {
     auto [number, bytes] = std::move(queue_.front());
     queue_.pop_front();
     const bool failed = !error_.ok();
+    // Frames after the first N only need the candidates' rows.
+    std::shared_ptr<const std::vector<uint8_t>> rows =
+        number >= candidate_frames_ ? rows_ : nullptr;
     lock.unlock();
     absl::StatusOr<cv::Mat> image = absl::CancelledError("skipped after an earlier error");
     const auto t0 = SteadyClock::now();
-    if (!failed) {
+    cv::Mat partial;
+    if (!failed && rows && DecodeJpegRows(bytes, *rows, limits_, &partial)) {
+      image = std::move(partial);
+    } else if (!failed) {
       image = DecodeGrayKeepDepth(bytes, limits_);
       if (!image.ok()) {
         image = absl::InvalidArgumentError(
@@ -495,9 +565,11 @@ void StreamingBurstDecoder::Work() {
       lock.unlock();
       absl::Status s = ok_so_far && !frame.empty() ? decoder_->AddFrame(frame) : absl::OkStatus();
       const int64_t active = decoder_->active_pixels();
+      auto candidate_rows = decoder_->CandidateRows();
       frame.release();
       lock.lock();
       active_pixels_ = active;
+      if (!rows_ && candidate_rows) rows_ = std::move(candidate_rows);
       if (!s.ok() && error_.ok()) error_ = s;
       feeding_ = false;
       ++next_to_feed_;

@@ -104,6 +104,9 @@ class BurstDecoder {
   int64_t active_pixels() const { return static_cast<int64_t>(active_index_.size()); }
   // Bytes held by the per-pixel maps and the samples of active pixels.
   size_t MemoryBytes() const;
+  // After the first N frames: per image row, 1 when a candidate pixel lies on it (later
+  // frames only need those rows). Null before.
+  std::shared_ptr<const std::vector<uint8_t>> CandidateRows() const { return candidate_rows_; }
 
  private:
   explicit BurstDecoder(const BurstDecoderOptions& options) : options_(options) {}
@@ -127,6 +130,7 @@ class BurstDecoder {
   BurstStats stats_;
   std::vector<int32_t> active_index_;             // linear pixel index
   std::vector<std::vector<uint16_t>> samples_;    // per active pixel, one per frame
+  std::shared_ptr<const std::vector<uint8_t>> candidate_rows_;
 };
 
 // Decodes encoded frames on `options.threads` workers while the caller pushes more, feeding
@@ -169,6 +173,9 @@ class StreamingBurstDecoder {
   int max_in_flight_ = 4;
   double decode_ms_ = 0;
   int64_t active_pixels_ = 0;  // copy of decoder_->active_pixels() after each frame
+  int candidate_frames_ = 0;
+  // Rows later JPEG frames must decode (set once the first N frames are in).
+  std::shared_ptr<const std::vector<uint8_t>> rows_;
   absl::Status error_;
   std::vector<std::thread> workers_;
 };
