@@ -80,7 +80,7 @@ struct SequenceDecode {
 // slips (clock drift), finds headers, decides each bit by the nearest code (0011/1100) and
 // checks the CRC, then verifies the whole burst against the periodic stream of that ID. The
 // slip hypotheses are tried after the no-slip one only when it does not fit cleanly.
-// Returns nullopt-like NOT_FOUND when no ID fits; INVALID_ARGUMENT for bad options.
+// NOT_FOUND when no ID fits; INVALID_ARGUMENT for bad options or fewer than 48 samples.
 absl::StatusOr<SequenceDecode> DecodeLightSequence(const float* soft, int count,
                                                    const SequenceDecoderOptions& options);
 

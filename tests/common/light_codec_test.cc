@@ -129,7 +129,9 @@ TEST(LightCodecTest, TransitionFramesAndNoise) {
     for (float& v : soft) v += noise(rng);
     auto decoded = DecodeLightSequence(soft.data(), 100, {});
     if (decoded.ok() && decoded->id == id) ++decoded_ok;
-    if (decoded.ok()) EXPECT_EQ(decoded->id, id);  // never a wrong ID
+    if (decoded.ok()) {
+      EXPECT_EQ(decoded->id, id);  // never a wrong ID
+    }
   }
   EXPECT_EQ(decoded_ok, kMaxLightId + 1);
 }
