@@ -8,6 +8,7 @@
 #include "client/command_context.h"
 #include "client/doc_commands.h"
 #include "client/track_commands.h"
+#include "client/survey_commands.h"
 
 namespace texfree::client {
 
@@ -36,6 +37,7 @@ int RunCli(int argc, char** argv, std::ostream& out, std::ostream& err) {
 
   AddDocCommands(app, ctx);
   AddTrackCommands(app, ctx);
+  AddSurveyCommands(app, ctx);
   // Later groups (track, survey, map, pool, lights) register here the same way.
 
   try {

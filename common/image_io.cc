@@ -7,6 +7,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "absl/strings/str_cat.h"
+#include "common/status_macros.h"
 
 namespace texfree {
 namespace {
@@ -66,16 +67,8 @@ bool PeekSize(std::string_view bytes, int* width, int* height) {
   return false;
 }
 
-}  // namespace
-
-absl::Status ImageLimits::Validate() const {
-  if (max_pixels <= 0) return absl::InvalidArgumentError("max_pixels must be positive");
-  if (min_side < 1) return absl::InvalidArgumentError("min_side must be at least 1");
-  return absl::OkStatus();
-}
-
-absl::StatusOr<cv::Mat> DecodeImage(std::string_view bytes, const ImageLimits& limits,
-                                    bool grayscale) {
+absl::StatusOr<cv::Mat> DecodeWithFlags(std::string_view bytes, const ImageLimits& limits,
+                                        int flags) {
   if (bytes.empty()) {
     return absl::InvalidArgumentError("image is empty (0 bytes)");
   }
@@ -87,7 +80,7 @@ absl::StatusOr<cv::Mat> DecodeImage(std::string_view bytes, const ImageLimits& l
   try {
     const cv::Mat buffer(1, static_cast<int>(bytes.size()), CV_8UC1,
                          const_cast<char*>(bytes.data()));
-    decoded = cv::imdecode(buffer, grayscale ? cv::IMREAD_GRAYSCALE : cv::IMREAD_COLOR);
+    decoded = cv::imdecode(buffer, flags);
   } catch (const cv::Exception& e) {
     return absl::InvalidArgumentError(absl::StrCat("image could not be decoded: ", e.what()));
   }
@@ -98,6 +91,30 @@ absl::StatusOr<cv::Mat> DecodeImage(std::string_view bytes, const ImageLimits& l
   }
   if (absl::Status s = CheckSize(decoded.cols, decoded.rows, limits); !s.ok()) return s;
   return decoded;
+}
+
+}  // namespace
+
+absl::Status ImageLimits::Validate() const {
+  if (max_pixels <= 0) return absl::InvalidArgumentError("max_pixels must be positive");
+  if (min_side < 1) return absl::InvalidArgumentError("min_side must be at least 1");
+  return absl::OkStatus();
+}
+
+absl::StatusOr<cv::Mat> DecodeImage(std::string_view bytes, const ImageLimits& limits,
+                                    bool grayscale) {
+  return DecodeWithFlags(bytes, limits, grayscale ? cv::IMREAD_GRAYSCALE : cv::IMREAD_COLOR);
+}
+
+absl::StatusOr<cv::Mat> DecodeGrayKeepDepth(std::string_view bytes, const ImageLimits& limits) {
+  ASSIGN_OR_RETURN(cv::Mat decoded,
+                   DecodeWithFlags(bytes, limits, cv::IMREAD_GRAYSCALE | cv::IMREAD_ANYDEPTH));
+  if (decoded.depth() == CV_8U || decoded.depth() == CV_16U) return decoded;
+  cv::Mat converted;  // 32-bit float TIFF and the like: scale to 16 bits
+  double lo = 0, hi = 0;
+  cv::minMaxLoc(decoded, &lo, &hi);
+  decoded.convertTo(converted, CV_16U, hi > 0 ? 65535.0 / hi : 1.0);
+  return converted;
 }
 
 absl::StatusOr<cv::Mat> ImageFromRaw(std::string_view pixels, RawPixelFormat format, int width,

@@ -27,6 +27,11 @@ struct ImageLimits {
 absl::StatusOr<cv::Mat> DecodeImage(std::string_view bytes, const ImageLimits& limits,
                                     bool grayscale = true);
 
+// Decodes JPEG/PNG/TIFF bytes to one gray channel keeping the bit depth: CV_8UC1 for 8-bit
+// files, CV_16UC1 for 16-bit PNG/TIFF (light bursts keep their full dynamic range). Same
+// size checks and errors as DecodeImage.
+absl::StatusOr<cv::Mat> DecodeGrayKeepDepth(std::string_view bytes, const ImageLimits& limits);
+
 enum class RawPixelFormat { kGray8, kBgr8 };
 
 // Wraps and copies a raw 8-bit buffer; stride 0 means tightly packed.

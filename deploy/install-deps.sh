@@ -13,6 +13,8 @@ PACKAGES=(
   libabsl-dev
   # Algorithms and images (contrib provides the freetype module).
   libopencv-dev libopencv-contrib-dev libeigen3-dev
+  # libjpeg-turbo directly: light bursts decode only the rows that hold lights.
+  libjpeg62-turbo-dev
   # Storage.
   libsqlite3-dev sqlite3
   # Logging, CLI, JSON.

@@ -11,6 +11,8 @@
 #include "server/document_service.h"
 #include "server/document_store.h"
 #include "server/tracking_service.h"
+#include "server/survey_service.h"
+#include "server/survey_store.h"
 #include "server/unimplemented_services.h"
 
 namespace texfree::server {
@@ -19,6 +21,8 @@ struct ServiceRegistry::Impl {
   std::unique_ptr<DocumentRegistry> documents;
   std::unique_ptr<DocumentServiceImpl> document_service;
   std::unique_ptr<TrackingServiceImpl> tracking_service;
+  std::unique_ptr<SurveyStore> surveys;
+  std::unique_ptr<SurveyServiceImpl> survey_service;
   std::vector<std::unique_ptr<grpc::Service>> pending;
 };
 
@@ -51,6 +55,16 @@ absl::StatusOr<std::unique_ptr<ServiceRegistry>> ServiceRegistry::Create(
   registry->impl_->tracking_service =
       std::make_unique<TrackingServiceImpl>(documents.get(), std::move(tracking));
   registry->impl_->documents = std::move(documents);
+  // Light surveys live in their own database file.
+  const std::string survey_db_path =
+      (std::filesystem::path(config.data_dir) / "surveys.db").string();
+  ASSIGN_OR_RETURN(registry->impl_->surveys, SurveyStore::Open(survey_db_path));
+  spdlog::info("survey database {}", survey_db_path);
+  SurveyServiceOptions survey_options;
+  survey_options.limits = limits;
+  RETURN_IF_ERROR(survey_options.Validate());
+  registry->impl_->survey_service =
+      std::make_unique<SurveyServiceImpl>(registry->impl_->surveys.get(), survey_options);
   registry->impl_->pending = MakeNotYetImplementedServices();
   return registry;
 }
@@ -58,6 +72,7 @@ absl::StatusOr<std::unique_ptr<ServiceRegistry>> ServiceRegistry::Create(
 void ServiceRegistry::RegisterAll(grpc::ServerBuilder& builder) {
   builder.RegisterService(impl_->document_service.get());
   builder.RegisterService(impl_->tracking_service.get());
+  builder.RegisterService(impl_->survey_service.get());
   for (auto& service : impl_->pending) builder.RegisterService(service.get());
 }
 
@@ -66,6 +81,8 @@ void ServiceRegistry::Close() {
   impl_->document_service.reset();
   impl_->tracking_service.reset();
   impl_->documents.reset();  // closes the database
+  impl_->survey_service.reset();
+  impl_->surveys.reset();
   spdlog::info("storage closed");
 }
 

@@ -20,7 +20,6 @@ grpc::Status NotYet(const char* service, const char* method,
 }
 
 constexpr char kMaps[] = "augmented maps";
-constexpr char kSurvey[] = "light photogrammetry";
 constexpr char kPool[] = "the pool assistant";
 
 }  // namespace
@@ -50,39 +49,6 @@ Status MapService::RetrieveMap(ServerContext*, const v1::RetrieveMapRequest*,
   return NotYet("MapService", "RetrieveMap", kMaps);
 }
 
-Status SurveyService::CreateSurvey(ServerContext*,
-                                   const v1::CreateSurveyRequest*,
-                                   v1::Survey*) {
-  return NotYet("SurveyService", "CreateSurvey", kSurvey);
-}
-Status SurveyService::UploadView(ServerContext*,
-                                 grpc::ServerReader<v1::UploadViewRequest>*,
-                                 v1::UploadViewResponse*) {
-  return NotYet("SurveyService", "UploadView", kSurvey);
-}
-Status SurveyService::Solve(ServerContext*, const v1::SolveRequest*,
-                            v1::SolveResponse*) {
-  return NotYet("SurveyService", "Solve", kSurvey);
-}
-Status SurveyService::GetSurvey(ServerContext*, const v1::GetSurveyRequest*,
-                                v1::Survey*) {
-  return NotYet("SurveyService", "GetSurvey", kSurvey);
-}
-Status SurveyService::ListSurveys(ServerContext*, const v1::ListSurveysRequest*,
-                                  v1::ListSurveysResponse*) {
-  return NotYet("SurveyService", "ListSurveys", kSurvey);
-}
-Status SurveyService::DeleteSurvey(ServerContext*,
-                                   const v1::DeleteSurveyRequest*,
-                                   v1::DeleteSurveyResponse*) {
-  return NotYet("SurveyService", "DeleteSurvey", kSurvey);
-}
-Status SurveyService::ExportPoints(ServerContext*,
-                                   const v1::ExportPointsRequest*,
-                                   v1::ExportPointsResponse*) {
-  return NotYet("SurveyService", "ExportPoints", kSurvey);
-}
-
 Status PoolService::SetTableProfile(ServerContext*,
                                     const v1::SetTableProfileRequest*,
                                     v1::TableProfile*) {
@@ -108,7 +74,6 @@ Status PoolService::TrackTable(
 std::vector<std::unique_ptr<grpc::Service>> MakeNotYetImplementedServices() {
   std::vector<std::unique_ptr<grpc::Service>> services;
   services.push_back(std::make_unique<unimplemented::MapService>());
-  services.push_back(std::make_unique<unimplemented::SurveyService>());
   services.push_back(std::make_unique<unimplemented::PoolService>());
   return services;
 }

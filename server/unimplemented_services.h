@@ -1,4 +1,4 @@
-// Placeholder gRPC services (maps, survey, pool) whose every method
+// Placeholder gRPC services (maps, pool) whose every method
 // answers UNIMPLEMENTED with a message naming the missing capability, so that
 // clients and reflection see the whole texfree.v1 API from the first version.
 #pragma once
@@ -10,7 +10,6 @@
 
 #include "texfree/v1/map.grpc.pb.h"
 #include "texfree/v1/pool.grpc.pb.h"
-#include "texfree/v1/survey.grpc.pb.h"
 
 namespace texfree::server {
 namespace unimplemented {
@@ -32,34 +31,6 @@ class MapService final : public texfree::v1::MapService::Service {
   grpc::Status RetrieveMap(grpc::ServerContext* context,
                            const texfree::v1::RetrieveMapRequest* request,
                            texfree::v1::RetrieveMapResponse* response) override;
-};
-
-class SurveyService final : public texfree::v1::SurveyService::Service {
- public:
-  grpc::Status CreateSurvey(grpc::ServerContext* context,
-                            const texfree::v1::CreateSurveyRequest* request,
-                            texfree::v1::Survey* response) override;
-  grpc::Status UploadView(
-      grpc::ServerContext* context,
-      grpc::ServerReader<texfree::v1::UploadViewRequest>* reader,
-      texfree::v1::UploadViewResponse* response) override;
-  grpc::Status Solve(grpc::ServerContext* context,
-                     const texfree::v1::SolveRequest* request,
-                     texfree::v1::SolveResponse* response) override;
-  grpc::Status GetSurvey(grpc::ServerContext* context,
-                         const texfree::v1::GetSurveyRequest* request,
-                         texfree::v1::Survey* response) override;
-  grpc::Status ListSurveys(grpc::ServerContext* context,
-                           const texfree::v1::ListSurveysRequest* request,
-                           texfree::v1::ListSurveysResponse* response) override;
-  grpc::Status DeleteSurvey(
-      grpc::ServerContext* context,
-      const texfree::v1::DeleteSurveyRequest* request,
-      texfree::v1::DeleteSurveyResponse* response) override;
-  grpc::Status ExportPoints(
-      grpc::ServerContext* context,
-      const texfree::v1::ExportPointsRequest* request,
-      texfree::v1::ExportPointsResponse* response) override;
 };
 
 class PoolService final : public texfree::v1::PoolService::Service {

@@ -19,6 +19,8 @@ class ServerProcess {
   ~ServerProcess();
 
   const std::string& address() const { return address_; }
+  // Process id of the server (for /proc/<pid>/status in benchmarks); -1 when not started.
+  pid_t pid() const { return pid_; }
   std::shared_ptr<grpc::Channel> Channel() const;
   bool running() const;
   // SIGTERM and wait; returns the exit code (-1 when killed by a signal or not running).
