@@ -9,6 +9,7 @@
 #include <opencv2/calib3d.hpp>
 #include <thread>
 
+#include "absl/container/flat_hash_map.h"
 #include "absl/strings/str_cat.h"
 #include "common/neighbor_grid.h"
 #include "common/planar_pose.h"
@@ -18,6 +19,10 @@ namespace texfree {
 absl::Status RetrievalOptions::Validate() const {
   if (max_hits_per_descriptor < 1)
     return absl::InvalidArgumentError("max_hits_per_descriptor must be >= 1");
+  if (max_hits_per_1000_documents < 0)
+    return absl::InvalidArgumentError("max_hits_per_1000_documents must be >= 0");
+  if (prefilter_documents < 0)
+    return absl::InvalidArgumentError("prefilter_documents must be >= 0 (0 keeps all)");
   if (query_probes < 0 || query_probes > LlahDescriber::kMaxProbes)
     return absl::InvalidArgumentError(absl::StrCat(
         "query_probes must be in [0, ", LlahDescriber::kMaxProbes, "], got ", query_probes));
@@ -221,6 +226,25 @@ std::vector<Correspondence> BestCorrespondences(const std::vector<Hit> &hits) {
 // are in front of the camera: with h22 = 1 that fails when the page origin is behind the
 // camera (close and steeply tilted). Matched points on both sides of the horizon mean a
 // wrong homography.
+// Keeps only the hits of the `keep` documents with most hits: a large database gives
+// common descriptors many entries, and sorting every hit would cost more than the rest of
+// the query. Counting per document is linear.
+void PrefilterHits(int keep, std::vector<Hit> *hits) {
+  if (keep <= 0 || hits->size() < 4096) return;
+  absl::flat_hash_map<uint32_t, int> per_document;
+  per_document.reserve(hits->size() / 8);
+  for (const Hit &h : *hits) ++per_document[h.document];
+  if (static_cast<int>(per_document.size()) <= keep) return;
+  std::vector<int> counts;
+  counts.reserve(per_document.size());
+  for (const auto &[doc, n] : per_document) counts.push_back(n);
+  std::nth_element(counts.begin(), counts.begin() + (keep - 1), counts.end(), std::greater<int>());
+  const int floor = counts[static_cast<size_t>(keep - 1)];
+  hits->erase(std::remove_if(hits->begin(), hits->end(),
+                             [&](const Hit &h) { return per_document[h.document] < floor; }),
+              hits->end());
+}
+
 bool PlausibleHomography(cv::Matx33d *H_inout, const std::vector<cv::Point2f> &ref) {
   cv::Matx33d &H = *H_inout;
   for (int i = 0; i < 9; ++i)
@@ -266,18 +290,22 @@ std::vector<DocumentHit> LlahRetriever::Retrieve(const std::vector<cv::Point2f> 
   std::vector<Candidate> ranked;
   {
     std::shared_lock lock(mutex_);
+    const int max_hits =
+        std::max<int>(o.max_hits_per_descriptor,
+                      static_cast<int>(o.max_hits_per_1000_documents * models_.size() / 1000));
     for (size_t q = 0; q < query.size(); ++q) {
       for (int j = 0; j < per; ++j) {
         const uint64_t h = hashes[q * per + j];
         if (h == 0) continue;
         // Descriptors under more than max_hits entries are stop words: their hits are dropped.
         const size_t before = hits.size();
-        if (index_.ForEachUpTo(h, o.max_hits_per_descriptor, [&](uint32_t doc, uint16_t kp) {
+        if (index_.ForEachUpTo(h, max_hits, [&](uint32_t doc, uint16_t kp) {
               hits.push_back({doc, static_cast<int>(q), kp});
-            }) > o.max_hits_per_descriptor)
+            }) > max_hits)
           hits.resize(before);
       }
     }
+    PrefilterHits(o.prefilter_documents, &hits);
     std::sort(hits.begin(), hits.end());
     best = BestCorrespondences(hits);
     // Votes per document. A query keypoint whose descriptors agree on one

@@ -96,6 +96,12 @@ int main(int argc, char **argv) {
   app.add_option("--probes", registry_options.retrieval.query_probes,
                  "query-side multi-probe: invariants per descriptor allowed "
                  "across a boundary");
+  app.add_option("--max-hits", registry_options.retrieval.max_hits_per_descriptor,
+                 "descriptors with more index entries than this do not vote");
+  app.add_option("--max-candidates", registry_options.retrieval.max_candidates,
+                 "documents verified per query");
+  app.add_option("--prefilter", registry_options.retrieval.prefilter_documents,
+                 "documents whose hits are ranked (0: all)");
   bool no_fallback = false;
   app.add_flag("--no-fallback", no_fallback, "query with the registration extractor only");
   CLI11_PARSE(app, argc, argv);
