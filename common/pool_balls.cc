@@ -1,0 +1,500 @@
+// Ball extraction, sphere fitting, identification by colour votes, empty-table background.
+#include "common/pool_balls.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <opencv2/imgproc.hpp>
+
+#include "common/pool_table.h"
+
+namespace texfree {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+double SmoothStep(double x) {
+  x = std::clamp(x, 0.0, 1.0);
+  return x * x * (3 - 2 * x);
+}
+
+// Hue (degrees) and saturation of a BGR colour in the opponent-colour plane.
+void HueSaturation(const cv::Vec3f& bgr, double* hue, double* saturation, double* intensity) {
+  const double b = bgr[0], g = bgr[1], r = bgr[2];
+  const double i = (b + g + r) / 3;
+  const double cx = r - 0.5 * g - 0.5 * b, cy = 0.8660254 * (g - b);
+  *hue = std::atan2(cy, cx) * 180 / kPi;
+  *saturation = std::hypot(cx, cy) / std::max(1.0, i);
+  *intensity = i;
+}
+
+double HueDistance(double a, double b) {
+  double d = std::fmod(std::abs(a - b), 360.0);
+  return d > 180 ? 360 - d : d;
+}
+
+// The ball-ness of every pixel in `roi` (0 = cloth, 1 = ball), soft around the
+// thresholds so that sub-pixel fitting sees a continuous image.
+cv::Mat BallnessMap(const cv::Mat& bgr, const cv::Rect& roi, const cv::Vec3f& cloth,
+                    const PoolBallOptions& o) {
+  cv::Mat out(roi.size(), CV_32FC1);
+  const double lo = (o.ball_angle_deg - o.ball_angle_soft_deg) * kPi / 180;
+  const double hi = (o.ball_angle_deg + o.ball_angle_soft_deg) * kPi / 180;
+  const float cos_lo = static_cast<float>(std::cos(lo)), cos_hi = static_cast<float>(std::cos(hi));
+  const float cloth_norm = static_cast<float>(cv::norm(cloth));
+  const float cloth_sum = cloth[0] + cloth[1] + cloth[2];
+  const float dark_hi = static_cast<float>((o.dark_fraction + 0.1) * cloth_sum);
+  const float dark_lo = static_cast<float>((o.dark_fraction - 0.05) * cloth_sum);
+  for (int y = 0; y < roi.height; ++y) {
+    const cv::Vec3b* p = bgr.ptr<cv::Vec3b>(y + roi.y) + roi.x;
+    float* q = out.ptr<float>(y);
+    for (int x = 0; x < roi.width; ++x) {
+      const float b = p[x][0], g = p[x][1], r = p[x][2];
+      const float n = std::sqrt(b * b + g * g + r * r);
+      const float c = n > 0 ? (b * cloth[0] + g * cloth[1] + r * cloth[2]) / (n * cloth_norm) : 0;
+      float colour;
+      if (c >= cos_lo) {
+        colour = 0;
+      } else if (c <= cos_hi) {
+        colour = 1;
+      } else {
+        colour = static_cast<float>(SmoothStep((std::acos(c) - lo) / (hi - lo)));
+      }
+      const float sum = b + g + r;
+      const float dark =
+          sum >= dark_hi ? 0.f
+                         : (sum <= dark_lo ? 1.f
+                                           : static_cast<float>(SmoothStep((dark_hi - sum) /
+                                                                           (dark_hi - dark_lo))));
+      q[x] = std::max(colour, dark);
+    }
+  }
+  return out;
+}
+
+// Evaluates the silhouette of a ball at a table position against the ball-ness map.
+class SilhouetteScorer {
+ public:
+  SilhouetteScorer(const cv::Mat& ballness, const cv::Rect& roi, const cv::Mat& claimed,
+                   const cv::Matx33d& K, const PlanarPose& pose, double radius)
+      : ballness_(ballness), roi_(roi), claimed_(claimed), K_(K), pose_(pose), radius_(radius) {}
+
+  // Bounding box (image pixels) of the silhouette, a little grown.
+  cv::Rect Box(const cv::Vec3d& centre) const {
+    const cv::Vec3d c = pose_.R * centre + pose_.t;
+    const cv::Point2d m = ProjectIdeal(pose_, K_, centre);
+    const double r_px = 1.35 * K_(0, 0) * radius_ / std::max(1e-9, cv::norm(c)) + 2.5;
+    return cv::Rect(static_cast<int>(std::floor(m.x - r_px)),
+                    static_cast<int>(std::floor(m.y - r_px)),
+                    static_cast<int>(2 * r_px + 2), static_cast<int>(2 * r_px + 2)) &
+           roi_;
+  }
+
+  // Sum over the box of coverage * (2 * ball-ness - 1) * (1 - claimed).
+  double Score(const cv::Point2d& xy, double* mean_ballness = nullptr) const {
+    const cv::Vec3d centre(xy.x, xy.y, radius_);
+    const cv::Matx33d Q = SphereSilhouetteConic(pose_, K_, centre, radius_);
+    const cv::Rect box = Box(centre);
+    double score = 0, cov_sum = 0, ball_sum = 0;
+    for (int v = box.y; v < box.y + box.height; ++v) {
+      const float* b = ballness_.ptr<float>(v - roi_.y);
+      const float* cl = claimed_.empty() ? nullptr : claimed_.ptr<float>(v - roi_.y);
+      for (int u = box.x; u < box.x + box.width; ++u) {
+        const double cov = Coverage(Q, u, v);
+        if (cov <= 0) continue;
+        const double w = cl ? 1.0 - cl[u - roi_.x] : 1.0;
+        const double bn = b[u - roi_.x];
+        score += cov * w * (2 * bn - 1);
+        cov_sum += cov * w;
+        ball_sum += cov * w * bn;
+      }
+    }
+    if (mean_ballness) *mean_ballness = cov_sum > 0 ? ball_sum / cov_sum : 0;
+    return score;
+  }
+
+  // Fraction of pixel (u, v) inside the conic's silhouette (signed distance to the
+  // boundary, first order).
+  static double Coverage(const cv::Matx33d& Q, double u, double v) {
+    const double qx = Q(0, 0) * u + Q(0, 1) * v + Q(0, 2);
+    const double qy = Q(1, 0) * u + Q(1, 1) * v + Q(1, 2);
+    const double qz = Q(2, 0) * u + Q(2, 1) * v + Q(2, 2);
+    const double g = u * qx + v * qy + qz;
+    const double grad = 2 * std::hypot(qx, qy);
+    if (grad <= 0) return 0;
+    return std::clamp(0.5 + g / grad, 0.0, 1.0);
+  }
+
+  // Compass search for the best table position, starting at `xy`.
+  cv::Point2d Fit(cv::Point2d xy) const {
+    double best = Score(xy);
+    double step = 0.35 * radius_;
+    const cv::Point2d dirs[4] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}};
+    while (step > 0.02) {
+      bool moved = false;
+      for (const auto& d : dirs) {
+        const cv::Point2d cand = xy + d * step;
+        const double s = Score(cand);
+        if (s > best + 1e-9) {
+          best = s;
+          xy = cand;
+          moved = true;
+          break;
+        }
+      }
+      if (!moved) step *= 0.5;
+    }
+    return xy;
+  }
+
+ private:
+  const cv::Mat& ballness_;
+  cv::Rect roi_;
+  const cv::Mat& claimed_;
+  cv::Matx33d K_;
+  PlanarPose pose_;
+  double radius_;
+};
+
+// Reference hue/saturation/relative brightness of each ball colour of the profile.
+struct ColourRef {
+  double hue, saturation, relative;
+};
+
+}  // namespace
+
+absl::Status PoolBallOptions::Validate() const {
+  if (!(ball_angle_deg > 0 && ball_angle_deg < 45))
+    return absl::InvalidArgumentError("ball_angle_deg must be in (0, 45)");
+  if (!(ball_angle_soft_deg > 0 && ball_angle_soft_deg < ball_angle_deg))
+    return absl::InvalidArgumentError("ball_angle_soft_deg must be in (0, ball_angle_deg)");
+  if (!(dark_fraction > 0.05 && dark_fraction < 0.9))
+    return absl::InvalidArgumentError("dark_fraction must be in (0.05, 0.9)");
+  if (!(min_area_fraction > 0 && min_area_fraction <= 1))
+    return absl::InvalidArgumentError("min_area_fraction must be in (0, 1]");
+  if (!(one_white_share > 0 && one_white_share < cue_white_share && cue_white_share < 1))
+    return absl::InvalidArgumentError("need 0 < one_white_share < cue_white_share < 1");
+  return absl::OkStatus();
+}
+
+cv::Matx33d SphereSilhouetteConic(const PlanarPose& pose, const cv::Matx33d& K,
+                                  const cv::Vec3d& centre, double radius) {
+  const cv::Vec3d c = pose.R * centre + pose.t;
+  const cv::Matx33d cone = c * c.t() - (c.dot(c) - radius * radius) * cv::Matx33d::eye();
+  const cv::Matx33d Kinv = K.inv();
+  return Kinv.t() * cone * Kinv;
+}
+
+std::array<double, 10> PoolNumberScores(const PoolVotes& votes, const PoolBallOptions& o) {
+  std::array<double, 10> s{};
+  double total = 0;
+  for (int v : votes) total += v;
+  if (total <= 0) return s;
+  for (int k = 2; k <= 8; ++k) s[k] = votes[k] / total;
+  // Seed eq. 4.3: the cue, the 1 and the 9 are the white+yellow balls; the white share
+  // tells them apart (over cue_white_share: cue, under one_white_share: 1, else 9).
+  const double group = (votes[0] + votes[1]) / total;
+  const double w = votes[0] / total;
+  const double mid = (o.cue_white_share + o.one_white_share) / 2;
+  const double half = (o.cue_white_share - o.one_white_share) / 2;
+  s[0] = group * std::clamp((w - mid) / half, 0.0, 1.0);
+  s[1] = group * std::clamp((mid - w) / half, 0.0, 1.0);
+  s[9] = group * std::clamp(1 - std::abs(w - mid) / (1.75 * half), 0.0, 1.0);
+  return s;
+}
+
+std::vector<int> AssignPoolNumbers(const std::vector<std::array<double, 10>>& scores) {
+  // Dynamic programme over balls and the set of numbers used so far.
+  constexpr double kUnknown = 0.15;
+  const int n = static_cast<int>(scores.size());
+  const int states = 1 << kPoolBallCount;
+  std::vector<std::vector<double>> best(n + 1, std::vector<double>(states, -1e18));
+  std::vector<std::vector<int>> choice(n + 1, std::vector<int>(states, -1));
+  best[0][0] = 0;
+  for (int i = 0; i < n; ++i)
+    for (int used = 0; used < states; ++used) {
+      if (best[i][used] <= -1e17) continue;
+      if (best[i][used] + kUnknown > best[i + 1][used]) {
+        best[i + 1][used] = best[i][used] + kUnknown;
+        choice[i + 1][used] = -1;
+      }
+      for (int k = 0; k < kPoolBallCount; ++k) {
+        if (used & (1 << k)) continue;
+        const int next = used | (1 << k);
+        const double v = best[i][used] + scores[i][k];
+        if (v > best[i + 1][next]) {
+          best[i + 1][next] = v;
+          choice[i + 1][next] = k;
+        }
+      }
+    }
+  int used = static_cast<int>(std::max_element(best[n].begin(), best[n].end()) - best[n].begin());
+  std::vector<int> numbers(n, -1);
+  for (int i = n; i > 0; --i) {
+    numbers[i - 1] = choice[i][used];
+    if (numbers[i - 1] >= 0) used &= ~(1 << numbers[i - 1]);
+  }
+  return numbers;
+}
+
+std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& bgr, const cv::Matx33d& K,
+                                              const PlanarPose& pose,
+                                              const PoolTableProfile& profile,
+                                              const cv::Vec3b& cloth_bgr,
+                                              const PoolBallOptions& options) {
+  const double L = profile.length_mm, W = profile.width_mm, r = profile.ball_radius_mm;
+  const cv::Vec3f cloth(cloth_bgr[0], cloth_bgr[1], cloth_bgr[2]);
+  const double cloth_intensity = (cloth[0] + cloth[1] + cloth[2]) / 3;
+  // Where balls can be seen: the playing surface from the cloth up to a ball's height,
+  // without the pockets.
+  std::vector<cv::Point> hull_points;
+  for (double z : {0.0, 2 * r})
+    for (const cv::Vec3d& p : {cv::Vec3d(0, 0, z), cv::Vec3d(L, 0, z), cv::Vec3d(L, W, z),
+                               cv::Vec3d(0, W, z)}) {
+      const cv::Point2d q = ProjectIdeal(pose, K, p);
+      hull_points.emplace_back(cvRound(q.x), cvRound(q.y));
+    }
+  std::vector<cv::Point> hull;
+  cv::convexHull(hull_points, hull);
+  const cv::Rect image_rect(0, 0, bgr.cols, bgr.rows);
+  const cv::Rect roi = cv::boundingRect(hull) & image_rect;
+  if (roi.area() <= 0) return {};
+  cv::Mat region = cv::Mat::zeros(roi.size(), CV_8UC1);
+  std::vector<cv::Point> shifted;
+  for (const auto& p : hull) shifted.push_back(p - roi.tl());
+  cv::fillConvexPoly(region, shifted, cv::Scalar(255));
+  const cv::Point2d pockets[6] = {{0, 0}, {L, 0}, {L, W}, {0, W}, {L / 2, 0}, {L / 2, W}};
+  for (int k = 0; k < 6; ++k) {
+    const double radius = (k < 4 ? profile.corner_pocket_mm : profile.side_pocket_mm) / 2;
+    for (double z : {0.0, profile.cushion_height_mm}) {
+      std::vector<cv::Point> disc;
+      for (int a = 0; a < 24; ++a) {
+        const double t = 2 * kPi * a / 24;
+        const cv::Point2d q = ProjectIdeal(
+            pose, K,
+            {pockets[k].x + radius * std::cos(t), pockets[k].y + radius * std::sin(t), z});
+        disc.emplace_back(cvRound(q.x) - roi.x, cvRound(q.y) - roi.y);
+      }
+      cv::fillConvexPoly(region, disc, cv::Scalar(0));
+    }
+  }
+  const cv::Mat ballness = BallnessMap(bgr, roi, cloth, options);
+  cv::Mat mask = (ballness > 0.5) & region;
+  cv::Mat ballness_in_region;
+  ballness.copyTo(ballness_in_region);
+  ballness_in_region.setTo(0, region == 0);
+
+  // Blobs -> seeds (one per expected ball; touching balls split at distance maxima).
+  cv::Mat labels, stats, centroids;
+  const int n = cv::connectedComponentsWithStats(mask, labels, stats, centroids, 8, CV_32S);
+  std::vector<cv::Point2d> seeds;
+  for (int i = 1; i < n; ++i) {
+    const cv::Point2d c(centroids.at<double>(i, 0) + roi.x, centroids.at<double>(i, 1) + roi.y);
+    cv::Point2d xy;
+    if (!BackProjectToPlane(pose, K, c, r, &xy)) continue;
+    const cv::Vec3d cam = pose.R * cv::Vec3d(xy.x, xy.y, r) + pose.t;
+    const double r_px = K(0, 0) * r / cv::norm(cam);
+    const double expected = kPi * r_px * r_px;
+    const int area = stats.at<int>(i, cv::CC_STAT_AREA);
+    if (area < options.min_area_fraction * expected) continue;
+    const int count = std::max(1, static_cast<int>(std::floor(area / expected + 0.35)));
+    if (count == 1) {
+      seeds.push_back(xy);
+      continue;
+    }
+    const cv::Rect box(stats.at<int>(i, cv::CC_STAT_LEFT), stats.at<int>(i, cv::CC_STAT_TOP),
+                       stats.at<int>(i, cv::CC_STAT_WIDTH), stats.at<int>(i, cv::CC_STAT_HEIGHT));
+    cv::Mat blob;
+    cv::copyMakeBorder(labels(box) == i, blob, 1, 1, 1, 1, cv::BORDER_CONSTANT, 0);
+    cv::Mat dist;
+    cv::distanceTransform(blob, dist, cv::DIST_L2, 3);
+    for (int k = 0; k < count; ++k) {
+      double max_value;
+      cv::Point max_at;
+      cv::minMaxLoc(dist, nullptr, &max_value, nullptr, &max_at);
+      if (max_value < 0.4 * r_px) break;
+      const cv::Point2d pixel(max_at.x - 1 + box.x + roi.x, max_at.y - 1 + box.y + roi.y);
+      if (BackProjectToPlane(pose, K, pixel, r, &xy)) seeds.push_back(xy);
+      cv::circle(dist, max_at, static_cast<int>(std::ceil(1.4 * r_px)), cv::Scalar(0), -1);
+    }
+  }
+
+  // Fit each ball's silhouette, nearest balls first; a farther ball ignores pixels that a
+  // nearer ball covers.
+  const cv::Vec3d camera = CameraCentre(pose);
+  std::sort(seeds.begin(), seeds.end(), [&](const cv::Point2d& a, const cv::Point2d& b) {
+    return cv::norm(cv::Vec3d(a.x, a.y, r) - camera) < cv::norm(cv::Vec3d(b.x, b.y, r) - camera);
+  });
+  cv::Mat claimed = cv::Mat::zeros(roi.size(), CV_32FC1);
+  std::vector<PoolDetectedBall> balls;
+  for (int pass = 0; pass < 2; ++pass) {
+    std::vector<cv::Point2d> fitted;
+    claimed.setTo(0);
+    for (const auto& seed : seeds) {
+      SilhouetteScorer scorer(ballness_in_region, roi, claimed, K, pose, r);
+      const cv::Point2d xy = scorer.Fit(seed);
+      fitted.push_back(xy);
+      // Claim this ball's pixels for the balls behind it.
+      const cv::Vec3d centre(xy.x, xy.y, r);
+      const cv::Matx33d Q = SphereSilhouetteConic(pose, K, centre, r);
+      const cv::Rect box = scorer.Box(centre);
+      for (int v = box.y; v < box.y + box.height; ++v)
+        for (int u = box.x; u < box.x + box.width; ++u) {
+          float& c = claimed.at<float>(v - roi.y, u - roi.x);
+          c = std::max(c, static_cast<float>(SilhouetteScorer::Coverage(Q, u, v)));
+        }
+    }
+    seeds = fitted;
+  }
+  // Keep distinct, well-supported balls on the table.
+  claimed.setTo(0);
+  std::vector<cv::Point2d> kept;
+  for (const auto& xy : seeds) {
+    if (xy.x < -r / 2 || xy.y < -r / 2 || xy.x > L + r / 2 || xy.y > W + r / 2) continue;
+    bool duplicate = false;
+    for (const auto& k : kept)
+      if (cv::norm(k - xy) < r) duplicate = true;
+    if (duplicate) continue;
+    SilhouetteScorer scorer(ballness_in_region, roi, claimed, K, pose, r);
+    double mean_ballness = 0;
+    scorer.Score(xy, &mean_ballness);
+    if (mean_ballness < 0.6) continue;
+    kept.push_back(xy);
+    PoolDetectedBall ball;
+    ball.x_mm = xy.x;
+    ball.y_mm = xy.y;
+    ball.fit_score = mean_ballness;
+    const cv::Vec3d centre(xy.x, xy.y, r);
+    ball.ideal_pixel = ProjectIdeal(pose, K, centre);
+    ball.radius_px = K(0, 0) * r / cv::norm(pose.R * centre + pose.t);
+    // Votes over the pixels well inside the silhouette that no nearer ball covers.
+    const cv::Matx33d Q = SphereSilhouetteConic(pose, K, centre, r);
+    const cv::Rect box = scorer.Box(centre);
+    // Local light: the cloth brightness around the ball.
+    std::vector<float> ring;
+    for (int v = box.y - box.height / 2; v < box.y + box.height * 3 / 2; v += 2)
+      for (int u = box.x - box.width / 2; u < box.x + box.width * 3 / 2; u += 2) {
+        if (!image_rect.contains({u, v})) continue;
+        const double d = std::hypot(u - ball.ideal_pixel.x, v - ball.ideal_pixel.y);
+        if (d < 1.6 * ball.radius_px || d > 2.6 * ball.radius_px) continue;
+        const cv::Vec3b& p = bgr.at<cv::Vec3b>(v, u);
+        const cv::Vec3f pf(p[0], p[1], p[2]);
+        if (ColorAngleDeg(pf, cloth) < options.ball_angle_deg)
+          ring.push_back((pf[0] + pf[1] + pf[2]) / 3);
+      }
+    double light = 1;  // local cloth brightness / the profile's cloth brightness
+    const cv::Vec3b pc = profile.cloth_bgr;
+    const double profile_cloth = (pc[0] + pc[1] + pc[2]) / 3.0;
+    if (ring.size() >= 5) {
+      std::nth_element(ring.begin(), ring.begin() + ring.size() / 2, ring.end());
+      light = ring[ring.size() / 2] / profile_cloth;
+    } else {
+      light = cloth_intensity / profile_cloth;
+    }
+    std::array<ColourRef, kPoolBallCount> refs;
+    for (int k = 0; k < kPoolBallCount; ++k) {
+      const cv::Vec3b& c = profile.ball_bgr[k];
+      double h, s, i;
+      HueSaturation(cv::Vec3f(c[0], c[1], c[2]), &h, &s, &i);
+      refs[k] = {h, s, i / profile_cloth};
+    }
+    std::vector<double> red_family_brightness;
+    int red_family = 0;
+    for (int v = box.y; v < box.y + box.height; ++v)
+      for (int u = box.x; u < box.x + box.width; ++u) {
+        if (SilhouetteScorer::Coverage(Q, u, v) < 0.99) continue;
+        if (claimed.at<float>(v - roi.y, u - roi.x) > 0.5) continue;
+        const cv::Vec3b& p = bgr.at<cv::Vec3b>(v, u);
+        double hue, sat, intensity;
+        HueSaturation(cv::Vec3f(p[0], p[1], p[2]), &hue, &sat, &intensity);
+        const double q = intensity / (profile_cloth * light);
+        int vote;
+        if (q < 0.45 && sat < 0.6) {
+          vote = 8;
+        } else if (sat < 0.25) {
+          vote = q < 0.55 ? 8 : 0;
+        } else {
+          // Nearest solid colour by hue (seed eq. 4.1 on the chromatic part); the 3 and
+          // the 7 share a hue and are told apart by brightness below.
+          vote = 1;
+          double best = 1e9;
+          for (int k = 1; k <= 7; ++k) {
+            if (k == 7) continue;
+            const double d = HueDistance(hue, refs[k].hue);
+            if (d < best) {
+              best = d;
+              vote = k;
+            }
+          }
+          if (vote == 3) {
+            red_family_brightness.push_back(q);
+            ++red_family;
+          }
+        }
+        ++ball.votes[vote];
+      }
+    if (red_family > 0) {
+      // The 3 (red) and the 7 (maroon): the lit part of the ball (80th percentile of the
+      // red pixels' brightness) against the two references.
+      const size_t at = red_family_brightness.size() * 8 / 10;
+      std::nth_element(red_family_brightness.begin(), red_family_brightness.begin() + at,
+                       red_family_brightness.end());
+      const double lit = red_family_brightness[at];
+      const double split = std::sqrt(refs[3].relative * refs[7].relative);
+      if (lit < split) {
+        ball.votes[7] += ball.votes[3];
+        ball.votes[3] = 0;
+      }
+    }
+    int total = 0;
+    for (int v : ball.votes) total += v;
+    ball.white_share = total ? static_cast<double>(ball.votes[0]) / total : 0;
+    balls.push_back(ball);
+    // Later (farther) balls ignore this one's pixels.
+    for (int v = box.y; v < box.y + box.height; ++v)
+      for (int u = box.x; u < box.x + box.width; ++u) {
+        float& c = claimed.at<float>(v - roi.y, u - roi.x);
+        c = std::max(c, static_cast<float>(SilhouetteScorer::Coverage(Q, u, v)));
+      }
+  }
+  std::vector<std::array<double, 10>> scores;
+  for (const auto& b : balls) scores.push_back(PoolNumberScores(b.votes, options));
+  const std::vector<int> numbers = AssignPoolNumbers(scores);
+  for (size_t i = 0; i < balls.size(); ++i) {
+    balls[i].number = numbers[i];
+    balls[i].confidence = numbers[i] >= 0 ? scores[i][numbers[i]] : 0;
+  }
+  return balls;
+}
+
+cv::Mat EmptyTableBackground(const cv::Mat& bgr, const cv::Matx33d& K, const PlanarPose& pose,
+                             const PoolTableProfile& profile,
+                             const std::vector<PoolDetectedBall>& balls) {
+  cv::Mat out = bgr.clone();
+  const double r = profile.ball_radius_mm;
+  for (const auto& ball : balls) {
+    const cv::Vec3d centre(ball.x_mm, ball.y_mm, r);
+    const cv::Matx33d Q = SphereSilhouetteConic(pose, K, centre, r);
+    const double reach = 1.5 * ball.radius_px + 3;
+    const cv::Rect box = cv::Rect(cvFloor(ball.ideal_pixel.x - 2 * reach),
+                                  cvFloor(ball.ideal_pixel.y - 2 * reach),
+                                  cvCeil(4 * reach) + 1, cvCeil(4 * reach) + 1) &
+                         cv::Rect(0, 0, bgr.cols, bgr.rows);
+    if (box.area() <= 0) continue;
+    cv::Mat inside = cv::Mat::zeros(box.size(), CV_8UC1);
+    for (int v = 0; v < box.height; ++v)
+      for (int u = 0; u < box.width; ++u)
+        if (SilhouetteScorer::Coverage(Q, u + box.x, v + box.y) > 0)
+          inside.at<uint8_t>(v, u) = 255;
+    cv::dilate(inside, inside, cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(5, 5)));
+    cv::Mat ring;
+    cv::dilate(inside, ring, cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(7, 7)));
+    ring &= ~inside;
+    // Seed figure 4.10: ball regions are replaced by the mat colour around them.
+    const cv::Scalar fill = cv::mean(bgr(box), ring);
+    out(box).setTo(fill, inside);
+  }
+  return out;
+}
+
+}  // namespace texfree
