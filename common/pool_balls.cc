@@ -28,11 +28,6 @@ void HueSaturation(const cv::Vec3f& bgr, double* hue, double* saturation, double
   *intensity = i;
 }
 
-double HueDistance(double a, double b) {
-  double d = std::fmod(std::abs(a - b), 360.0);
-  return d > 180 ? 360 - d : d;
-}
-
 // The ball-ness of every pixel in `roi` (0 = cloth, 1 = ball), soft around the
 // thresholds so that sub-pixel fitting sees a continuous image.
 cv::Mat BallnessMap(const cv::Mat& bgr, const cv::Rect& roi, const cv::Vec3f& cloth,
@@ -76,8 +71,48 @@ cv::Mat BallnessMap(const cv::Mat& bgr, const cv::Rect& roi, const cv::Vec3f& cl
 class SilhouetteScorer {
  public:
   SilhouetteScorer(const cv::Mat& ballness, const cv::Rect& roi, const cv::Mat& claimed,
-                   const cv::Matx33d& K, const PlanarPose& pose, double radius)
-      : ballness_(ballness), roi_(roi), claimed_(claimed), K_(K), pose_(pose), radius_(radius) {}
+                   const cv::Matx33d& K, const PlanarPose& pose, const PoolTableProfile& profile)
+      : ballness_(ballness),
+        roi_(roi),
+        claimed_(claimed),
+        K_(K),
+        K_inv_(K.inv()),
+        pose_(pose),
+        camera_(CameraCentre(pose)),
+        radius_(profile.ball_radius_mm),
+        length_(profile.length_mm),
+        width_(profile.width_mm),
+        cushion_height_(profile.cushion_height_mm) {}
+
+  // A ball against a cushion is partly hidden behind it: is the sphere point seen through
+  // pixel (u, v) below the cushion top and the ray over the cushion when it gets there?
+  bool HiddenByCushion(const cv::Vec3d& centre, double u, double v) const {
+    cv::Vec3d d = pose_.R.t() * (K_inv_ * cv::Vec3d(u, v, 1));
+    d /= cv::norm(d);
+    const cv::Vec3d oc = centre - camera_;
+    const double b = oc.dot(d);
+    const double disc = b * b - (oc.dot(oc) - radius_ * radius_);
+    if (disc < 0) return false;
+    const double t_hit = b - std::sqrt(disc);
+    const double z_hit = camera_[2] + t_hit * d[2];
+    if (z_hit >= cushion_height_ || d[2] >= 0) return false;
+    const double t_top = (cushion_height_ - camera_[2]) / d[2];
+    const double x = camera_[0] + t_top * d[0], y = camera_[1] + t_top * d[1];
+    return x < 0 || y < 0 || x > length_ || y > width_;
+  }
+  // The lower part of a ball and the cloth just in front of it are dark both on the ball
+  // (unlit underside) and off it (contact shadow, ambient occlusion): no edge to fit.
+  // True for a pixel whose ray passes the ball's centre lower than 0.4 radius below it.
+  bool InShadowZone(const cv::Vec3d& centre, double u, double v) const {
+    cv::Vec3d d = pose_.R.t() * (K_inv_ * cv::Vec3d(u, v, 1));
+    d /= cv::norm(d);
+    const double t = (centre - camera_).dot(d);
+    return camera_[2] + t * d[2] < centre[2] - 0.4 * radius_;
+  }
+  bool NearCushion(const cv::Point2d& xy) const {
+    return xy.x < 2 * radius_ || xy.y < 2 * radius_ || xy.x > length_ - 2 * radius_ ||
+           xy.y > width_ - 2 * radius_;
+  }
 
   // Bounding box (image pixels) of the silhouette, a little grown.
   cv::Rect Box(const cv::Vec3d& centre) const {
@@ -90,21 +125,28 @@ class SilhouetteScorer {
            roi_;
   }
 
-  // Sum over the box of coverage * (2 * ball-ness - 1) * (1 - claimed).
+  // Correlation over the box between the silhouette (+1 inside, -1 outside) and the
+  // ball-ness (+1 ball, -1 cloth), leaving out pixels of other balls (`claimed`), pixels
+  // that a cushion hides and the dark zone under the ball. Ball pixels outside the
+  // silhouette count against it as much as cloth inside it, so the fit is held from
+  // every side.
   double Score(const cv::Point2d& xy, double* mean_ballness = nullptr) const {
     const cv::Vec3d centre(xy.x, xy.y, radius_);
     const cv::Matx33d Q = SphereSilhouetteConic(pose_, K_, centre, radius_);
     const cv::Rect box = Box(centre);
+    const bool near_cushion = NearCushion(xy);
     double score = 0, cov_sum = 0, ball_sum = 0;
     for (int v = box.y; v < box.y + box.height; ++v) {
       const float* b = ballness_.ptr<float>(v - roi_.y);
       const float* cl = claimed_.empty() ? nullptr : claimed_.ptr<float>(v - roi_.y);
       for (int u = box.x; u < box.x + box.width; ++u) {
-        const double cov = Coverage(Q, u, v);
-        if (cov <= 0) continue;
         const double w = cl ? 1.0 - cl[u - roi_.x] : 1.0;
+        if (w <= 0) continue;
+        const double cov = Coverage(Q, u, v);
+        if (near_cushion && cov > 0 && HiddenByCushion(centre, u, v)) continue;
+        if (InShadowZone(centre, u, v)) continue;
         const double bn = b[u - roi_.x];
-        score += cov * w * (2 * bn - 1);
+        score += w * (2 * cov - 1) * (2 * bn - 1);
         cov_sum += cov * w;
         ball_sum += cov * w * bn;
       }
@@ -126,9 +168,9 @@ class SilhouetteScorer {
   }
 
   // Compass search for the best table position, starting at `xy`.
-  cv::Point2d Fit(cv::Point2d xy) const {
+  cv::Point2d Fit(cv::Point2d xy, double first_step_mm) const {
     double best = Score(xy);
-    double step = 0.35 * radius_;
+    double step = first_step_mm;
     const cv::Point2d dirs[4] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}};
     while (step > 0.02) {
       bool moved = false;
@@ -151,14 +193,116 @@ class SilhouetteScorer {
   const cv::Mat& ballness_;
   cv::Rect roi_;
   const cv::Mat& claimed_;
+  cv::Matx33d K_, K_inv_;
+  PlanarPose pose_;
+  cv::Vec3d camera_;
+  double radius_, length_, width_, cushion_height_;
+};
+
+// Fits a ball's outline to the steepest fall of its colour distance from the cloth.
+class EdgeFitter {
+ public:
+  EdgeFitter(const cv::Mat& gx, const cv::Mat& gy, const cv::Rect& area, const cv::Mat& claimed,
+             const cv::Rect& roi, const SilhouetteScorer& scorer, const cv::Matx33d& K,
+             const PlanarPose& pose, double radius)
+      : gx_(gx), gy_(gy), area_(area), claimed_(claimed), roi_(roi), scorer_(scorer), K_(K),
+        pose_(pose), radius_(radius) {}
+
+  // Mean outward fall of the distance across the outline of a ball at `xy`.
+  double Score(const cv::Point2d& xy, int* used = nullptr) const {
+    const cv::Vec3d centre(xy.x, xy.y, radius_);
+    const cv::Vec3d c = pose_.R * centre + pose_.t;  // camera frame
+    const double c2 = c.dot(c);
+    // The sphere's contour generator: a circle around c * (1 - r^2/|c|^2).
+    const cv::Vec3d circle_centre = c * (1 - radius_ * radius_ / c2);
+    const double rho = radius_ * std::sqrt(std::max(0.0, 1 - radius_ * radius_ / c2));
+    cv::Vec3d e1 = c.cross(cv::Vec3d(0, 0, 1));
+    if (cv::norm(e1) < 1e-9) e1 = c.cross(cv::Vec3d(0, 1, 0));
+    e1 /= cv::norm(e1);
+    cv::Vec3d e2 = c.cross(e1);
+    e2 /= cv::norm(e2);
+    const cv::Matx33d Q = SphereSilhouetteConic(pose_, K_, centre, radius_);
+    const cv::Matx33d to_table = pose_.R.t();
+    double sum = 0;
+    int n = 0;
+    constexpr int kPoints = 48;
+    for (int k = 0; k < kPoints; ++k) {
+      const double a = 2 * 3.14159265358979 * k / kPoints;
+      const cv::Vec3d point = circle_centre + rho * (std::cos(a) * e1 + std::sin(a) * e2);
+      // Height of the tangent point on the table: skip the dark lower part.
+      const cv::Vec3d on_table = to_table * (point - pose_.t);
+      if (on_table[2] < radius_ - 0.4 * radius_) continue;
+      const cv::Vec3d m = K_ * point;
+      const double u = m[0] / m[2], v = m[1] / m[2];
+      if (u < area_.x + 1 || v < area_.y + 1 || u > area_.x + area_.width - 2 ||
+          v > area_.y + area_.height - 2)
+        continue;
+      const int iu = static_cast<int>(u), iv = static_cast<int>(v);
+      if (!roi_.contains({iu, iv}) || claimed_.at<float>(iv - roi_.y, iu - roi_.x) > 0.01)
+        continue;
+      if (scorer_.NearCushion(xy) && scorer_.HiddenByCushion(centre, u, v)) continue;
+      // Outward normal of the outline: the conic's gradient points inside.
+      const double qx = Q(0, 0) * u + Q(0, 1) * v + Q(0, 2);
+      const double qy = Q(1, 0) * u + Q(1, 1) * v + Q(1, 2);
+      const double norm = std::hypot(qx, qy);
+      if (norm <= 0) continue;
+      const double nx = -qx / norm, ny = -qy / norm;
+      const double g = -(Sample(gx_, u, v) * nx + Sample(gy_, u, v) * ny);
+      sum += g;
+      ++n;
+    }
+    if (used) *used = n;
+    return n >= 6 ? sum / n : -1e9;
+  }
+
+  cv::Point2d Fit(cv::Point2d xy) const {
+    int used = 0;
+    double best = Score(xy, &used);
+    if (used < 6) return xy;
+    const cv::Point2d start = xy;
+    double step = 0.1 * radius_;
+    const cv::Point2d dirs[4] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}};
+    while (step > 0.02) {
+      bool moved = false;
+      for (const auto& d : dirs) {
+        const cv::Point2d cand = xy + d * step;
+        if (cv::norm(cand - start) > 0.5 * radius_) continue;
+        const double s = Score(cand);
+        if (s > best + 1e-9) {
+          best = s;
+          xy = cand;
+          moved = true;
+          break;
+        }
+      }
+      if (!moved) step *= 0.5;
+    }
+    return xy;
+  }
+
+ private:
+  double Sample(const cv::Mat& m, double u, double v) const {
+    const double x = u - area_.x, y = v - area_.y;
+    const int x0 = static_cast<int>(x), y0 = static_cast<int>(y);
+    const double fx = x - x0, fy = y - y0;
+    return (1 - fy) * ((1 - fx) * m.at<float>(y0, x0) + fx * m.at<float>(y0, x0 + 1)) +
+           fy * ((1 - fx) * m.at<float>(y0 + 1, x0) + fx * m.at<float>(y0 + 1, x0 + 1));
+  }
+
+  const cv::Mat& gx_;
+  const cv::Mat& gy_;
+  cv::Rect area_;
+  const cv::Mat& claimed_;
+  cv::Rect roi_;
+  const SilhouetteScorer& scorer_;
   cv::Matx33d K_;
   PlanarPose pose_;
   double radius_;
 };
 
-// Reference hue/saturation/relative brightness of each ball colour of the profile.
+// Reference chroma (intensity-normalised opponent colour) of each ball colour.
 struct ColourRef {
-  double hue, saturation, relative;
+  double chroma_x, chroma_y;
 };
 
 }  // namespace
@@ -199,7 +343,9 @@ std::array<double, 10> PoolNumberScores(const PoolVotes& votes, const PoolBallOp
   const double half = (o.cue_white_share - o.one_white_share) / 2;
   s[0] = group * std::clamp((w - mid) / half, 0.0, 1.0);
   s[1] = group * std::clamp((mid - w) / half, 0.0, 1.0);
-  s[9] = group * std::clamp(1 - std::abs(w - mid) / (1.75 * half), 0.0, 1.0);
+  // The 9 shows anything from its stripe alone to mostly white, depending on how it
+  // lies: never ruled out, preferred in the middle band.
+  s[9] = group * (0.35 + 0.65 * std::clamp(1 - std::abs(w - mid) / (1.5 * half), 0.0, 1.0));
   return s;
 }
 
@@ -237,13 +383,17 @@ std::vector<int> AssignPoolNumbers(const std::vector<std::array<double, 10>>& sc
   return numbers;
 }
 
-std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& bgr, const cv::Matx33d& K,
+std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Matx33d& K,
                                               const PlanarPose& pose,
                                               const PoolTableProfile& profile,
                                               const cv::Vec3b& cloth_bgr,
                                               const PoolBallOptions& options) {
   const double L = profile.length_mm, W = profile.width_mm, r = profile.ball_radius_mm;
   const cv::Vec3f cloth(cloth_bgr[0], cloth_bgr[1], cloth_bgr[2]);
+  // JPEG rings around sharp colour edges (and halves the colour resolution); a light
+  // blur removes the ringing that would make the cloth next to a ball look like ball.
+  cv::Mat bgr;
+  cv::GaussianBlur(image, bgr, cv::Size(0, 0), 0.8);
   const double cloth_intensity = (cloth[0] + cloth[1] + cloth[2]) / 3;
   // Where balls can be seen: the playing surface from the cloth up to a ball's height,
   // without the pockets.
@@ -327,16 +477,14 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& bgr, const cv::Matx
   });
   cv::Mat claimed = cv::Mat::zeros(roi.size(), CV_32FC1);
   std::vector<PoolDetectedBall> balls;
-  for (int pass = 0; pass < 2; ++pass) {
-    std::vector<cv::Point2d> fitted;
+  // Paints the silhouettes of balls[j] for j in `others` into `claimed`.
+  auto claim = [&](const std::vector<cv::Point2d>& positions, size_t skip, size_t count) {
     claimed.setTo(0);
-    for (const auto& seed : seeds) {
-      SilhouetteScorer scorer(ballness_in_region, roi, claimed, K, pose, r);
-      const cv::Point2d xy = scorer.Fit(seed);
-      fitted.push_back(xy);
-      // Claim this ball's pixels for the balls behind it.
-      const cv::Vec3d centre(xy.x, xy.y, r);
+    for (size_t j = 0; j < count; ++j) {
+      if (j == skip) continue;
+      const cv::Vec3d centre(positions[j].x, positions[j].y, r);
       const cv::Matx33d Q = SphereSilhouetteConic(pose, K, centre, r);
+      SilhouetteScorer scorer(ballness_in_region, roi, claimed, K, pose, profile);
       const cv::Rect box = scorer.Box(centre);
       for (int v = box.y; v < box.y + box.height; ++v)
         for (int u = box.x; u < box.x + box.width; ++u) {
@@ -344,21 +492,77 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& bgr, const cv::Matx
           c = std::max(c, static_cast<float>(SilhouetteScorer::Coverage(Q, u, v)));
         }
     }
-    seeds = fitted;
+  };
+  // First pass: nearest first, each ball ignoring the nearer ones already fitted; second
+  // pass: each ball ignoring all the others.
+  for (int pass = 0; pass < 2; ++pass)
+    for (size_t i = 0; i < seeds.size(); ++i) {
+      claim(seeds, i, pass == 0 ? i : seeds.size());
+      SilhouetteScorer scorer(ballness_in_region, roi, claimed, K, pose, profile);
+      seeds[i] = scorer.Fit(seeds[i], 0.35 * r);
+    }
+  // Sub-pixel pass on the edge: the ball's outline is where its colour distance from the
+  // cloth around it falls fastest (for any symmetric blur, JPEG smear or shading of the
+  // ball), so the silhouette's outline is moved to where that fall is steepest, on the
+  // part of the outline that is not in the dark zone under the ball, not hidden by a
+  // cushion and not next to another ball.
+  for (size_t i = 0; i < seeds.size(); ++i) {
+    claim(seeds, i, seeds.size());
+    SilhouetteScorer scorer(ballness_in_region, roi, claimed, K, pose, profile);
+    const cv::Vec3d centre(seeds[i].x, seeds[i].y, r);
+    const cv::Matx33d Q = SphereSilhouetteConic(pose, K, centre, r);
+    const cv::Rect box = scorer.Box(centre);
+    std::vector<cv::Vec3f> cloth_pixels;
+    for (int v = box.y; v < box.y + box.height; ++v)
+      for (int u = box.x; u < box.x + box.width; ++u) {
+        if (claimed.at<float>(v - roi.y, u - roi.x) > 0.01) continue;
+        if (scorer.InShadowZone(centre, u, v)) continue;
+        if (SilhouetteScorer::Coverage(Q, u, v) > 0) continue;
+        if (ballness_in_region.at<float>(v - roi.y, u - roi.x) >= 0.5) continue;
+        const cv::Vec3b& p = bgr.at<cv::Vec3b>(v, u);
+        cloth_pixels.emplace_back(p[0], p[1], p[2]);
+      }
+    if (cloth_pixels.size() < 5) continue;
+    cv::Vec3f local_cloth;
+    for (int k = 0; k < 3; ++k) {
+      std::vector<float> c;
+      for (const auto& p : cloth_pixels) c.push_back(p[k]);
+      std::nth_element(c.begin(), c.begin() + c.size() / 2, c.end());
+      local_cloth[k] = c[c.size() / 2];
+    }
+    const cv::Rect grown = cv::Rect(box.x - box.width / 2, box.y - box.height / 2,
+                                    box.width * 2, box.height * 2) &
+                           image_rect;
+    cv::Mat distance(grown.size(), CV_32FC1);
+    for (int v = 0; v < grown.height; ++v) {
+      const cv::Vec3b* p = bgr.ptr<cv::Vec3b>(v + grown.y) + grown.x;
+      float* d = distance.ptr<float>(v);
+      for (int u = 0; u < grown.width; ++u)
+        d[u] = static_cast<float>(cv::norm(cv::Vec3f(p[u][0], p[u][1], p[u][2]) - local_cloth));
+    }
+    cv::Mat gx, gy;
+    cv::Sobel(distance, gx, CV_32F, 1, 0, 3, 1.0 / 8);
+    cv::Sobel(distance, gy, CV_32F, 0, 1, 3, 1.0 / 8);
+    EdgeFitter edge(gx, gy, grown, claimed, roi, scorer, K, pose, r);
+    seeds[i] = edge.Fit(seeds[i]);
   }
+
   // Keep distinct, well-supported balls on the table.
-  claimed.setTo(0);
   std::vector<cv::Point2d> kept;
-  for (const auto& xy : seeds) {
+  for (size_t i = 0; i < seeds.size(); ++i) {
+    const cv::Point2d xy = seeds[i];
     if (xy.x < -r / 2 || xy.y < -r / 2 || xy.x > L + r / 2 || xy.y > W + r / 2) continue;
     bool duplicate = false;
     for (const auto& k : kept)
       if (cv::norm(k - xy) < r) duplicate = true;
     if (duplicate) continue;
-    SilhouetteScorer scorer(ballness_in_region, roi, claimed, K, pose, r);
+    claim(seeds, i, seeds.size());
+    SilhouetteScorer scorer(ballness_in_region, roi, claimed, K, pose, profile);
     double mean_ballness = 0;
     scorer.Score(xy, &mean_ballness);
-    if (mean_ballness < 0.6) continue;
+    if (mean_ballness < 0.5) continue;
+    // Votes: pixels not covered by a nearer ball.
+    claim(seeds, i, i);
     kept.push_back(xy);
     PoolDetectedBall ball;
     ball.x_mm = xy.x;
@@ -396,14 +600,17 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& bgr, const cv::Matx
       const cv::Vec3b& c = profile.ball_bgr[k];
       double h, s, i;
       HueSaturation(cv::Vec3f(c[0], c[1], c[2]), &h, &s, &i);
-      refs[k] = {h, s, i / profile_cloth};
+      refs[k] = {s * std::cos(h * kPi / 180), s * std::sin(h * kPi / 180)};
     }
-    std::vector<double> red_family_brightness;
-    int red_family = 0;
     for (int v = box.y; v < box.y + box.height; ++v)
       for (int u = box.x; u < box.x + box.width; ++u) {
         if (SilhouetteScorer::Coverage(Q, u, v) < 0.99) continue;
         if (claimed.at<float>(v - roi.y, u - roi.x) > 0.5) continue;
+        // Only the ball's own colours vote: not the cloth seen where a cushion hides the
+        // ball, nor cloth left inside the silhouette by a small misfit.
+        if (ballness_in_region.at<float>(v - roi.y, u - roi.x) < 0.5) continue;
+        if (scorer.NearCushion(xy) && scorer.HiddenByCushion(centre, u, v)) continue;
+        if (scorer.InShadowZone(centre, u, v)) continue;
         const cv::Vec3b& p = bgr.at<cv::Vec3b>(v, u);
         double hue, sat, intensity;
         HueSaturation(cv::Vec3f(p[0], p[1], p[2]), &hue, &sat, &intensity);
@@ -414,48 +621,26 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& bgr, const cv::Matx
         } else if (sat < 0.25) {
           vote = q < 0.55 ? 8 : 0;
         } else {
-          // Nearest solid colour by hue (seed eq. 4.1 on the chromatic part); the 3 and
-          // the 7 share a hue and are told apart by brightness below.
+          // Nearest solid colour in the intensity-normalised chroma plane (seed eq. 4.1
+          // on the chromatic part, which is independent of the light's strength and
+          // tells the red 3 from the less saturated maroon 7).
+          const double x = sat * std::cos(hue * kPi / 180), y = sat * std::sin(hue * kPi / 180);
           vote = 1;
           double best = 1e9;
           for (int k = 1; k <= 7; ++k) {
-            if (k == 7) continue;
-            const double d = HueDistance(hue, refs[k].hue);
+            const double d = std::hypot(x - refs[k].chroma_x, y - refs[k].chroma_y);
             if (d < best) {
               best = d;
               vote = k;
             }
           }
-          if (vote == 3) {
-            red_family_brightness.push_back(q);
-            ++red_family;
-          }
         }
         ++ball.votes[vote];
       }
-    if (red_family > 0) {
-      // The 3 (red) and the 7 (maroon): the lit part of the ball (80th percentile of the
-      // red pixels' brightness) against the two references.
-      const size_t at = red_family_brightness.size() * 8 / 10;
-      std::nth_element(red_family_brightness.begin(), red_family_brightness.begin() + at,
-                       red_family_brightness.end());
-      const double lit = red_family_brightness[at];
-      const double split = std::sqrt(refs[3].relative * refs[7].relative);
-      if (lit < split) {
-        ball.votes[7] += ball.votes[3];
-        ball.votes[3] = 0;
-      }
-    }
     int total = 0;
     for (int v : ball.votes) total += v;
     ball.white_share = total ? static_cast<double>(ball.votes[0]) / total : 0;
     balls.push_back(ball);
-    // Later (farther) balls ignore this one's pixels.
-    for (int v = box.y; v < box.y + box.height; ++v)
-      for (int u = box.x; u < box.x + box.width; ++u) {
-        float& c = claimed.at<float>(v - roi.y, u - roi.x);
-        c = std::max(c, static_cast<float>(SilhouetteScorer::Coverage(Q, u, v)));
-      }
   }
   std::vector<std::array<double, 10>> scores;
   for (const auto& b : balls) scores.push_back(PoolNumberScores(b.votes, options));

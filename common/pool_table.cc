@@ -363,10 +363,18 @@ absl::StatusOr<PoolTableDetection> DetectPoolTable(const cv::Mat& bgr, const cv:
     return c / static_cast<double>(contour.size());
   }();
   std::vector<std::vector<int>> near(lines.size());
-  for (size_t i = 0; i < lines.size(); ++i)
-    for (size_t k = 0; k < contour.size(); ++k)
-      if (std::abs(lines[i].Distance(cv::Point2d(contour[k]))) < 2.5)
-        near[i].push_back(static_cast<int>(k));
+  std::vector<double> line_angle(lines.size(), 0);  // of its outline points around the centroid
+  for (size_t i = 0; i < lines.size(); ++i) {
+    double sx = 0, sy = 0;
+    for (size_t k = 0; k < contour.size(); ++k) {
+      if (std::abs(lines[i].Distance(cv::Point2d(contour[k]))) >= 2.5) continue;
+      near[i].push_back(static_cast<int>(k));
+      const double a = std::atan2(contour[k].y - centroid.y, contour[k].x - centroid.x);
+      sx += std::cos(a);
+      sy += std::sin(a);
+    }
+    line_angle[i] = std::atan2(sy, sx);
+  }
   int best_score = -1;
   std::array<Line, 4> sides;
   std::array<cv::Point2d, 4> corners;
@@ -381,17 +389,8 @@ absl::StatusOr<PoolTableDetection> DetectPoolTable(const cv::Mat& bgr, const cv:
           std::array<std::pair<double, int>, 4> order;
           bool empty = false;
           for (int i = 0; i < 4; ++i) {
-            const auto& pts = near[idx[i]];
-            if (pts.empty()) {
-              empty = true;
-              break;
-            }
-            double sx = 0, sy = 0;
-            for (int k : pts) {
-              sx += std::cos(std::atan2(contour[k].y - centroid.y, contour[k].x - centroid.x));
-              sy += std::sin(std::atan2(contour[k].y - centroid.y, contour[k].x - centroid.x));
-            }
-            order[i] = {std::atan2(sy, sx), idx[i]};
+            if (near[idx[i]].empty()) empty = true;
+            order[i] = {line_angle[idx[i]], idx[i]};
           }
           if (empty) continue;
           std::sort(order.begin(), order.end());

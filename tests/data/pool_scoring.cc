@@ -37,6 +37,17 @@ PoolScore ScorePoolAnalysis(const PoolScene& scene, const PoolView& view,
       }
     }
     if (truth.separated) ++score.separated;
+    PoolBallMatch match;
+    match.truth_number = truth.number;
+    match.separated = truth.separated;
+    match.pixel = truth.pixel;
+    if (best >= 0) {
+      match.estimated_number = est[best].number;
+      match.error_mm = best_d;
+      match.dx_mm = est[best].x_mm - truth.x_mm;
+      match.dy_mm = est[best].y_mm - truth.y_mm;
+    }
+    score.matches.push_back(match);
     if (best < 0) continue;
     used[best] = true;
     score.position_errors_mm.push_back(best_d);

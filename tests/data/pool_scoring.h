@@ -18,7 +18,17 @@ struct EstimatedPoolBall {
   double x_mm = 0, y_mm = 0;
 };
 
+struct PoolBallMatch {
+  int truth_number = 0;
+  bool separated = false;
+  int estimated_number = -2;  // -2: not found
+  double error_mm = -1;
+  double dx_mm = 0, dy_mm = 0;  // estimate - truth
+  cv::Point2d pixel;  // true centre in the image
+};
+
 struct PoolScore {
+  std::vector<PoolBallMatch> matches;  // one per true ball
   bool rotated = false;           // the estimate's origin is the opposite corner
   double max_corner_error_px = 0;  // playing-surface corners, image pixels
   std::vector<double> position_errors_mm;  // one per matched true ball
