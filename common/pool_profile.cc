@@ -1,9 +1,12 @@
 // Pool table profiles and their validation.
 #include "common/pool_profile.h"
 
+#include <algorithm>
 #include <cmath>
+#include <vector>
 
 #include "absl/strings/str_cat.h"
+#include "common/status_macros.h"
 
 namespace texfree {
 
@@ -36,6 +39,69 @@ absl::Status PoolTableProfile::Validate() const {
     return absl::InvalidArgumentError(absl::StrCat(
         "side_pocket_mm (", side_pocket_mm, ") must be wider than a ball and below width/2"));
   return absl::OkStatus();
+}
+
+absl::StatusOr<PoolTableProfile> CalibratePoolColors(
+    const cv::Mat& bgr, const cv::Rect& cloth_region,
+    const std::vector<std::pair<int, cv::Rect>>& ball_regions, PoolTableProfile profile) {
+  if (bgr.empty() || bgr.type() != CV_8UC3)
+    return absl::InvalidArgumentError("colour calibration needs an 8-bit colour image");
+  const cv::Rect image(0, 0, bgr.cols, bgr.rows);
+  if (cloth_region.area() <= 0 || (cloth_region & image) != cloth_region)
+    return absl::InvalidArgumentError(absl::StrCat(
+        "cloth region ", cloth_region.width, "x", cloth_region.height, " at (", cloth_region.x,
+        ", ", cloth_region.y, ") is empty or outside the ", bgr.cols, "x", bgr.rows, " image"));
+  // Peak of a 16-level-per-channel histogram, then the mean of the pixels in that bin.
+  std::vector<int> histogram(16 * 16 * 16, 0);
+  auto bin = [](const cv::Vec3b& p) { return (p[0] >> 4) * 256 + (p[1] >> 4) * 16 + (p[2] >> 4); };
+  for (int y = cloth_region.y; y < cloth_region.y + cloth_region.height; ++y)
+    for (int x = cloth_region.x; x < cloth_region.x + cloth_region.width; ++x)
+      ++histogram[bin(bgr.at<cv::Vec3b>(y, x))];
+  const int peak = static_cast<int>(std::max_element(histogram.begin(), histogram.end()) -
+                                    histogram.begin());
+  cv::Vec3d sum(0, 0, 0);
+  int n = 0;
+  for (int y = cloth_region.y; y < cloth_region.y + cloth_region.height; ++y)
+    for (int x = cloth_region.x; x < cloth_region.x + cloth_region.width; ++x) {
+      const cv::Vec3b& p = bgr.at<cv::Vec3b>(y, x);
+      if (bin(p) != peak) continue;
+      sum += cv::Vec3d(p[0], p[1], p[2]);
+      ++n;
+    }
+  const cv::Vec3d cloth = sum / std::max(1, n);
+  profile.cloth_bgr = cv::Vec3b(cv::saturate_cast<uint8_t>(cloth[0]),
+                                cv::saturate_cast<uint8_t>(cloth[1]),
+                                cv::saturate_cast<uint8_t>(cloth[2]));
+  // Balls: the pixels more than 10 degrees (seed eq. 4.1) away from the cloth colour.
+  const double cos_limit = std::cos(10 * 3.14159265358979 / 180);
+  for (const auto& [number, region] : ball_regions) {
+    if (number < 0 || number >= kPoolBallCount)
+      return absl::InvalidArgumentError(
+          absl::StrCat("ball number ", number, " is not 0 (cue) .. 9"));
+    if (region.area() <= 0 || (region & image) != region)
+      return absl::InvalidArgumentError(
+          absl::StrCat("the region of ball ", number, " is empty or outside the image"));
+    cv::Vec3d ball(0, 0, 0);
+    int count = 0;
+    for (int y = region.y; y < region.y + region.height; ++y)
+      for (int x = region.x; x < region.x + region.width; ++x) {
+        const cv::Vec3b& p = bgr.at<cv::Vec3b>(y, x);
+        const cv::Vec3d v(p[0], p[1], p[2]);
+        const double nv = cv::norm(v), nc = cv::norm(cloth);
+        if (nv > 1e-6 && nc > 1e-6 && v.dot(cloth) >= cos_limit * nv * nc) continue;
+        ball += v;
+        ++count;
+      }
+    if (count < 5)
+      return absl::InvalidArgumentError(absl::StrCat(
+          "the region of ball ", number, " holds no pixels that differ from the cloth colour"));
+    ball /= count;
+    profile.ball_bgr[number] = cv::Vec3b(cv::saturate_cast<uint8_t>(ball[0]),
+                                         cv::saturate_cast<uint8_t>(ball[1]),
+                                         cv::saturate_cast<uint8_t>(ball[2]));
+  }
+  RETURN_IF_ERROR(profile.Validate());
+  return profile;
 }
 
 PoolTableProfile NineFootPoolProfile() { return PoolTableProfile(); }

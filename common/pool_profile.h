@@ -5,10 +5,13 @@
 
 #include <array>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include <opencv2/core.hpp>
 
 #include "absl/status/status.h"
+#include "absl/status/statusor.h"
 
 namespace texfree {
 
@@ -39,6 +42,15 @@ struct PoolTableProfile {
   // table, cushions lower than the ball diameter, pockets wider than a ball).
   absl::Status Validate() const;
 };
+
+// Seed 4.2.2: learns the colours from a photograph. The cloth colour is the peak of the
+// colour histogram of `cloth_region` (a region of the cloth that may hold balls); each
+// (number, region) of `ball_regions` gives that ball's colour as the mean of the region's
+// pixels that are not cloth-coloured. Errors: INVALID_ARGUMENT for regions outside the
+// image, empty regions, numbers outside 0..9 or a ball region without ball pixels.
+absl::StatusOr<PoolTableProfile> CalibratePoolColors(
+    const cv::Mat& bgr, const cv::Rect& cloth_region,
+    const std::vector<std::pair<int, cv::Rect>>& ball_regions, PoolTableProfile profile);
 
 // A standard 9-ft table: 2540 x 1270 mm, ball radius 28.575 mm.
 PoolTableProfile NineFootPoolProfile();

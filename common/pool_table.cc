@@ -297,7 +297,7 @@ absl::StatusOr<PoolTableDetection> DetectPoolTable(const cv::Mat& bgr, const cv:
                                  &area);
   const int min_area = static_cast<int>(options.min_cloth_fraction * bgr.total());
   if (area < min_area) {
-    return absl::NotFoundError(absl::StrCat(
+    return absl::FailedPreconditionError(absl::StrCat(
         "no pool table in view: no region of the cloth colour (BGR ", profile.cloth_bgr[0], ",",
         profile.cloth_bgr[1], ",", profile.cloth_bgr[2], ") covers ",
         100 * options.min_cloth_fraction,
@@ -317,12 +317,12 @@ absl::StatusOr<PoolTableDetection> DetectPoolTable(const cv::Mat& bgr, const cv:
                    cv::getStructuringElement(cv::MORPH_RECT, cv::Size(3, 3)));
   det.cloth_mask = LargestRegion(mask, &area);
   if (area < min_area)
-    return absl::NotFoundError("no pool table in view: the cloth region is too small");
+    return absl::FailedPreconditionError("no pool table in view: the cloth region is too small");
 
   // 3. Outline.
   std::vector<std::vector<cv::Point>> contours;
   cv::findContours(det.cloth_mask, contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE);
-  if (contours.empty()) return absl::NotFoundError("no pool table in view");
+  if (contours.empty()) return absl::FailedPreconditionError("no pool table in view");
   const auto& contour = *std::max_element(
       contours.begin(), contours.end(),
       [](const auto& a, const auto& b) { return a.size() < b.size(); });

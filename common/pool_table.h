@@ -54,9 +54,10 @@ struct PoolTableDetection {
 };
 
 // Finds the table in `ideal_bgr` (8-bit BGR, undistorted with K). Errors:
-// NOT_FOUND when no cloth-coloured region of table size is in view; FAILED_PRECONDITION
-// when the table is cut by the image border (only part of it in view) or its outline is
-// not four straight sides; INVALID_ARGUMENT for bad options/profile.
+// FAILED_PRECONDITION when no cloth-coloured region of table size is in view ("no pool
+// table in view"), when the table is cut by the image border ("only part of the table is
+// in view") or its outline is not four straight sides; INVALID_ARGUMENT for bad
+// options/profile.
 absl::StatusOr<PoolTableDetection> DetectPoolTable(const cv::Mat& ideal_bgr,
                                                    const cv::Matx33d& K,
                                                    const PoolTableProfile& profile,

@@ -10,6 +10,8 @@
 #include "server/document_registry.h"
 #include "server/document_service.h"
 #include "server/document_store.h"
+#include "server/pool_profile_store.h"
+#include "server/pool_service.h"
 #include "server/unimplemented_services.h"
 
 namespace texfree::server {
@@ -17,6 +19,8 @@ namespace texfree::server {
 struct ServiceRegistry::Impl {
   std::unique_ptr<DocumentRegistry> documents;
   std::unique_ptr<DocumentServiceImpl> document_service;
+  std::unique_ptr<PoolProfileStore> pool_profiles;
+  std::unique_ptr<PoolServiceImpl> pool_service;
   std::vector<std::unique_ptr<grpc::Service>> pending;
 };
 
@@ -43,18 +47,26 @@ absl::StatusOr<std::unique_ptr<ServiceRegistry>> ServiceRegistry::Create(
   registry->impl_->document_service =
       std::make_unique<DocumentServiceImpl>(documents.get(), limits);
   registry->impl_->documents = std::move(documents);
+  const std::string pool_db_path = (std::filesystem::path(config.data_dir) / "pool.db").string();
+  ASSIGN_OR_RETURN(registry->impl_->pool_profiles, PoolProfileStore::Open(pool_db_path));
+  spdlog::info("pool table profiles {}", pool_db_path);
+  registry->impl_->pool_service =
+      std::make_unique<PoolServiceImpl>(registry->impl_->pool_profiles.get(), limits);
   registry->impl_->pending = MakeNotYetImplementedServices();
   return registry;
 }
 
 void ServiceRegistry::RegisterAll(grpc::ServerBuilder& builder) {
   builder.RegisterService(impl_->document_service.get());
+  builder.RegisterService(impl_->pool_service.get());
   for (auto& service : impl_->pending) builder.RegisterService(service.get());
 }
 
 void ServiceRegistry::Close() {
   if (!impl_) return;
   impl_->document_service.reset();
+  impl_->pool_service.reset();
+  impl_->pool_profiles.reset();
   impl_->documents.reset();  // closes the database
   spdlog::info("storage closed");
 }

@@ -1,4 +1,4 @@
-// Placeholder tracking, map, survey and pool services: every method answers
+// Placeholder tracking, map and survey services: every method answers
 // UNIMPLEMENTED with a message naming the service, the method and the
 // capability that is still to come.
 #include "server/unimplemented_services.h"
@@ -22,7 +22,6 @@ grpc::Status NotYet(const char* service, const char* method,
 constexpr char kTracking[] = "live tracking of documents and maps";
 constexpr char kMaps[] = "augmented maps";
 constexpr char kSurvey[] = "light photogrammetry";
-constexpr char kPool[] = "the pool assistant";
 
 }  // namespace
 
@@ -90,26 +89,6 @@ Status SurveyService::ExportPoints(ServerContext*,
   return NotYet("SurveyService", "ExportPoints", kSurvey);
 }
 
-Status PoolService::SetTableProfile(ServerContext*,
-                                    const v1::SetTableProfileRequest*,
-                                    v1::TableProfile*) {
-  return NotYet("PoolService", "SetTableProfile", kPool);
-}
-Status PoolService::CalibrateColors(ServerContext*,
-                                    const v1::CalibrateColorsRequest*,
-                                    v1::TableProfile*) {
-  return NotYet("PoolService", "CalibrateColors", kPool);
-}
-Status PoolService::AnalyzeTable(ServerContext*, const v1::AnalyzeTableRequest*,
-                                 v1::AnalyzeTableResponse*) {
-  return NotYet("PoolService", "AnalyzeTable", kPool);
-}
-Status PoolService::TrackTable(
-    ServerContext*, grpc::ServerReaderWriter<v1::AnalyzeTableResponse,
-                                             v1::TrackTableRequest>*) {
-  return NotYet("PoolService", "TrackTable", kPool);
-}
-
 }  // namespace unimplemented
 
 std::vector<std::unique_ptr<grpc::Service>> MakeNotYetImplementedServices() {
@@ -117,7 +96,6 @@ std::vector<std::unique_ptr<grpc::Service>> MakeNotYetImplementedServices() {
   services.push_back(std::make_unique<unimplemented::TrackingService>());
   services.push_back(std::make_unique<unimplemented::MapService>());
   services.push_back(std::make_unique<unimplemented::SurveyService>());
-  services.push_back(std::make_unique<unimplemented::PoolService>());
   return services;
 }
 

@@ -1,4 +1,4 @@
-// Placeholder gRPC services (tracking, maps, survey, pool) whose every method
+// Placeholder gRPC services (tracking, maps, survey) whose every method
 // answers UNIMPLEMENTED with a message naming the missing capability, so that
 // clients and reflection see the whole texfree.v1 API from the first version.
 #pragma once
@@ -9,7 +9,6 @@
 #include <vector>
 
 #include "texfree/v1/map.grpc.pb.h"
-#include "texfree/v1/pool.grpc.pb.h"
 #include "texfree/v1/survey.grpc.pb.h"
 #include "texfree/v1/tracking.grpc.pb.h"
 
@@ -69,27 +68,6 @@ class SurveyService final : public texfree::v1::SurveyService::Service {
       grpc::ServerContext* context,
       const texfree::v1::ExportPointsRequest* request,
       texfree::v1::ExportPointsResponse* response) override;
-};
-
-class PoolService final : public texfree::v1::PoolService::Service {
- public:
-  grpc::Status SetTableProfile(
-      grpc::ServerContext* context,
-      const texfree::v1::SetTableProfileRequest* request,
-      texfree::v1::TableProfile* response) override;
-  grpc::Status CalibrateColors(
-      grpc::ServerContext* context,
-      const texfree::v1::CalibrateColorsRequest* request,
-      texfree::v1::TableProfile* response) override;
-  grpc::Status AnalyzeTable(
-      grpc::ServerContext* context,
-      const texfree::v1::AnalyzeTableRequest* request,
-      texfree::v1::AnalyzeTableResponse* response) override;
-  grpc::Status TrackTable(
-      grpc::ServerContext* context,
-      grpc::ServerReaderWriter<texfree::v1::AnalyzeTableResponse,
-                               texfree::v1::TrackTableRequest>* stream)
-      override;
 };
 
 }  // namespace unimplemented
