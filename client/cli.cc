@@ -7,6 +7,7 @@
 
 #include "client/command_context.h"
 #include "client/doc_commands.h"
+#include "client/pool_commands.h"
 
 namespace texfree::client {
 
@@ -34,6 +35,7 @@ int RunCli(int argc, char** argv, std::ostream& out, std::ostream& err) {
       ->capture_default_str();
 
   AddDocCommands(app, ctx);
+  AddPoolCommands(app, ctx);
   // Later groups (track, survey, map, pool, lights) register here the same way.
 
   try {

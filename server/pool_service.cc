@@ -342,6 +342,7 @@ grpc::Status PoolServiceImpl::AnalyzeTable(grpc::ServerContext*,
   }
   analysis->timings_ms.insert(analysis->timings_ms.begin(), {"decode", decode_ms});
   FillResponse(*analyzer, *analysis, shots, response);
+  ProfileToProto(*profile, response->mutable_profile());
   response->set_shots_note(note);
   response->set_state("analysed");
   response->set_server_ms(MillisecondsSince(t0));
@@ -410,6 +411,7 @@ grpc::Status PoolServiceImpl::TrackTable(
           reference = analysis->balls;
         }
         FillResponse(*analyzer, *analysis, shots, &response);
+        ProfileToProto(*profile, response.mutable_profile());
         response.set_shots_note(note);
         response.set_state(fresh ? "analysed" : "tracked");
       }
