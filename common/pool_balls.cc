@@ -513,13 +513,23 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
     const cv::Matx33d Q = SphereSilhouetteConic(pose, K, centre, r);
     const cv::Rect box = scorer.Box(centre);
     std::vector<cv::Vec3f> cloth_pixels;
+    double ball_intensity = 0, ball_saturation = 0;
+    int ball_pixels = 0;
     for (int v = box.y; v < box.y + box.height; ++v)
       for (int u = box.x; u < box.x + box.width; ++u) {
         if (claimed.at<float>(v - roi.y, u - roi.x) > 0.01) continue;
         if (scorer.InShadowZone(centre, u, v)) continue;
-        if (SilhouetteScorer::Coverage(Q, u, v) > 0) continue;
-        if (ballness_in_region.at<float>(v - roi.y, u - roi.x) >= 0.5) continue;
         const cv::Vec3b& p = bgr.at<cv::Vec3b>(v, u);
+        const float b = ballness_in_region.at<float>(v - roi.y, u - roi.x);
+        const double cov = SilhouetteScorer::Coverage(Q, u, v);
+        if (cov >= 0.99 && b > 0.5) {
+          double hue, sat, intensity;
+          HueSaturation(cv::Vec3f(p[0], p[1], p[2]), &hue, &sat, &intensity);
+          ball_intensity += intensity;
+          ball_saturation += sat;
+          ++ball_pixels;
+        }
+        if (cov > 0 || b >= 0.5) continue;
         cloth_pixels.emplace_back(p[0], p[1], p[2]);
       }
     if (cloth_pixels.size() < 5) continue;
@@ -533,12 +543,28 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
     const cv::Rect grown = cv::Rect(box.x - box.width / 2, box.y - box.height / 2,
                                     box.width * 2, box.height * 2) &
                            image_rect;
+    // Distance from the cloth mostly in chromaticity (the colour with the light's
+    // strength divided out), so that a ball as bright as the cloth (the lit top of a green
+    // 6) still stands out, and a shadow on the cloth does not; a dark ball (the 8) has no
+    // chromaticity to speak of and is told by its darkness.
+    const float cloth_i = std::max(15.f, (local_cloth[0] + local_cloth[1] + local_cloth[2]) / 3);
+    const cv::Vec3f cloth_chroma = local_cloth / cloth_i;
+    const bool dark_ball = ball_pixels > 0 && ball_intensity / ball_pixels < 0.5 * cloth_i &&
+                           ball_saturation / ball_pixels < 0.5;
     cv::Mat distance(grown.size(), CV_32FC1);
     for (int v = 0; v < grown.height; ++v) {
       const cv::Vec3b* p = bgr.ptr<cv::Vec3b>(v + grown.y) + grown.x;
       float* d = distance.ptr<float>(v);
-      for (int u = 0; u < grown.width; ++u)
-        d[u] = static_cast<float>(cv::norm(cv::Vec3f(p[u][0], p[u][1], p[u][2]) - local_cloth));
+      for (int u = 0; u < grown.width; ++u) {
+        const cv::Vec3f q(p[u][0], p[u][1], p[u][2]);
+        if (dark_ball) {
+          d[u] = static_cast<float>(cv::norm(q - local_cloth));
+          continue;
+        }
+        const float i = std::max(15.f, (q[0] + q[1] + q[2]) / 3);
+        d[u] = static_cast<float>(cv::norm(q / i - cloth_chroma) * cloth_i +
+                                  0.3 * std::abs(i - cloth_i));
+      }
     }
     cv::Mat gx, gy;
     cv::Sobel(distance, gx, CV_32F, 1, 0, 3, 1.0 / 8);
