@@ -386,7 +386,9 @@ grpc::Status PoolServiceImpl::TrackTable(
       response.set_message("expected a frame; the config comes only first");
     } else {
       auto image = ImageFromProto(request.frame(), limits_, /*gray=*/false);
-      absl::StatusOr<PoolAnalysis> analysis = image.status();
+      absl::StatusOr<PoolAnalysis> analysis =
+          image.ok() ? absl::StatusOr<PoolAnalysis>(absl::UnknownError("not analysed"))
+                     : absl::StatusOr<PoolAnalysis>(image.status());
       if (image.ok()) {
         try {
           analysis = analyzer->Analyze(*image, reference.empty() ? nullptr : &reference);
