@@ -82,13 +82,21 @@ class SilhouetteScorer {
         radius_(profile.ball_radius_mm),
         length_(profile.length_mm),
         width_(profile.width_mm),
-        cushion_height_(profile.cushion_height_mm) {}
+        cushion_height_(profile.cushion_height_mm) {
+    // The ray through pixel (u, v) in the table frame is ray0 + u ray_u + v ray_v.
+    const cv::Matx33d M = pose_.R.t() * K_inv_;
+    ray_u_ = {M(0, 0), M(1, 0), M(2, 0)};
+    ray_v_ = {M(0, 1), M(1, 1), M(2, 1)};
+    ray0_ = {M(0, 2), M(1, 2), M(2, 2)};
+  }
+
+  cv::Vec3d Ray(double u, double v) const { return ray0_ + u * ray_u_ + v * ray_v_; }
 
   // A ball against a cushion is partly hidden behind it: is the sphere point seen through
   // pixel (u, v) below the cushion top and the ray over the cushion when it gets there?
   bool HiddenByCushion(const cv::Vec3d& centre, double u, double v) const {
-    cv::Vec3d d = pose_.R.t() * (K_inv_ * cv::Vec3d(u, v, 1));
-    d /= cv::norm(d);
+    cv::Vec3d d = Ray(u, v);
+    d /= std::sqrt(d.dot(d));
     const cv::Vec3d oc = centre - camera_;
     const double b = oc.dot(d);
     const double disc = b * b - (oc.dot(oc) - radius_ * radius_);
@@ -104,9 +112,8 @@ class SilhouetteScorer {
   // (unlit underside) and off it (contact shadow, ambient occlusion): no edge to fit.
   // True for a pixel whose ray passes the ball's centre lower than 0.4 radius below it.
   bool InShadowZone(const cv::Vec3d& centre, double u, double v) const {
-    cv::Vec3d d = pose_.R.t() * (K_inv_ * cv::Vec3d(u, v, 1));
-    d /= cv::norm(d);
-    const double t = (centre - camera_).dot(d);
+    const cv::Vec3d d = Ray(u, v);
+    const double t = (centre - camera_).dot(d) / d.dot(d);
     return camera_[2] + t * d[2] < centre[2] - 0.4 * radius_;
   }
   bool NearCushion(const cv::Point2d& xy) const {
@@ -162,7 +169,7 @@ class SilhouetteScorer {
     const double qy = Q(1, 0) * u + Q(1, 1) * v + Q(1, 2);
     const double qz = Q(2, 0) * u + Q(2, 1) * v + Q(2, 2);
     const double g = u * qx + v * qy + qz;
-    const double grad = 2 * std::hypot(qx, qy);
+    const double grad = 2 * std::sqrt(qx * qx + qy * qy);
     if (grad <= 0) return 0;
     return std::clamp(0.5 + g / grad, 0.0, 1.0);
   }
@@ -197,6 +204,7 @@ class SilhouetteScorer {
   PlanarPose pose_;
   cv::Vec3d camera_;
   double radius_, length_, width_, cushion_height_;
+  cv::Vec3d ray0_, ray_u_, ray_v_;
 };
 
 // Fits a ball's outline to the steepest fall of its colour distance from the cloth.
@@ -495,8 +503,15 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
   };
   // First pass: nearest first, each ball ignoring the nearer ones already fitted; second
   // pass: each ball ignoring all the others.
+  const double isolated_mm = 6 * r;  // farther apart than this, balls never share pixels
   for (int pass = 0; pass < 2; ++pass)
     for (size_t i = 0; i < seeds.size(); ++i) {
+      if (pass == 1) {
+        bool alone = true;
+        for (size_t j = 0; j < seeds.size(); ++j)
+          if (j != i && cv::norm(seeds[j] - seeds[i]) < isolated_mm) alone = false;
+        if (alone) continue;  // the first pass already saw no other ball
+      }
       claim(seeds, i, pass == 0 ? i : seeds.size());
       SilhouetteScorer scorer(ballness_in_region, roi, claimed, K, pose, profile);
       seeds[i] = scorer.Fit(seeds[i], 0.35 * r);

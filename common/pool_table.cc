@@ -156,11 +156,14 @@ std::vector<cv::Point2d> EdgePoints(const cv::Mat& bgr, const cv::Point2d& a,
     // f = 1 on the cloth, 0 on the rail, linear in the mixture of the two.
     std::array<double, kSamples> f;
     for (int i = 0; i < kSamples; ++i) f[i] = (p.colour[i] - p.outside).dot(diff) / contrast;
+    // The outermost fall from cloth to rail: the cloth-covered cushion top is the last
+    // cloth before the rail (a dark cushion face seen nearer the cloth makes an earlier,
+    // wrong fall on the far side of the table).
     double best_t = 1e9;
-    for (int i = 0; i + 1 < kSamples; ++i) {
+    for (int i = kSamples - 2; i >= 0; --i) {
       if (f[i] >= 0.5 && f[i + 1] < 0.5) {
-        const double t = -kReach + kStep * (i + (f[i] - 0.5) / (f[i] - f[i + 1]));
-        if (std::abs(t) < std::abs(best_t)) best_t = t;
+        best_t = -kReach + kStep * (i + (f[i] - 0.5) / (f[i] - f[i + 1]));
+        break;
       }
     }
     if (std::abs(best_t) > kReach - 1) continue;
@@ -291,11 +294,15 @@ absl::StatusOr<PoolTableDetection> DetectPoolTable(const cv::Mat& bgr, const cv:
     return absl::InvalidArgumentError("table detection needs an 8-bit BGR image");
   PoolTableDetection det;
   const cv::Vec3f profile_cloth(profile.cloth_bgr[0], profile.cloth_bgr[1], profile.cloth_bgr[2]);
+  // The cloth, its outline and the Hough lines are found at half resolution (four times
+  // fewer pixels); the sides are then refined on the full image.
+  cv::Mat small;
+  cv::pyrDown(bgr, small);
   // 1. Wide search for the cloth, then its colour measured on this image.
   int area = 0;
-  cv::Mat region = LargestRegion(AngleMask(bgr, profile_cloth, options.search_angle_deg, 45),
+  cv::Mat region = LargestRegion(AngleMask(small, profile_cloth, options.search_angle_deg, 45),
                                  &area);
-  const int min_area = static_cast<int>(options.min_cloth_fraction * bgr.total());
+  const int min_area = static_cast<int>(options.min_cloth_fraction * small.total());
   if (area < min_area) {
     return absl::FailedPreconditionError(absl::StrCat(
         "no pool table in view: no region of the cloth colour (BGR ", profile.cloth_bgr[0], ",",
@@ -303,15 +310,15 @@ absl::StatusOr<PoolTableDetection> DetectPoolTable(const cv::Mat& bgr, const cv:
         100 * options.min_cloth_fraction,
         "% of the image; point the camera at the table or calibrate the cloth colour"));
   }
-  cv::Vec3f cloth = MeanColor(bgr, region, profile_cloth, options.search_angle_deg);
-  cloth = MeanColor(bgr, region, cloth, options.cloth_angle_deg);
+  cv::Vec3f cloth = MeanColor(small, region, profile_cloth, options.search_angle_deg);
+  cloth = MeanColor(small, region, cloth, options.cloth_angle_deg);
   const double brightness = (cloth[0] + cloth[1] + cloth[2]) / 3;
   det.cloth_bgr = cv::Vec3b(cv::saturate_cast<uint8_t>(cloth[0]),
                             cv::saturate_cast<uint8_t>(cloth[1]),
                             cv::saturate_cast<uint8_t>(cloth[2]));
   det.cloth_brightness = brightness;
   // 2. Seed eq. 4.1 at the cloth angle; the largest region is the table.
-  cv::Mat mask = AngleMask(bgr, cloth, options.cloth_angle_deg,
+  cv::Mat mask = AngleMask(small, cloth, options.cloth_angle_deg,
                            3 * options.min_cloth_brightness * brightness);
   cv::morphologyEx(mask, mask, cv::MORPH_CLOSE,
                    cv::getStructuringElement(cv::MORPH_RECT, cv::Size(3, 3)));
@@ -328,7 +335,7 @@ absl::StatusOr<PoolTableDetection> DetectPoolTable(const cv::Mat& bgr, const cv:
       [](const auto& a, const auto& b) { return a.size() < b.size(); });
   int on_border = 0;
   for (const auto& p : contour)
-    if (p.x <= 0 || p.y <= 0 || p.x >= bgr.cols - 1 || p.y >= bgr.rows - 1) ++on_border;
+    if (p.x <= 0 || p.y <= 0 || p.x >= small.cols - 1 || p.y >= small.rows - 1) ++on_border;
   const std::string partial_message =
       "only part of the table is in view: the cloth runs into the image border; step back "
       "or turn the camera so that all four cushions and corners are visible";
@@ -336,10 +343,10 @@ absl::StatusOr<PoolTableDetection> DetectPoolTable(const cv::Mat& bgr, const cv:
     return absl::FailedPreconditionError(partial_message);
 
   // 4. Hough lines on the outline, clustered into distinct lines.
-  cv::Mat outline = cv::Mat::zeros(bgr.size(), CV_8UC1);
+  cv::Mat outline = cv::Mat::zeros(small.size(), CV_8UC1);
   cv::polylines(outline, contour, true, cv::Scalar(255), 1);
   std::vector<cv::Vec3f> hough;
-  const int threshold = std::max(15, static_cast<int>(contour.size() / 40));
+  const int threshold = std::max(10, static_cast<int>(contour.size() / 40));
   cv::HoughLines(outline, hough, 1, kPi / 360, threshold);
   std::vector<Line> lines;
   for (const auto& h : hough) {
@@ -348,7 +355,7 @@ absl::StatusOr<PoolTableDetection> DetectPoolTable(const cv::Mat& bgr, const cv:
     for (const auto& k : lines) {
       const double dot = l.n.dot(k.n);
       const double same_rho = dot > 0 ? std::abs(l.rho - k.rho) : std::abs(l.rho + k.rho);
-      if (std::abs(dot) > std::cos(6 * kPi / 180) && same_rho < 12) distinct = false;
+      if (std::abs(dot) > std::cos(6 * kPi / 180) && same_rho < 6) distinct = false;
     }
     if (distinct) lines.push_back(l);
     if (lines.size() >= 9) break;
@@ -367,7 +374,7 @@ absl::StatusOr<PoolTableDetection> DetectPoolTable(const cv::Mat& bgr, const cv:
   for (size_t i = 0; i < lines.size(); ++i) {
     double sx = 0, sy = 0;
     for (size_t k = 0; k < contour.size(); ++k) {
-      if (std::abs(lines[i].Distance(cv::Point2d(contour[k]))) >= 2.5) continue;
+      if (std::abs(lines[i].Distance(cv::Point2d(contour[k]))) >= 1.5) continue;
       near[i].push_back(static_cast<int>(k));
       const double a = std::atan2(contour[k].y - centroid.y, contour[k].x - centroid.x);
       sx += std::cos(a);
@@ -406,10 +413,10 @@ absl::StatusOr<PoolTableDetection> DetectPoolTable(const cv::Mat& bgr, const cv:
           for (int i = 0; i < 4 && ok; ++i) {
             const cv::Point2d e1 = quad[(i + 1) % 4] - quad[i], e2 = quad[(i + 2) % 4] - quad[(i + 1) % 4];
             const double cross = e1.x * e2.y - e1.y * e2.x;
-            if (cv::norm(e1) < 20) ok = false;
+            if (cv::norm(e1) < 10) ok = false;
             if (sign == 0) sign = cross;
             if (cross * sign <= 0) ok = false;
-            if (std::abs(quad[i].x) > 4 * bgr.cols || std::abs(quad[i].y) > 4 * bgr.rows) ok = false;
+            if (std::abs(quad[i].x) > 4 * small.cols || std::abs(quad[i].y) > 4 * small.rows) ok = false;
           }
           if (!ok) continue;
           std::fill(covered.begin(), covered.end(), 0);
@@ -425,20 +432,26 @@ absl::StatusOr<PoolTableDetection> DetectPoolTable(const cv::Mat& bgr, const cv:
   if (best_score < static_cast<int>(contour.size() / 2))
     return absl::FailedPreconditionError(
         "the cloth outline is not a four-sided table (is the whole table in view?)");
+  // Back to full resolution: pyrDown keeps every second pixel, so p_full = 2 p_small.
+  for (auto& side : sides) side.rho *= 2;
+  for (auto& corner : corners) corner *= 2;
+  const cv::Point2d centroid_full = centroid * 2;
   // 6. Sub-pixel sides on the colour edge; corners between consecutive sides. Side i runs
-  // from corner i-1 to corner i.
-  for (int i = 0; i < 4; ++i) {
-    const cv::Point2d a = corners[(i + 3) % 4], b = corners[i];
-    const cv::Point2d mid = (a + b) / 2;
-    cv::Point2d outward(-(b - a).y, (b - a).x);
-    outward /= cv::norm(outward);
-    if (outward.dot(mid - centroid) < 0) outward = -outward;
-    Line refined;
-    if (FitLine(EdgePoints(bgr, a, b, outward, cloth), &refined)) sides[i] = refined;
-  }
-  for (int i = 0; i < 4; ++i) {
-    if (!Intersect(sides[i], sides[(i + 1) % 4], &corners[i]))
-      return absl::FailedPreconditionError("table sides are parallel in the image");
+  // from corner i-1 to corner i. Twice: the second pass starts from the refined lines.
+  for (int pass = 0; pass < 2; ++pass) {
+    for (int i = 0; i < 4; ++i) {
+      const cv::Point2d a = corners[(i + 3) % 4], b = corners[i];
+      const cv::Point2d mid = (a + b) / 2;
+      cv::Point2d outward(-(b - a).y, (b - a).x);
+      outward /= cv::norm(outward);
+      if (outward.dot(mid - centroid_full) < 0) outward = -outward;
+      Line refined;
+      if (FitLine(EdgePoints(bgr, a, b, outward, cloth), &refined)) sides[i] = refined;
+    }
+    for (int i = 0; i < 4; ++i) {
+      if (!Intersect(sides[i], sides[(i + 1) % 4], &corners[i]))
+        return absl::FailedPreconditionError("table sides are parallel in the image");
+    }
   }
   for (const auto& c : corners) {
     if (c.x < -0.5 || c.y < -0.5 || c.x > bgr.cols - 0.5 || c.y > bgr.rows - 0.5)

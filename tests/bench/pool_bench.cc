@@ -117,6 +117,11 @@ int main(int argc, char** argv) {
     double frame_max = 0;
     for (double e : score.position_errors_mm) frame_max = std::max(frame_max, e);
     per_frame_max.push_back(frame_max);
+    if (verbose && score.max_corner_error_px > 1) {
+      for (int i = 0; i < 4; ++i)
+        std::printf("    corner %d: (%.2f, %.2f) truth (%.2f, %.2f)\n", i, analysis->cloth_corners[i].x,
+                    analysis->cloth_corners[i].y, view.cloth_corners[i].x, view.cloth_corners[i].y);
+    }
     if (verbose) {
       for (const auto& m : score.matches)
         if (m.estimated_number != m.truth_number || m.error_mm > 8 || m.error_mm < 0)
