@@ -18,6 +18,7 @@
 
 #include "common/pool_analyzer.h"
 #include "common/pool_profile.h"
+#include "common/pool_shots.h"
 #include "common/timing.h"
 #include "tests/data/pool_renderer.h"
 #include "tests/data/pool_scoring.h"
@@ -69,7 +70,7 @@ int main(int argc, char** argv) {
   std::mt19937_64 rng(seed);
   int found = 0, separated = 0, separated_found = 0, identified = 0, false_balls = 0;
   int balls_total = 0, balls_matched = 0;
-  std::vector<double> errors, corner_errors, times, per_frame_max;
+  std::vector<double> errors, separated_errors, corner_errors, times, per_frame_max, shot_times;
   std::string failures;
   for (int f = 0; f < frames; ++f) {
     PoolScene scene = RandomPoolScene(rng, spec);
@@ -109,6 +110,13 @@ int main(int argc, char** argv) {
     for (const auto& b : analysis->balls) est.push_back({b.number, b.x_mm, b.y_mm});
     const PoolScore score = ScorePoolAnalysis(scene, view, analysis->cloth_corners, est);
     corner_errors.push_back(score.max_corner_error_px);
+    for (const auto& m : score.matches)
+      if (m.separated && m.error_mm >= 0) separated_errors.push_back(m.error_mm);
+    std::vector<PoolBallOnTable> on_table;
+    for (const auto& b : analysis->balls) on_table.push_back({b.number, b.x_mm, b.y_mm});
+    const auto s0 = SteadyClock::now();
+    (void)SuggestPoolShots(profile, on_table);
+    shot_times.push_back(MillisecondsSince(s0));
     errors.insert(errors.end(), score.position_errors_mm.begin(), score.position_errors_mm.end());
     balls_matched += static_cast<int>(score.position_errors_mm.size());
     separated_found += score.separated_found;
@@ -153,12 +161,19 @@ int main(int argc, char** argv) {
   std::printf("| position error mean | %.2f mm |\n", Mean(errors));
   std::printf("| position error p95 / max | %.2f / %.2f mm |\n", Percentile(errors, 0.95),
               errors.empty() ? 0.0 : *std::max_element(errors.begin(), errors.end()));
+  std::printf("| position error, separated balls: mean / max | %.2f / %.2f mm |\n",
+              Mean(separated_errors),
+              separated_errors.empty()
+                  ? 0.0
+                  : *std::max_element(separated_errors.begin(), separated_errors.end()));
   std::printf("| separated balls found | %d / %d |\n", separated_found, separated);
   std::printf("| separated balls identified | %d / %d (%.1f%%) |\n", identified, separated,
               separated ? 100.0 * identified / separated : 0.0);
   std::printf("| false balls | %d |\n", false_balls);
   std::printf("| analysis time per frame mean / p95 | %.1f / %.1f ms |\n", Mean(times),
               Percentile(times, 0.95));
+  std::printf("| shot search per arrangement mean / p95 | %.1f / %.1f ms |\n", Mean(shot_times),
+              Percentile(shot_times, 0.95));
   if (!failures.empty()) std::printf("\nFailures:\n%s", failures.c_str());
   return 0;
 }
