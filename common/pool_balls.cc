@@ -67,6 +67,31 @@ cv::Mat BallnessMap(const cv::Mat& bgr, const cv::Rect& roi, const cv::Vec3f& cl
   return out;
 }
 
+// Compass search: from `xy`, step along +-X and +-Y while `score` improves, halving the
+// step down to 0.02 mm, never farther than `max_move` from the start.
+template <typename Score>
+cv::Point2d CompassSearch(cv::Point2d xy, double first_step, double max_move, const Score& score) {
+  double best = score(xy);
+  const cv::Point2d start = xy;
+  const cv::Point2d dirs[4] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}};
+  for (double step = first_step; step > 0.02;) {
+    bool moved = false;
+    for (const auto& d : dirs) {
+      const cv::Point2d cand = xy + d * step;
+      if (cv::norm(cand - start) > max_move) continue;
+      const double s = score(cand);
+      if (s > best + 1e-9) {
+        best = s;
+        xy = cand;
+        moved = true;
+        break;
+      }
+    }
+    if (!moved) step *= 0.5;
+  }
+  return xy;
+}
+
 // Evaluates the silhouette of a ball at a table position against the ball-ness map.
 class SilhouetteScorer {
  public:
@@ -176,24 +201,7 @@ class SilhouetteScorer {
 
   // Compass search for the best table position, starting at `xy`.
   cv::Point2d Fit(cv::Point2d xy, double first_step_mm) const {
-    double best = Score(xy);
-    double step = first_step_mm;
-    const cv::Point2d dirs[4] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}};
-    while (step > 0.02) {
-      bool moved = false;
-      for (const auto& d : dirs) {
-        const cv::Point2d cand = xy + d * step;
-        const double s = Score(cand);
-        if (s > best + 1e-9) {
-          best = s;
-          xy = cand;
-          moved = true;
-          break;
-        }
-      }
-      if (!moved) step *= 0.5;
-    }
-    return xy;
+    return CompassSearch(xy, first_step_mm, 1e9, [this](const cv::Point2d& p) { return Score(p); });
   }
 
  private:
@@ -265,27 +273,10 @@ class EdgeFitter {
 
   cv::Point2d Fit(cv::Point2d xy) const {
     int used = 0;
-    double best = Score(xy, &used);
+    Score(xy, &used);
     if (used < 6) return xy;
-    const cv::Point2d start = xy;
-    double step = 0.1 * radius_;
-    const cv::Point2d dirs[4] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}};
-    while (step > 0.02) {
-      bool moved = false;
-      for (const auto& d : dirs) {
-        const cv::Point2d cand = xy + d * step;
-        if (cv::norm(cand - start) > 0.5 * radius_) continue;
-        const double s = Score(cand);
-        if (s > best + 1e-9) {
-          best = s;
-          xy = cand;
-          moved = true;
-          break;
-        }
-      }
-      if (!moved) step *= 0.5;
-    }
-    return xy;
+    return CompassSearch(xy, 0.1 * radius_, 0.5 * radius_,
+                         [this](const cv::Point2d& p) { return Score(p); });
   }
 
  private:

@@ -51,24 +51,9 @@ absl::StatusOr<std::unique_ptr<PoolProfileStore>> PoolProfileStore::Open(const s
 
 absl::Status PoolProfileStore::Migrate() {
   std::lock_guard lock(mutex_);
-  ASSIGN_OR_RETURN(auto version_stmt, db_->Prepare("PRAGMA user_version"));
-  ASSIGN_OR_RETURN(auto has_row, version_stmt.Step());
-  const int version = has_row ? static_cast<int>(version_stmt.ColumnInt(0)) : 0;
   constexpr int kKnown = sizeof(kMigrations) / sizeof(kMigrations[0]);
   static_assert(kKnown == kSchemaVersion);
-  if (version > kKnown) {
-    return absl::FailedPreconditionError(absl::StrCat(
-        "pool database schema version ", version, " is newer than this server understands (",
-        kKnown, "); upgrade texfree-server"));
-  }
-  for (int v = version; v < kKnown; ++v) {
-    SqliteTransaction tx(db_.get());
-    RETURN_IF_ERROR(tx.Begin());
-    RETURN_IF_ERROR(db_->Exec(kMigrations[v]));
-    RETURN_IF_ERROR(db_->Exec(absl::StrCat("PRAGMA user_version = ", v + 1)));
-    RETURN_IF_ERROR(tx.Commit());
-  }
-  return absl::OkStatus();
+  return MigrateSchema(db_.get(), kMigrations, kKnown, "pool database");
 }
 
 absl::Status PoolProfileStore::Put(const PoolTableProfile& p) {

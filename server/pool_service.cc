@@ -20,13 +20,7 @@ namespace texfree::server {
 namespace {
 
 grpc::Status Fail(const char* method, const absl::Status& status) {
-  if (status.code() == absl::StatusCode::kInternal || status.code() == absl::StatusCode::kDataLoss ||
-      status.code() == absl::StatusCode::kUnavailable) {
-    spdlog::error("{}: {}", method, status.ToString());
-  } else {
-    spdlog::info("{}: {}", method, status.ToString());
-  }
-  return ToGrpcStatus(status);
+  return LoggedFailure(method, status);
 }
 
 absl::StatusOr<cv::Vec3b> ColourFromProto(const v1::Color& c, const char* what) {
