@@ -50,7 +50,7 @@ struct PoolTableDetection {
   double cloth_brightness;   // mean of B, G, R of the cloth
   bool long_side_view = true;  // camera stands at a long side
   double rectangle_inconsistency = 0;
-  cv::Mat cloth_mask;  // CV_8U, 255 = cloth (largest region)
+  cv::Mat cloth_mask;  // CV_8U, 255 = cloth (largest region), at half resolution
 };
 
 // Finds the table in `ideal_bgr` (8-bit BGR, undistorted with K). Errors:
