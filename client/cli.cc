@@ -9,6 +9,7 @@
 #include "client/doc_commands.h"
 #include "client/track_commands.h"
 #include "client/survey_commands.h"
+#include "client/pool_commands.h"
 
 namespace texfree::client {
 
@@ -38,6 +39,7 @@ int RunCli(int argc, char** argv, std::ostream& out, std::ostream& err) {
   AddDocCommands(app, ctx);
   AddTrackCommands(app, ctx);
   AddSurveyCommands(app, ctx);
+  AddPoolCommands(app, ctx);
   // Later groups (track, survey, map, pool, lights) register here the same way.
 
   try {

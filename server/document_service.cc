@@ -16,13 +16,7 @@ namespace {
 using Clock = SteadyClock;
 
 grpc::Status Fail(const char* method, const absl::Status& status) {
-  if (status.code() == absl::StatusCode::kInternal || status.code() == absl::StatusCode::kDataLoss ||
-      status.code() == absl::StatusCode::kUnavailable) {
-    spdlog::error("{}: {}", method, status.ToString());
-  } else {
-    spdlog::info("{}: {}", method, status.ToString());
-  }
-  return ToGrpcStatus(status);
+  return LoggedFailure(method, status);
 }
 
 absl::Status CheckId(const std::string& id, const char* what) {

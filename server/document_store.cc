@@ -129,27 +129,9 @@ absl::StatusOr<std::unique_ptr<DocumentStore>> DocumentStore::Open(const std::st
 
 absl::Status DocumentStore::Migrate() {
   std::lock_guard lock(mutex_);
-  int version = 0;
-  {  // finalised before any schema change
-    ASSIGN_OR_RETURN(auto version_stmt, db_->Prepare("PRAGMA user_version"));
-    ASSIGN_OR_RETURN(auto has_row, version_stmt.Step());
-    version = has_row ? static_cast<int>(version_stmt.ColumnInt(0)) : 0;
-  }
   constexpr int kKnown = sizeof(kMigrations) / sizeof(kMigrations[0]);
   static_assert(kKnown == kSchemaVersion);
-  if (version > kKnown) {
-    return absl::FailedPreconditionError(absl::StrCat("database schema version ", version,
-                                                      " is newer than this server understands (",
-                                                      kKnown, "); upgrade texfree-server"));
-  }
-  for (int v = version; v < kKnown; ++v) {
-    SqliteTransaction tx(db_.get());
-    RETURN_IF_ERROR(tx.Begin());
-    RETURN_IF_ERROR(db_->Exec(kMigrations[v]));
-    RETURN_IF_ERROR(db_->Exec(absl::StrCat("PRAGMA user_version = ", v + 1)));
-    RETURN_IF_ERROR(tx.Commit());
-  }
-  return absl::OkStatus();
+  return MigrateSchema(db_.get(), kMigrations, kKnown, "database");
 }
 
 absl::Status DocumentStore::InsertAnnotationLocked(uint32_t index_id, AnnotationRecord* a) {

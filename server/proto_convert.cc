@@ -3,6 +3,8 @@
 
 #include <cmath>
 
+#include <spdlog/spdlog.h>
+
 #include "absl/strings/str_cat.h"
 
 namespace texfree::server {
@@ -48,6 +50,16 @@ double LocalScale(const cv::Matx33d& H, const cv::Point2d& p) {
 }
 
 }  // namespace
+
+grpc::Status LoggedFailure(const char* method, const absl::Status& status) {
+  if (status.code() == absl::StatusCode::kInternal || status.code() == absl::StatusCode::kDataLoss ||
+      status.code() == absl::StatusCode::kUnavailable) {
+    spdlog::error("{}: {}", method, status.ToString());
+  } else {
+    spdlog::info("{}: {}", method, status.ToString());
+  }
+  return ToGrpcStatus(status);
+}
 
 grpc::Status ToGrpcStatus(const absl::Status& status) {
   if (status.ok()) return grpc::Status::OK;

@@ -19,6 +19,10 @@ namespace texfree::server {
 // One-to-one mapping of absl status codes to gRPC codes, message kept.
 grpc::Status ToGrpcStatus(const absl::Status& status);
 
+// ToGrpcStatus after logging the failure of `method`: as an error for server faults
+// (INTERNAL, DATA_LOSS, UNAVAILABLE), as information for bad requests.
+grpc::Status LoggedFailure(const char* method, const absl::Status& status);
+
 // Decodes an Image message to 8-bit gray (or BGR when `gray` is false).
 absl::StatusOr<cv::Mat> ImageFromProto(const v1::Image& image, const ImageLimits& limits,
                                        bool gray = true);

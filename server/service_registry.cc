@@ -13,6 +13,8 @@
 #include "server/tracking_service.h"
 #include "server/survey_service.h"
 #include "server/survey_store.h"
+#include "server/pool_profile_store.h"
+#include "server/pool_service.h"
 #include "server/unimplemented_services.h"
 
 namespace texfree::server {
@@ -23,6 +25,8 @@ struct ServiceRegistry::Impl {
   std::unique_ptr<TrackingServiceImpl> tracking_service;
   std::unique_ptr<SurveyStore> surveys;
   std::unique_ptr<SurveyServiceImpl> survey_service;
+  std::unique_ptr<PoolProfileStore> pool_profiles;
+  std::unique_ptr<PoolServiceImpl> pool_service;
   std::vector<std::unique_ptr<grpc::Service>> pending;
 };
 
@@ -65,6 +69,11 @@ absl::StatusOr<std::unique_ptr<ServiceRegistry>> ServiceRegistry::Create(
   RETURN_IF_ERROR(survey_options.Validate());
   registry->impl_->survey_service =
       std::make_unique<SurveyServiceImpl>(registry->impl_->surveys.get(), survey_options);
+  const std::string pool_db_path = (std::filesystem::path(config.data_dir) / "pool.db").string();
+  ASSIGN_OR_RETURN(registry->impl_->pool_profiles, PoolProfileStore::Open(pool_db_path));
+  spdlog::info("pool table profiles {}", pool_db_path);
+  registry->impl_->pool_service =
+      std::make_unique<PoolServiceImpl>(registry->impl_->pool_profiles.get(), limits);
   registry->impl_->pending = MakeNotYetImplementedServices();
   return registry;
 }
@@ -73,6 +82,7 @@ void ServiceRegistry::RegisterAll(grpc::ServerBuilder& builder) {
   builder.RegisterService(impl_->document_service.get());
   builder.RegisterService(impl_->tracking_service.get());
   builder.RegisterService(impl_->survey_service.get());
+  builder.RegisterService(impl_->pool_service.get());
   for (auto& service : impl_->pending) builder.RegisterService(service.get());
 }
 
@@ -80,6 +90,8 @@ void ServiceRegistry::Close() {
   if (!impl_) return;
   impl_->document_service.reset();
   impl_->tracking_service.reset();
+  impl_->pool_service.reset();
+  impl_->pool_profiles.reset();
   impl_->documents.reset();  // closes the database
   impl_->survey_service.reset();
   impl_->surveys.reset();

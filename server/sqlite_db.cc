@@ -138,4 +138,29 @@ absl::Status SqliteTransaction::Commit() {
   return absl::OkStatus();
 }
 
+absl::Status MigrateSchema(SqliteDb* db, const char* const* migrations, int count,
+                           absl::string_view what) {
+  int version = 0;
+  {  // finalised before any schema change
+    auto version_stmt = db->Prepare("PRAGMA user_version");
+    if (!version_stmt.ok()) return version_stmt.status();
+    auto has_row = version_stmt->Step();
+    if (!has_row.ok()) return has_row.status();
+    version = *has_row ? static_cast<int>(version_stmt->ColumnInt(0)) : 0;
+  }
+  if (version > count) {
+    return absl::FailedPreconditionError(absl::StrCat(
+        what, " schema version ", version, " is newer than this server understands (", count,
+        "); upgrade texfree-server"));
+  }
+  for (int v = version; v < count; ++v) {
+    SqliteTransaction tx(db);
+    if (auto s = tx.Begin(); !s.ok()) return s;
+    if (auto s = db->Exec(migrations[v]); !s.ok()) return s;
+    if (auto s = db->Exec(absl::StrCat("PRAGMA user_version = ", v + 1)); !s.ok()) return s;
+    if (auto s = tx.Commit(); !s.ok()) return s;
+  }
+  return absl::OkStatus();
+}
+
 }  // namespace texfree::server

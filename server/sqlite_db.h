@@ -79,4 +79,10 @@ class SqliteTransaction {
   bool open_ = false;
 };
 
+// Brings a database from its PRAGMA user_version up to `count` by running migrations[v]
+// (schema v -> v + 1) each in its own transaction; refuses a file newer than `count`.
+// `what` names the database in the error ("database", "pool database").
+absl::Status MigrateSchema(SqliteDb* db, const char* const* migrations, int count,
+                           absl::string_view what);
+
 }  // namespace texfree::server

@@ -1,4 +1,4 @@
-// Placeholder map, survey and pool services: every method answers
+// Placeholder map service: every method answers
 // UNIMPLEMENTED with a message naming the service, the method and the
 // capability that is still to come.
 #include "server/unimplemented_services.h"
@@ -20,7 +20,6 @@ grpc::Status NotYet(const char* service, const char* method,
 }
 
 constexpr char kMaps[] = "augmented maps";
-constexpr char kPool[] = "the pool assistant";
 
 }  // namespace
 
@@ -49,24 +48,6 @@ Status MapService::RetrieveMap(ServerContext*, const v1::RetrieveMapRequest*,
   return NotYet("MapService", "RetrieveMap", kMaps);
 }
 
-Status PoolService::SetTableProfile(ServerContext*,
-                                    const v1::SetTableProfileRequest*,
-                                    v1::TableProfile*) {
-  return NotYet("PoolService", "SetTableProfile", kPool);
-}
-Status PoolService::CalibrateColors(ServerContext*,
-                                    const v1::CalibrateColorsRequest*,
-                                    v1::TableProfile*) {
-  return NotYet("PoolService", "CalibrateColors", kPool);
-}
-Status PoolService::AnalyzeTable(ServerContext*, const v1::AnalyzeTableRequest*,
-                                 v1::AnalyzeTableResponse*) {
-  return NotYet("PoolService", "AnalyzeTable", kPool);
-}
-Status PoolService::TrackTable(
-    ServerContext*, grpc::ServerReaderWriter<v1::AnalyzeTableResponse,
-                                             v1::TrackTableRequest>*) {
-  return NotYet("PoolService", "TrackTable", kPool);
 }
 
 }  // namespace unimplemented
@@ -74,7 +55,6 @@ Status PoolService::TrackTable(
 std::vector<std::unique_ptr<grpc::Service>> MakeNotYetImplementedServices() {
   std::vector<std::unique_ptr<grpc::Service>> services;
   services.push_back(std::make_unique<unimplemented::MapService>());
-  services.push_back(std::make_unique<unimplemented::PoolService>());
   return services;
 }
 

@@ -1,4 +1,4 @@
-// Placeholder gRPC services (maps, pool) whose every method
+// Placeholder gRPC services (maps) whose every method
 // answers UNIMPLEMENTED with a message naming the missing capability, so that
 // clients and reflection see the whole texfree.v1 API from the first version.
 #pragma once
@@ -9,7 +9,6 @@
 #include <vector>
 
 #include "texfree/v1/map.grpc.pb.h"
-#include "texfree/v1/pool.grpc.pb.h"
 
 namespace texfree::server {
 namespace unimplemented {
@@ -33,25 +32,6 @@ class MapService final : public texfree::v1::MapService::Service {
                            texfree::v1::RetrieveMapResponse* response) override;
 };
 
-class PoolService final : public texfree::v1::PoolService::Service {
- public:
-  grpc::Status SetTableProfile(
-      grpc::ServerContext* context,
-      const texfree::v1::SetTableProfileRequest* request,
-      texfree::v1::TableProfile* response) override;
-  grpc::Status CalibrateColors(
-      grpc::ServerContext* context,
-      const texfree::v1::CalibrateColorsRequest* request,
-      texfree::v1::TableProfile* response) override;
-  grpc::Status AnalyzeTable(
-      grpc::ServerContext* context,
-      const texfree::v1::AnalyzeTableRequest* request,
-      texfree::v1::AnalyzeTableResponse* response) override;
-  grpc::Status TrackTable(
-      grpc::ServerContext* context,
-      grpc::ServerReaderWriter<texfree::v1::AnalyzeTableResponse,
-                               texfree::v1::TrackTableRequest>* stream)
-      override;
 };
 
 }  // namespace unimplemented

@@ -1,0 +1,133 @@
+// PoolAnalyzer: undistort, find the table, choose the origin, find and identify the balls.
+#include "common/pool_analyzer.h"
+
+#include <cmath>
+
+#include "absl/strings/str_cat.h"
+#include "common/status_macros.h"
+#include "common/timing.h"
+
+namespace texfree {
+
+absl::Status PoolAnalyzerOptions::Validate() const {
+  RETURN_IF_ERROR(table.Validate());
+  return balls.Validate();
+}
+
+absl::StatusOr<PoolAnalyzer> PoolAnalyzer::Create(const PoolTableProfile& profile,
+                                                  const CameraModel& camera,
+                                                  const PoolAnalyzerOptions& options) {
+  RETURN_IF_ERROR(profile.Validate());
+  RETURN_IF_ERROR(camera.Validate());
+  RETURN_IF_ERROR(options.Validate());
+  return PoolAnalyzer(profile, camera, options);
+}
+
+absl::Status PoolAnalyzer::PrepareFor(const cv::Size& size) {
+  if (undistorter_ && undistorter_->camera().size == size) return absl::OkStatus();
+  CameraModel camera = camera_;
+  if (camera.size.area() > 0 && camera.size != size) {
+    // Same sensor at another resolution: scale the intrinsics; anything else is a mistake.
+    const double sx = static_cast<double>(size.width) / camera.size.width;
+    const double sy = static_cast<double>(size.height) / camera.size.height;
+    if (std::abs(sx / sy - 1) > 0.01) {
+      return absl::InvalidArgumentError(absl::StrCat(
+          "the image is ", size.width, "x", size.height, " but the intrinsics are for ",
+          camera.size.width, "x", camera.size.height, " (a different aspect ratio)"));
+    }
+    camera.K = cv::Matx33d(camera.K(0, 0) * sx, 0, (camera.K(0, 2) + 0.5) * sx - 0.5, 0,
+                           camera.K(1, 1) * sy, (camera.K(1, 2) + 0.5) * sy - 0.5, 0, 0, 1);
+  }
+  camera.size = size;
+  undistorter_.emplace(camera);
+  return absl::OkStatus();
+}
+
+cv::Point2d PoolAnalyzer::Project(const PlanarPose& pose, const cv::Vec3d& point_mm) const {
+  if (!undistorter_) return {};
+  const CameraModel& camera = undistorter_->camera();
+  return undistorter_->Distort(ProjectIdeal(pose, camera.K, point_mm));
+}
+
+cv::Mat PoolAnalyzer::EmptyTable() const {
+  if (!undistorter_ || last_ideal_.empty()) return {};
+  return EmptyTableBackground(last_ideal_, undistorter_->camera().K, last_pose_, profile_,
+                              last_balls_);
+}
+
+double ArrangementDistance(const std::vector<PoolBall>& balls,
+                           const std::vector<PoolBall>& reference, double cap_mm) {
+  double sum = 0;
+  for (const auto& b : balls) {
+    double best = cap_mm;
+    for (const auto& r : reference) {
+      if (b.number >= 0 && r.number >= 0 && b.number != r.number) continue;
+      best = std::min(best, std::hypot(b.x_mm - r.x_mm, b.y_mm - r.y_mm));
+    }
+    sum += best;
+  }
+  return sum;
+}
+
+absl::StatusOr<PoolAnalysis> PoolAnalyzer::Analyze(const cv::Mat& bgr,
+                                                   const std::vector<PoolBall>* reference) {
+  if (bgr.empty() || bgr.depth() != CV_8U || bgr.channels() != 3)
+    return absl::InvalidArgumentError("pool analysis needs an 8-bit colour (BGR) image");
+  RETURN_IF_ERROR(PrepareFor(bgr.size()));
+  PoolAnalysis analysis;
+  auto t0 = SteadyClock::now();
+  const cv::Matx33d& K = undistorter_->camera().K;
+  last_ideal_ = undistorter_->Undistort(bgr);
+  analysis.timings_ms.emplace_back("undistort", MillisecondsSince(t0));
+  t0 = SteadyClock::now();
+  ASSIGN_OR_RETURN(PoolTableDetection table,
+                   DetectPoolTable(last_ideal_, K, profile_, options_.table));
+  analysis.timings_ms.emplace_back("table", MillisecondsSince(t0));
+  t0 = SteadyClock::now();
+  std::vector<PoolDetectedBall> detected =
+      DetectPoolBalls(last_ideal_, K, table.pose, profile_, table.cloth_bgr, options_.balls);
+  analysis.timings_ms.emplace_back("balls", MillisecondsSince(t0));
+  PlanarPose pose = table.pose;
+  const double L = profile_.length_mm, W = profile_.width_mm;
+  auto to_balls = [&](bool rotated) {
+    std::vector<PoolBall> out;
+    for (const auto& d : detected) {
+      PoolBall b;
+      b.number = d.number;
+      b.x_mm = rotated ? L - d.x_mm : d.x_mm;
+      b.y_mm = rotated ? W - d.y_mm : d.y_mm;
+      b.radius_px = d.radius_px;
+      b.confidence = d.confidence;
+      out.push_back(b);
+    }
+    return out;
+  };
+  analysis.balls = to_balls(false);
+  if (reference && !reference->empty()) {
+    // Seed 4.5: of the two origins, keep the one whose arrangement matches the reference.
+    const double cap = 4 * profile_.ball_radius_mm;
+    std::vector<PoolBall> rotated = to_balls(true);
+    if (ArrangementDistance(rotated, *reference, cap) <
+        ArrangementDistance(analysis.balls, *reference, cap)) {
+      analysis.balls = std::move(rotated);
+      pose = table.rotated_pose;
+      for (auto& d : detected) {
+        d.x_mm = L - d.x_mm;
+        d.y_mm = W - d.y_mm;
+      }
+    }
+    analysis.origin_from_arrangement = true;
+  }
+  analysis.pose = pose;
+  last_pose_ = pose;
+  last_balls_ = detected;
+  analysis.long_side_view = table.long_side_view;
+  analysis.cloth_bgr = table.cloth_bgr;
+  for (auto& b : analysis.balls)
+    b.pixel = Project(pose, {b.x_mm, b.y_mm, profile_.ball_radius_mm});
+  const cv::Vec3d corners[4] = {{0, 0, 0}, {L, 0, 0}, {L, W, 0}, {0, W, 0}};
+  for (int i = 0; i < 4; ++i) analysis.cloth_corners[i] = Project(pose, corners[i]);
+  return analysis;
+}
+
+}  // namespace texfree

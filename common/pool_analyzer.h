@@ -1,0 +1,91 @@
+// The pool assistant's image analysis (seed 4.2.1, 4.3, 4.5): one photograph and the
+// camera intrinsics -> the table (corners, pose) and the balls (numbers, positions in mm).
+// In a live view, the origin among the table's symmetric corners is chosen so that the
+// ball arrangement matches the one found before (seed 4.5).
+#pragma once
+
+#include <array>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "absl/status/statusor.h"
+#include "common/planar_pose.h"
+#include "common/pool_balls.h"
+#include "common/pool_profile.h"
+#include "common/pool_table.h"
+
+namespace texfree {
+
+struct PoolAnalyzerOptions {
+  PoolTableOptions table;
+  PoolBallOptions balls;
+  absl::Status Validate() const;
+};
+
+struct PoolBall {
+  int number = -1;            // 0 = cue, 1..9, -1 = unknown
+  double x_mm = 0, y_mm = 0;  // table frame, centre at Z = ball radius
+  cv::Point2d pixel;          // projection of the centre in the (distorted) image
+  double radius_px = 0;
+  double confidence = 0;
+};
+
+struct PoolAnalysis {
+  // Playing-surface corners (0,0), (L,0), (L,W), (0,W) in image pixels.
+  std::array<cv::Point2d, 4> cloth_corners;
+  PlanarPose pose;  // table -> camera
+  bool long_side_view = true;
+  // True when the origin was chosen by matching a previous ball arrangement.
+  bool origin_from_arrangement = false;
+  cv::Vec3b cloth_bgr;
+  std::vector<PoolBall> balls;
+  std::vector<std::pair<std::string, double>> timings_ms;
+};
+
+// Not thread-safe (keeps the undistortion tables of the last image size); use one per
+// stream or per call.
+class PoolAnalyzer {
+ public:
+  // INVALID_ARGUMENT for a bad profile, camera or options.
+  static absl::StatusOr<PoolAnalyzer> Create(const PoolTableProfile& profile,
+                                             const CameraModel& camera,
+                                             const PoolAnalyzerOptions& options = {});
+
+  // Analyses one BGR image. With `reference` (balls of an earlier analysis of the same
+  // table), the origin is the one whose ball arrangement matches it best. Errors as
+  // DetectPoolTable, plus INVALID_ARGUMENT when the image size does not fit the camera.
+  absl::StatusOr<PoolAnalysis> Analyze(const cv::Mat& bgr,
+                                       const std::vector<PoolBall>* reference = nullptr);
+
+  // Projects a table point (mm) into the distorted image of the last analysed size.
+  cv::Point2d Project(const PlanarPose& pose, const cv::Vec3d& point_mm) const;
+
+  // Figure 4.10 for the last analysed image: the table without its balls.
+  cv::Mat EmptyTable() const;
+
+  const PoolTableProfile& profile() const { return profile_; }
+
+ private:
+  PoolAnalyzer(PoolTableProfile profile, CameraModel camera, PoolAnalyzerOptions options)
+      : profile_(std::move(profile)), camera_(std::move(camera)), options_(options) {}
+  absl::Status PrepareFor(const cv::Size& size);
+
+  PoolTableProfile profile_;
+  CameraModel camera_;  // as given
+  PoolAnalyzerOptions options_;
+  std::optional<PoolUndistorter> undistorter_;  // for the current image size
+  cv::Mat last_ideal_;
+  PlanarPose last_pose_;
+  std::vector<PoolDetectedBall> last_balls_;
+};
+
+// Sum over `balls` of the distance to the nearest reference ball with the same number
+// (any number when either is unknown), each capped at `cap_mm`.
+double ArrangementDistance(const std::vector<PoolBall>& balls,
+                           const std::vector<PoolBall>& reference, double cap_mm);
+
+}  // namespace texfree

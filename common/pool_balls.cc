@@ -1,0 +1,717 @@
+// Ball extraction, sphere fitting, identification by colour votes, empty-table background.
+#include "common/pool_balls.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <opencv2/imgproc.hpp>
+
+#include "common/pool_table.h"
+
+namespace texfree {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+double SmoothStep(double x) {
+  x = std::clamp(x, 0.0, 1.0);
+  return x * x * (3 - 2 * x);
+}
+
+// Hue (degrees) and saturation of a BGR colour in the opponent-colour plane.
+void HueSaturation(const cv::Vec3f& bgr, double* hue, double* saturation, double* intensity) {
+  const double b = bgr[0], g = bgr[1], r = bgr[2];
+  const double i = (b + g + r) / 3;
+  const double cx = r - 0.5 * g - 0.5 * b, cy = 0.8660254 * (g - b);
+  *hue = std::atan2(cy, cx) * 180 / kPi;
+  *saturation = std::hypot(cx, cy) / std::max(1.0, i);
+  *intensity = i;
+}
+
+// The ball-ness of every pixel in `roi` (0 = cloth, 1 = ball), soft around the
+// thresholds so that sub-pixel fitting sees a continuous image.
+cv::Mat BallnessMap(const cv::Mat& bgr, const cv::Rect& roi, const cv::Vec3f& cloth,
+                    const PoolBallOptions& o) {
+  cv::Mat out(roi.size(), CV_32FC1);
+  const double lo = (o.ball_angle_deg - o.ball_angle_soft_deg) * kPi / 180;
+  const double hi = (o.ball_angle_deg + o.ball_angle_soft_deg) * kPi / 180;
+  const float cos_lo = static_cast<float>(std::cos(lo)), cos_hi = static_cast<float>(std::cos(hi));
+  const float cloth_norm = static_cast<float>(cv::norm(cloth));
+  const float cloth_sum = cloth[0] + cloth[1] + cloth[2];
+  const float dark_hi = static_cast<float>((o.dark_fraction + 0.1) * cloth_sum);
+  const float dark_lo = static_cast<float>((o.dark_fraction - 0.05) * cloth_sum);
+  for (int y = 0; y < roi.height; ++y) {
+    const cv::Vec3b* p = bgr.ptr<cv::Vec3b>(y + roi.y) + roi.x;
+    float* q = out.ptr<float>(y);
+    for (int x = 0; x < roi.width; ++x) {
+      const float b = p[x][0], g = p[x][1], r = p[x][2];
+      const float n = std::sqrt(b * b + g * g + r * r);
+      const float c = n > 0 ? (b * cloth[0] + g * cloth[1] + r * cloth[2]) / (n * cloth_norm) : 0;
+      float colour;
+      if (c >= cos_lo) {
+        colour = 0;
+      } else if (c <= cos_hi) {
+        colour = 1;
+      } else {
+        colour = static_cast<float>(SmoothStep((std::acos(c) - lo) / (hi - lo)));
+      }
+      const float sum = b + g + r;
+      const float dark =
+          sum >= dark_hi ? 0.f
+                         : (sum <= dark_lo ? 1.f
+                                           : static_cast<float>(SmoothStep((dark_hi - sum) /
+                                                                           (dark_hi - dark_lo))));
+      q[x] = std::max(colour, dark);
+    }
+  }
+  return out;
+}
+
+// Compass search: from `xy`, step along +-X and +-Y while `score` improves, halving the
+// step down to 0.02 mm, never farther than `max_move` from the start.
+template <typename Score>
+cv::Point2d CompassSearch(cv::Point2d xy, double first_step, double max_move, const Score& score) {
+  double best = score(xy);
+  const cv::Point2d start = xy;
+  const cv::Point2d dirs[4] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}};
+  for (double step = first_step; step > 0.02;) {
+    bool moved = false;
+    for (const auto& d : dirs) {
+      const cv::Point2d cand = xy + d * step;
+      if (cv::norm(cand - start) > max_move) continue;
+      const double s = score(cand);
+      if (s > best + 1e-9) {
+        best = s;
+        xy = cand;
+        moved = true;
+        break;
+      }
+    }
+    if (!moved) step *= 0.5;
+  }
+  return xy;
+}
+
+// Evaluates the silhouette of a ball at a table position against the ball-ness map.
+class SilhouetteScorer {
+ public:
+  SilhouetteScorer(const cv::Mat& ballness, const cv::Rect& roi, const cv::Mat& claimed,
+                   const cv::Matx33d& K, const PlanarPose& pose, const PoolTableProfile& profile)
+      : ballness_(ballness),
+        roi_(roi),
+        claimed_(claimed),
+        K_(K),
+        K_inv_(K.inv()),
+        pose_(pose),
+        camera_(CameraCentre(pose)),
+        radius_(profile.ball_radius_mm),
+        length_(profile.length_mm),
+        width_(profile.width_mm),
+        cushion_height_(profile.cushion_height_mm) {
+    // The ray through pixel (u, v) in the table frame is ray0 + u ray_u + v ray_v.
+    const cv::Matx33d M = pose_.R.t() * K_inv_;
+    ray_u_ = {M(0, 0), M(1, 0), M(2, 0)};
+    ray_v_ = {M(0, 1), M(1, 1), M(2, 1)};
+    ray0_ = {M(0, 2), M(1, 2), M(2, 2)};
+  }
+
+  cv::Vec3d Ray(double u, double v) const { return ray0_ + u * ray_u_ + v * ray_v_; }
+
+  // A ball against a cushion is partly hidden behind it: is the sphere point seen through
+  // pixel (u, v) below the cushion top and the ray over the cushion when it gets there?
+  bool HiddenByCushion(const cv::Vec3d& centre, double u, double v) const {
+    cv::Vec3d d = Ray(u, v);
+    d /= std::sqrt(d.dot(d));
+    const cv::Vec3d oc = centre - camera_;
+    const double b = oc.dot(d);
+    const double disc = b * b - (oc.dot(oc) - radius_ * radius_);
+    if (disc < 0) return false;
+    const double t_hit = b - std::sqrt(disc);
+    const double z_hit = camera_[2] + t_hit * d[2];
+    if (z_hit >= cushion_height_ || d[2] >= 0) return false;
+    const double t_top = (cushion_height_ - camera_[2]) / d[2];
+    const double x = camera_[0] + t_top * d[0], y = camera_[1] + t_top * d[1];
+    return x < 0 || y < 0 || x > length_ || y > width_;
+  }
+  // The lower part of a ball and the cloth just in front of it are dark both on the ball
+  // (unlit underside) and off it (contact shadow, ambient occlusion): no edge to fit.
+  // True for a pixel whose ray passes the ball's centre lower than 0.4 radius below it.
+  bool InShadowZone(const cv::Vec3d& centre, double u, double v) const {
+    const cv::Vec3d d = Ray(u, v);
+    const double t = (centre - camera_).dot(d) / d.dot(d);
+    return camera_[2] + t * d[2] < centre[2] - 0.4 * radius_;
+  }
+  bool NearCushion(const cv::Point2d& xy) const {
+    return xy.x < 2 * radius_ || xy.y < 2 * radius_ || xy.x > length_ - 2 * radius_ ||
+           xy.y > width_ - 2 * radius_;
+  }
+
+  // Bounding box (image pixels) of the silhouette, a little grown.
+  cv::Rect Box(const cv::Vec3d& centre) const {
+    const cv::Vec3d c = pose_.R * centre + pose_.t;
+    const cv::Point2d m = ProjectIdeal(pose_, K_, centre);
+    const double r_px = 1.35 * K_(0, 0) * radius_ / std::max(1e-9, cv::norm(c)) + 2.5;
+    return cv::Rect(static_cast<int>(std::floor(m.x - r_px)),
+                    static_cast<int>(std::floor(m.y - r_px)),
+                    static_cast<int>(2 * r_px + 2), static_cast<int>(2 * r_px + 2)) &
+           roi_;
+  }
+
+  // Correlation over the box between the silhouette (+1 inside, -1 outside) and the
+  // ball-ness (+1 ball, -1 cloth), leaving out pixels of other balls (`claimed`), pixels
+  // that a cushion hides and the dark zone under the ball. Ball pixels outside the
+  // silhouette count against it as much as cloth inside it, so the fit is held from
+  // every side.
+  double Score(const cv::Point2d& xy, double* mean_ballness = nullptr) const {
+    const cv::Vec3d centre(xy.x, xy.y, radius_);
+    const cv::Matx33d Q = SphereSilhouetteConic(pose_, K_, centre, radius_);
+    const cv::Rect box = Box(centre);
+    const bool near_cushion = NearCushion(xy);
+    double score = 0, cov_sum = 0, ball_sum = 0;
+    for (int v = box.y; v < box.y + box.height; ++v) {
+      const float* b = ballness_.ptr<float>(v - roi_.y);
+      const float* cl = claimed_.empty() ? nullptr : claimed_.ptr<float>(v - roi_.y);
+      for (int u = box.x; u < box.x + box.width; ++u) {
+        const double w = cl ? 1.0 - cl[u - roi_.x] : 1.0;
+        if (w <= 0) continue;
+        const double cov = Coverage(Q, u, v);
+        if (near_cushion && cov > 0 && HiddenByCushion(centre, u, v)) continue;
+        if (InShadowZone(centre, u, v)) continue;
+        const double bn = b[u - roi_.x];
+        score += w * (2 * cov - 1) * (2 * bn - 1);
+        cov_sum += cov * w;
+        ball_sum += cov * w * bn;
+      }
+    }
+    if (mean_ballness) *mean_ballness = cov_sum > 0 ? ball_sum / cov_sum : 0;
+    return score;
+  }
+
+  // Fraction of pixel (u, v) inside the conic's silhouette (signed distance to the
+  // boundary, first order).
+  static double Coverage(const cv::Matx33d& Q, double u, double v) {
+    const double qx = Q(0, 0) * u + Q(0, 1) * v + Q(0, 2);
+    const double qy = Q(1, 0) * u + Q(1, 1) * v + Q(1, 2);
+    const double qz = Q(2, 0) * u + Q(2, 1) * v + Q(2, 2);
+    const double g = u * qx + v * qy + qz;
+    const double grad = 2 * std::sqrt(qx * qx + qy * qy);
+    if (grad <= 0) return 0;
+    return std::clamp(0.5 + g / grad, 0.0, 1.0);
+  }
+
+  // Compass search for the best table position, starting at `xy`.
+  cv::Point2d Fit(cv::Point2d xy, double first_step_mm) const {
+    return CompassSearch(xy, first_step_mm, 1e9, [this](const cv::Point2d& p) { return Score(p); });
+  }
+
+ private:
+  const cv::Mat& ballness_;
+  cv::Rect roi_;
+  const cv::Mat& claimed_;
+  cv::Matx33d K_, K_inv_;
+  PlanarPose pose_;
+  cv::Vec3d camera_;
+  double radius_, length_, width_, cushion_height_;
+  cv::Vec3d ray0_, ray_u_, ray_v_;
+};
+
+// Fits a ball's outline to the steepest fall of its colour distance from the cloth.
+class EdgeFitter {
+ public:
+  EdgeFitter(const cv::Mat& gx, const cv::Mat& gy, const cv::Rect& area, const cv::Mat& claimed,
+             const cv::Rect& roi, const SilhouetteScorer& scorer, const cv::Matx33d& K,
+             const PlanarPose& pose, double radius)
+      : gx_(gx), gy_(gy), area_(area), claimed_(claimed), roi_(roi), scorer_(scorer), K_(K),
+        pose_(pose), radius_(radius) {}
+
+  // Mean outward fall of the distance across the outline of a ball at `xy`.
+  double Score(const cv::Point2d& xy, int* used = nullptr) const {
+    const cv::Vec3d centre(xy.x, xy.y, radius_);
+    const cv::Vec3d c = pose_.R * centre + pose_.t;  // camera frame
+    const double c2 = c.dot(c);
+    // The sphere's contour generator: a circle around c * (1 - r^2/|c|^2).
+    const cv::Vec3d circle_centre = c * (1 - radius_ * radius_ / c2);
+    const double rho = radius_ * std::sqrt(std::max(0.0, 1 - radius_ * radius_ / c2));
+    cv::Vec3d e1 = c.cross(cv::Vec3d(0, 0, 1));
+    if (cv::norm(e1) < 1e-9) e1 = c.cross(cv::Vec3d(0, 1, 0));
+    e1 /= cv::norm(e1);
+    cv::Vec3d e2 = c.cross(e1);
+    e2 /= cv::norm(e2);
+    const cv::Matx33d Q = SphereSilhouetteConic(pose_, K_, centre, radius_);
+    const cv::Matx33d to_table = pose_.R.t();
+    double sum = 0;
+    int n = 0;
+    constexpr int kPoints = 48;
+    for (int k = 0; k < kPoints; ++k) {
+      const double a = 2 * 3.14159265358979 * k / kPoints;
+      const cv::Vec3d point = circle_centre + rho * (std::cos(a) * e1 + std::sin(a) * e2);
+      // Height of the tangent point on the table: skip the dark lower part.
+      const cv::Vec3d on_table = to_table * (point - pose_.t);
+      if (on_table[2] < radius_ - 0.4 * radius_) continue;
+      const cv::Vec3d m = K_ * point;
+      const double u = m[0] / m[2], v = m[1] / m[2];
+      if (u < area_.x + 1 || v < area_.y + 1 || u > area_.x + area_.width - 2 ||
+          v > area_.y + area_.height - 2)
+        continue;
+      const int iu = static_cast<int>(u), iv = static_cast<int>(v);
+      if (!roi_.contains({iu, iv}) || claimed_.at<float>(iv - roi_.y, iu - roi_.x) > 0.01)
+        continue;
+      if (scorer_.NearCushion(xy) && scorer_.HiddenByCushion(centre, u, v)) continue;
+      // Outward normal of the outline: the conic's gradient points inside.
+      const double qx = Q(0, 0) * u + Q(0, 1) * v + Q(0, 2);
+      const double qy = Q(1, 0) * u + Q(1, 1) * v + Q(1, 2);
+      const double norm = std::hypot(qx, qy);
+      if (norm <= 0) continue;
+      const double nx = -qx / norm, ny = -qy / norm;
+      const double g = -(Sample(gx_, u, v) * nx + Sample(gy_, u, v) * ny);
+      sum += g;
+      ++n;
+    }
+    if (used) *used = n;
+    return n >= 6 ? sum / n : -1e9;
+  }
+
+  cv::Point2d Fit(cv::Point2d xy) const {
+    int used = 0;
+    Score(xy, &used);
+    if (used < 6) return xy;
+    return CompassSearch(xy, 0.1 * radius_, 0.5 * radius_,
+                         [this](const cv::Point2d& p) { return Score(p); });
+  }
+
+ private:
+  double Sample(const cv::Mat& m, double u, double v) const {
+    const double x = u - area_.x, y = v - area_.y;
+    const int x0 = static_cast<int>(x), y0 = static_cast<int>(y);
+    const double fx = x - x0, fy = y - y0;
+    return (1 - fy) * ((1 - fx) * m.at<float>(y0, x0) + fx * m.at<float>(y0, x0 + 1)) +
+           fy * ((1 - fx) * m.at<float>(y0 + 1, x0) + fx * m.at<float>(y0 + 1, x0 + 1));
+  }
+
+  const cv::Mat& gx_;
+  const cv::Mat& gy_;
+  cv::Rect area_;
+  const cv::Mat& claimed_;
+  cv::Rect roi_;
+  const SilhouetteScorer& scorer_;
+  cv::Matx33d K_;
+  PlanarPose pose_;
+  double radius_;
+};
+
+// Reference chroma (intensity-normalised opponent colour) of each ball colour.
+struct ColourRef {
+  double chroma_x, chroma_y;
+};
+
+}  // namespace
+
+absl::Status PoolBallOptions::Validate() const {
+  if (!(ball_angle_deg > 0 && ball_angle_deg < 45))
+    return absl::InvalidArgumentError("ball_angle_deg must be in (0, 45)");
+  if (!(ball_angle_soft_deg > 0 && ball_angle_soft_deg < ball_angle_deg))
+    return absl::InvalidArgumentError("ball_angle_soft_deg must be in (0, ball_angle_deg)");
+  if (!(dark_fraction > 0.05 && dark_fraction < 0.9))
+    return absl::InvalidArgumentError("dark_fraction must be in (0.05, 0.9)");
+  if (!(min_area_fraction > 0 && min_area_fraction <= 1))
+    return absl::InvalidArgumentError("min_area_fraction must be in (0, 1]");
+  if (!(one_white_share > 0 && one_white_share < cue_white_share && cue_white_share < 1))
+    return absl::InvalidArgumentError("need 0 < one_white_share < cue_white_share < 1");
+  return absl::OkStatus();
+}
+
+cv::Matx33d SphereSilhouetteConic(const PlanarPose& pose, const cv::Matx33d& K,
+                                  const cv::Vec3d& centre, double radius) {
+  const cv::Vec3d c = pose.R * centre + pose.t;
+  const cv::Matx33d cone = c * c.t() - (c.dot(c) - radius * radius) * cv::Matx33d::eye();
+  const cv::Matx33d Kinv = K.inv();
+  return Kinv.t() * cone * Kinv;
+}
+
+std::array<double, 10> PoolNumberScores(const PoolVotes& votes, const PoolBallOptions& o) {
+  std::array<double, 10> s{};
+  double total = 0;
+  for (int v : votes) total += v;
+  if (total <= 0) return s;
+  for (int k = 2; k <= 8; ++k) s[k] = votes[k] / total;
+  // Seed eq. 4.3: the cue, the 1 and the 9 are the white+yellow balls; the white share
+  // tells them apart (over cue_white_share: cue, under one_white_share: 1, else 9).
+  const double group = (votes[0] + votes[1]) / total;
+  const double w = votes[0] / total;
+  const double mid = (o.cue_white_share + o.one_white_share) / 2;
+  const double half = (o.cue_white_share - o.one_white_share) / 2;
+  s[0] = group * std::clamp((w - mid) / half, 0.0, 1.0);
+  s[1] = group * std::clamp((mid - w) / half, 0.0, 1.0);
+  // The 9 shows anything from its stripe alone to mostly white, depending on how it
+  // lies: never ruled out, preferred in the middle band.
+  s[9] = group * (0.35 + 0.65 * std::clamp(1 - std::abs(w - mid) / (1.5 * half), 0.0, 1.0));
+  return s;
+}
+
+std::vector<int> AssignPoolNumbers(const std::vector<std::array<double, 10>>& scores) {
+  // Dynamic programme over balls and the set of numbers used so far.
+  constexpr double kUnknown = 0.15;
+  const int n = static_cast<int>(scores.size());
+  const int states = 1 << kPoolBallCount;
+  std::vector<std::vector<double>> best(n + 1, std::vector<double>(states, -1e18));
+  std::vector<std::vector<int>> choice(n + 1, std::vector<int>(states, -1));
+  best[0][0] = 0;
+  for (int i = 0; i < n; ++i)
+    for (int used = 0; used < states; ++used) {
+      if (best[i][used] <= -1e17) continue;
+      if (best[i][used] + kUnknown > best[i + 1][used]) {
+        best[i + 1][used] = best[i][used] + kUnknown;
+        choice[i + 1][used] = -1;
+      }
+      for (int k = 0; k < kPoolBallCount; ++k) {
+        if (used & (1 << k)) continue;
+        const int next = used | (1 << k);
+        const double v = best[i][used] + scores[i][k];
+        if (v > best[i + 1][next]) {
+          best[i + 1][next] = v;
+          choice[i + 1][next] = k;
+        }
+      }
+    }
+  int used = static_cast<int>(std::max_element(best[n].begin(), best[n].end()) - best[n].begin());
+  std::vector<int> numbers(n, -1);
+  for (int i = n; i > 0; --i) {
+    numbers[i - 1] = choice[i][used];
+    if (numbers[i - 1] >= 0) used &= ~(1 << numbers[i - 1]);
+  }
+  return numbers;
+}
+
+std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Matx33d& K,
+                                              const PlanarPose& pose,
+                                              const PoolTableProfile& profile,
+                                              const cv::Vec3b& cloth_bgr,
+                                              const PoolBallOptions& options) {
+  const double L = profile.length_mm, W = profile.width_mm, r = profile.ball_radius_mm;
+  const cv::Vec3f cloth(cloth_bgr[0], cloth_bgr[1], cloth_bgr[2]);
+  // JPEG rings around sharp colour edges (and halves the colour resolution); a light
+  // blur removes the ringing that would make the cloth next to a ball look like ball.
+  cv::Mat bgr;
+  cv::GaussianBlur(image, bgr, cv::Size(0, 0), 0.8);
+  const double cloth_intensity = (cloth[0] + cloth[1] + cloth[2]) / 3;
+  // Where balls can be seen: the playing surface from the cloth up to a ball's height,
+  // without the pockets.
+  std::vector<cv::Point> hull_points;
+  for (double z : {0.0, 2 * r})
+    for (const cv::Vec3d& p : {cv::Vec3d(0, 0, z), cv::Vec3d(L, 0, z), cv::Vec3d(L, W, z),
+                               cv::Vec3d(0, W, z)}) {
+      const cv::Point2d q = ProjectIdeal(pose, K, p);
+      hull_points.emplace_back(cvRound(q.x), cvRound(q.y));
+    }
+  std::vector<cv::Point> hull;
+  cv::convexHull(hull_points, hull);
+  const cv::Rect image_rect(0, 0, bgr.cols, bgr.rows);
+  const cv::Rect roi = cv::boundingRect(hull) & image_rect;
+  if (roi.area() <= 0) return {};
+  cv::Mat region = cv::Mat::zeros(roi.size(), CV_8UC1);
+  std::vector<cv::Point> shifted;
+  for (const auto& p : hull) shifted.push_back(p - roi.tl());
+  cv::fillConvexPoly(region, shifted, cv::Scalar(255));
+  const cv::Point2d pockets[6] = {{0, 0}, {L, 0}, {L, W}, {0, W}, {L / 2, 0}, {L / 2, W}};
+  for (int k = 0; k < 6; ++k) {
+    const double radius = (k < 4 ? profile.corner_pocket_mm : profile.side_pocket_mm) / 2;
+    for (double z : {0.0, profile.cushion_height_mm}) {
+      std::vector<cv::Point> disc;
+      for (int a = 0; a < 24; ++a) {
+        const double t = 2 * kPi * a / 24;
+        const cv::Point2d q = ProjectIdeal(
+            pose, K,
+            {pockets[k].x + radius * std::cos(t), pockets[k].y + radius * std::sin(t), z});
+        disc.emplace_back(cvRound(q.x) - roi.x, cvRound(q.y) - roi.y);
+      }
+      cv::fillConvexPoly(region, disc, cv::Scalar(0));
+    }
+  }
+  const cv::Mat ballness = BallnessMap(bgr, roi, cloth, options);
+  cv::Mat mask = (ballness > 0.5) & region;
+  cv::Mat ballness_in_region;
+  ballness.copyTo(ballness_in_region);
+  ballness_in_region.setTo(0, region == 0);
+
+  // Blobs -> seeds (one per expected ball; touching balls split at distance maxima).
+  cv::Mat labels, stats, centroids;
+  const int n = cv::connectedComponentsWithStats(mask, labels, stats, centroids, 8, CV_32S);
+  std::vector<cv::Point2d> seeds;
+  for (int i = 1; i < n; ++i) {
+    const cv::Point2d c(centroids.at<double>(i, 0) + roi.x, centroids.at<double>(i, 1) + roi.y);
+    cv::Point2d xy;
+    if (!BackProjectToPlane(pose, K, c, r, &xy)) continue;
+    const cv::Vec3d cam = pose.R * cv::Vec3d(xy.x, xy.y, r) + pose.t;
+    const double r_px = K(0, 0) * r / cv::norm(cam);
+    const double expected = kPi * r_px * r_px;
+    const int area = stats.at<int>(i, cv::CC_STAT_AREA);
+    if (area < options.min_area_fraction * expected) continue;
+    const int count = std::max(1, static_cast<int>(std::floor(area / expected + 0.35)));
+    if (count == 1) {
+      seeds.push_back(xy);
+      continue;
+    }
+    const cv::Rect box(stats.at<int>(i, cv::CC_STAT_LEFT), stats.at<int>(i, cv::CC_STAT_TOP),
+                       stats.at<int>(i, cv::CC_STAT_WIDTH), stats.at<int>(i, cv::CC_STAT_HEIGHT));
+    cv::Mat blob;
+    cv::copyMakeBorder(labels(box) == i, blob, 1, 1, 1, 1, cv::BORDER_CONSTANT, 0);
+    cv::Mat dist;
+    cv::distanceTransform(blob, dist, cv::DIST_L2, 3);
+    for (int k = 0; k < count; ++k) {
+      double max_value;
+      cv::Point max_at;
+      cv::minMaxLoc(dist, nullptr, &max_value, nullptr, &max_at);
+      if (max_value < 0.4 * r_px) break;
+      const cv::Point2d pixel(max_at.x - 1 + box.x + roi.x, max_at.y - 1 + box.y + roi.y);
+      if (BackProjectToPlane(pose, K, pixel, r, &xy)) seeds.push_back(xy);
+      cv::circle(dist, max_at, static_cast<int>(std::ceil(1.4 * r_px)), cv::Scalar(0), -1);
+    }
+  }
+
+  // Fit each ball's silhouette, nearest balls first; a farther ball ignores pixels that a
+  // nearer ball covers.
+  const cv::Vec3d camera = CameraCentre(pose);
+  std::sort(seeds.begin(), seeds.end(), [&](const cv::Point2d& a, const cv::Point2d& b) {
+    return cv::norm(cv::Vec3d(a.x, a.y, r) - camera) < cv::norm(cv::Vec3d(b.x, b.y, r) - camera);
+  });
+  cv::Mat claimed = cv::Mat::zeros(roi.size(), CV_32FC1);
+  std::vector<PoolDetectedBall> balls;
+  // Paints the silhouettes of balls[j] for j in `others` into `claimed`.
+  auto claim = [&](const std::vector<cv::Point2d>& positions, size_t skip, size_t count) {
+    claimed.setTo(0);
+    for (size_t j = 0; j < count; ++j) {
+      if (j == skip) continue;
+      const cv::Vec3d centre(positions[j].x, positions[j].y, r);
+      const cv::Matx33d Q = SphereSilhouetteConic(pose, K, centre, r);
+      SilhouetteScorer scorer(ballness_in_region, roi, claimed, K, pose, profile);
+      const cv::Rect box = scorer.Box(centre);
+      for (int v = box.y; v < box.y + box.height; ++v)
+        for (int u = box.x; u < box.x + box.width; ++u) {
+          float& c = claimed.at<float>(v - roi.y, u - roi.x);
+          c = std::max(c, static_cast<float>(SilhouetteScorer::Coverage(Q, u, v)));
+        }
+    }
+  };
+  // First pass: nearest first, each ball ignoring the nearer ones already fitted; second
+  // pass: each ball ignoring all the others.
+  const double isolated_mm = 6 * r;  // farther apart than this, balls never share pixels
+  for (int pass = 0; pass < 2; ++pass)
+    for (size_t i = 0; i < seeds.size(); ++i) {
+      if (pass == 1) {
+        bool alone = true;
+        for (size_t j = 0; j < seeds.size(); ++j)
+          if (j != i && cv::norm(seeds[j] - seeds[i]) < isolated_mm) alone = false;
+        if (alone) continue;  // the first pass already saw no other ball
+      }
+      claim(seeds, i, pass == 0 ? i : seeds.size());
+      SilhouetteScorer scorer(ballness_in_region, roi, claimed, K, pose, profile);
+      seeds[i] = scorer.Fit(seeds[i], 0.35 * r);
+    }
+  // Sub-pixel pass on the edge: the ball's outline is where its colour distance from the
+  // cloth around it falls fastest (for any symmetric blur, JPEG smear or shading of the
+  // ball), so the silhouette's outline is moved to where that fall is steepest, on the
+  // part of the outline that is not in the dark zone under the ball, not hidden by a
+  // cushion and not next to another ball.
+  for (size_t i = 0; i < seeds.size(); ++i) {
+    claim(seeds, i, seeds.size());
+    SilhouetteScorer scorer(ballness_in_region, roi, claimed, K, pose, profile);
+    const cv::Vec3d centre(seeds[i].x, seeds[i].y, r);
+    const cv::Matx33d Q = SphereSilhouetteConic(pose, K, centre, r);
+    const cv::Rect box = scorer.Box(centre);
+    std::vector<cv::Vec3f> cloth_pixels;
+    double ball_intensity = 0, ball_saturation = 0;
+    int ball_pixels = 0;
+    for (int v = box.y; v < box.y + box.height; ++v)
+      for (int u = box.x; u < box.x + box.width; ++u) {
+        if (claimed.at<float>(v - roi.y, u - roi.x) > 0.01) continue;
+        if (scorer.InShadowZone(centre, u, v)) continue;
+        const cv::Vec3b& p = bgr.at<cv::Vec3b>(v, u);
+        const float b = ballness_in_region.at<float>(v - roi.y, u - roi.x);
+        const double cov = SilhouetteScorer::Coverage(Q, u, v);
+        if (cov >= 0.99 && b > 0.5) {
+          double hue, sat, intensity;
+          HueSaturation(cv::Vec3f(p[0], p[1], p[2]), &hue, &sat, &intensity);
+          ball_intensity += intensity;
+          ball_saturation += sat;
+          ++ball_pixels;
+        }
+        if (cov > 0 || b >= 0.5) continue;
+        cloth_pixels.emplace_back(p[0], p[1], p[2]);
+      }
+    if (cloth_pixels.size() < 5) continue;
+    cv::Vec3f local_cloth;
+    for (int k = 0; k < 3; ++k) {
+      std::vector<float> c;
+      for (const auto& p : cloth_pixels) c.push_back(p[k]);
+      std::nth_element(c.begin(), c.begin() + c.size() / 2, c.end());
+      local_cloth[k] = c[c.size() / 2];
+    }
+    const cv::Rect grown = cv::Rect(box.x - box.width / 2, box.y - box.height / 2,
+                                    box.width * 2, box.height * 2) &
+                           image_rect;
+    // Distance from the cloth mostly in chromaticity (the colour with the light's
+    // strength divided out), so that a ball as bright as the cloth (the lit top of a green
+    // 6) still stands out, and a shadow on the cloth does not; a dark ball (the 8) has no
+    // chromaticity to speak of and is told by its darkness.
+    const float cloth_i = std::max(15.f, (local_cloth[0] + local_cloth[1] + local_cloth[2]) / 3);
+    const cv::Vec3f cloth_chroma = local_cloth / cloth_i;
+    const bool dark_ball = ball_pixels > 0 && ball_intensity / ball_pixels < 0.5 * cloth_i &&
+                           ball_saturation / ball_pixels < 0.5;
+    cv::Mat distance(grown.size(), CV_32FC1);
+    for (int v = 0; v < grown.height; ++v) {
+      const cv::Vec3b* p = bgr.ptr<cv::Vec3b>(v + grown.y) + grown.x;
+      float* d = distance.ptr<float>(v);
+      for (int u = 0; u < grown.width; ++u) {
+        const cv::Vec3f q(p[u][0], p[u][1], p[u][2]);
+        if (dark_ball) {
+          d[u] = static_cast<float>(cv::norm(q - local_cloth));
+          continue;
+        }
+        const float i = std::max(15.f, (q[0] + q[1] + q[2]) / 3);
+        d[u] = static_cast<float>(cv::norm(q / i - cloth_chroma) * cloth_i +
+                                  0.3 * std::abs(i - cloth_i));
+      }
+    }
+    cv::Mat gx, gy;
+    cv::Sobel(distance, gx, CV_32F, 1, 0, 3, 1.0 / 8);
+    cv::Sobel(distance, gy, CV_32F, 0, 1, 3, 1.0 / 8);
+    EdgeFitter edge(gx, gy, grown, claimed, roi, scorer, K, pose, r);
+    seeds[i] = edge.Fit(seeds[i]);
+  }
+
+  // Keep distinct, well-supported balls on the table.
+  std::vector<cv::Point2d> kept;
+  for (size_t i = 0; i < seeds.size(); ++i) {
+    const cv::Point2d xy = seeds[i];
+    if (xy.x < -r / 2 || xy.y < -r / 2 || xy.x > L + r / 2 || xy.y > W + r / 2) continue;
+    bool duplicate = false;
+    for (const auto& k : kept)
+      if (cv::norm(k - xy) < r) duplicate = true;
+    if (duplicate) continue;
+    claim(seeds, i, seeds.size());
+    SilhouetteScorer scorer(ballness_in_region, roi, claimed, K, pose, profile);
+    double mean_ballness = 0;
+    scorer.Score(xy, &mean_ballness);
+    if (mean_ballness < 0.5) continue;
+    // Votes: pixels not covered by a nearer ball.
+    claim(seeds, i, i);
+    kept.push_back(xy);
+    PoolDetectedBall ball;
+    ball.x_mm = xy.x;
+    ball.y_mm = xy.y;
+    ball.fit_score = mean_ballness;
+    const cv::Vec3d centre(xy.x, xy.y, r);
+    ball.ideal_pixel = ProjectIdeal(pose, K, centre);
+    ball.radius_px = K(0, 0) * r / cv::norm(pose.R * centre + pose.t);
+    // Votes over the pixels well inside the silhouette that no nearer ball covers.
+    const cv::Matx33d Q = SphereSilhouetteConic(pose, K, centre, r);
+    const cv::Rect box = scorer.Box(centre);
+    // Local light: the cloth brightness around the ball.
+    std::vector<float> ring;
+    for (int v = box.y - box.height / 2; v < box.y + box.height * 3 / 2; v += 2)
+      for (int u = box.x - box.width / 2; u < box.x + box.width * 3 / 2; u += 2) {
+        if (!image_rect.contains({u, v})) continue;
+        const double d = std::hypot(u - ball.ideal_pixel.x, v - ball.ideal_pixel.y);
+        if (d < 1.6 * ball.radius_px || d > 2.6 * ball.radius_px) continue;
+        const cv::Vec3b& p = bgr.at<cv::Vec3b>(v, u);
+        const cv::Vec3f pf(p[0], p[1], p[2]);
+        if (ColorAngleDeg(pf, cloth) < options.ball_angle_deg)
+          ring.push_back((pf[0] + pf[1] + pf[2]) / 3);
+      }
+    double light = 1;  // local cloth brightness / the profile's cloth brightness
+    const cv::Vec3b pc = profile.cloth_bgr;
+    const double profile_cloth = (pc[0] + pc[1] + pc[2]) / 3.0;
+    if (ring.size() >= 5) {
+      std::nth_element(ring.begin(), ring.begin() + ring.size() / 2, ring.end());
+      light = ring[ring.size() / 2] / profile_cloth;
+    } else {
+      light = cloth_intensity / profile_cloth;
+    }
+    std::array<ColourRef, kPoolBallCount> refs;
+    for (int k = 0; k < kPoolBallCount; ++k) {
+      const cv::Vec3b& c = profile.ball_bgr[k];
+      double h, s, i;
+      HueSaturation(cv::Vec3f(c[0], c[1], c[2]), &h, &s, &i);
+      refs[k] = {s * std::cos(h * kPi / 180), s * std::sin(h * kPi / 180)};
+    }
+    for (int v = box.y; v < box.y + box.height; ++v)
+      for (int u = box.x; u < box.x + box.width; ++u) {
+        if (SilhouetteScorer::Coverage(Q, u, v) < 0.99) continue;
+        if (claimed.at<float>(v - roi.y, u - roi.x) > 0.5) continue;
+        // Only the ball's own colours vote: not the cloth seen where a cushion hides the
+        // ball, nor cloth left inside the silhouette by a small misfit.
+        if (ballness_in_region.at<float>(v - roi.y, u - roi.x) < 0.5) continue;
+        if (scorer.NearCushion(xy) && scorer.HiddenByCushion(centre, u, v)) continue;
+        if (scorer.InShadowZone(centre, u, v)) continue;
+        const cv::Vec3b& p = bgr.at<cv::Vec3b>(v, u);
+        double hue, sat, intensity;
+        HueSaturation(cv::Vec3f(p[0], p[1], p[2]), &hue, &sat, &intensity);
+        const double q = intensity / (profile_cloth * light);
+        int vote;
+        if (q < 0.45 && sat < 0.6) {
+          vote = 8;
+        } else if (sat < 0.25) {
+          vote = q < 0.55 ? 8 : 0;
+        } else {
+          // Nearest solid colour in the intensity-normalised chroma plane (seed eq. 4.1
+          // on the chromatic part, which is independent of the light's strength and
+          // tells the red 3 from the less saturated maroon 7).
+          const double x = sat * std::cos(hue * kPi / 180), y = sat * std::sin(hue * kPi / 180);
+          vote = 1;
+          double best = 1e9;
+          for (int k = 1; k <= 7; ++k) {
+            const double d = std::hypot(x - refs[k].chroma_x, y - refs[k].chroma_y);
+            if (d < best) {
+              best = d;
+              vote = k;
+            }
+          }
+        }
+        ++ball.votes[vote];
+      }
+    int total = 0;
+    for (int v : ball.votes) total += v;
+    ball.white_share = total ? static_cast<double>(ball.votes[0]) / total : 0;
+    balls.push_back(ball);
+  }
+  std::vector<std::array<double, 10>> scores;
+  for (const auto& b : balls) scores.push_back(PoolNumberScores(b.votes, options));
+  const std::vector<int> numbers = AssignPoolNumbers(scores);
+  for (size_t i = 0; i < balls.size(); ++i) {
+    balls[i].number = numbers[i];
+    balls[i].confidence = numbers[i] >= 0 ? scores[i][numbers[i]] : 0;
+  }
+  return balls;
+}
+
+cv::Mat EmptyTableBackground(const cv::Mat& bgr, const cv::Matx33d& K, const PlanarPose& pose,
+                             const PoolTableProfile& profile,
+                             const std::vector<PoolDetectedBall>& balls) {
+  cv::Mat out = bgr.clone();
+  const double r = profile.ball_radius_mm;
+  for (const auto& ball : balls) {
+    const cv::Vec3d centre(ball.x_mm, ball.y_mm, r);
+    const cv::Matx33d Q = SphereSilhouetteConic(pose, K, centre, r);
+    const double reach = 1.5 * ball.radius_px + 3;
+    const cv::Rect box = cv::Rect(cvFloor(ball.ideal_pixel.x - 2 * reach),
+                                  cvFloor(ball.ideal_pixel.y - 2 * reach),
+                                  cvCeil(4 * reach) + 1, cvCeil(4 * reach) + 1) &
+                         cv::Rect(0, 0, bgr.cols, bgr.rows);
+    if (box.area() <= 0) continue;
+    cv::Mat inside = cv::Mat::zeros(box.size(), CV_8UC1);
+    for (int v = 0; v < box.height; ++v)
+      for (int u = 0; u < box.width; ++u)
+        if (SilhouetteScorer::Coverage(Q, u + box.x, v + box.y) > 0)
+          inside.at<uint8_t>(v, u) = 255;
+    cv::dilate(inside, inside, cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(5, 5)));
+    cv::Mat ring;
+    cv::dilate(inside, ring, cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(7, 7)));
+    ring &= ~inside;
+    // Seed figure 4.10: ball regions are replaced by the mat colour around them.
+    const cv::Scalar fill = cv::mean(bgr(box), ring);
+    out(box).setTo(fill, inside);
+  }
+  return out;
+}
+
+}  // namespace texfree

@@ -1,0 +1,517 @@
+// Table detection: cloth colour angle, outline, Hough sides, sub-pixel edges, corners, pose.
+#include "common/pool_table.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+
+#include <opencv2/calib3d.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "absl/strings/str_cat.h"
+#include "common/status_macros.h"
+
+namespace texfree {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+// 255 where the pixel's colour is within `angle_deg` of `ref` and brighter than
+// `min_sum` (B + G + R).
+cv::Mat AngleMask(const cv::Mat& bgr, const cv::Vec3f& ref, double angle_deg, double min_sum) {
+  cv::Mat mask(bgr.size(), CV_8UC1);
+  const double c = std::cos(angle_deg * kPi / 180);
+  const float c2 = static_cast<float>(c * c);
+  const float ref_norm2 = ref.dot(ref);
+  const float min_s = static_cast<float>(min_sum);
+  for (int y = 0; y < bgr.rows; ++y) {
+    const cv::Vec3b* p = bgr.ptr<cv::Vec3b>(y);
+    uint8_t* m = mask.ptr<uint8_t>(y);
+    for (int x = 0; x < bgr.cols; ++x) {
+      const float b = p[x][0], g = p[x][1], r = p[x][2];
+      const float dot = b * ref[0] + g * ref[1] + r * ref[2];
+      const float n2 = b * b + g * g + r * r;
+      m[x] = (b + g + r >= min_s && dot > 0 && dot * dot >= c2 * n2 * ref_norm2) ? 255 : 0;
+    }
+  }
+  return mask;
+}
+
+// The largest 8-connected region of `mask` (and its area).
+cv::Mat LargestRegion(const cv::Mat& mask, int* area) {
+  cv::Mat labels, stats, centroids;
+  const int n = cv::connectedComponentsWithStats(mask, labels, stats, centroids, 8, CV_32S);
+  int best = 0, best_area = 0;
+  for (int i = 1; i < n; ++i) {
+    if (stats.at<int>(i, cv::CC_STAT_AREA) > best_area) {
+      best_area = stats.at<int>(i, cv::CC_STAT_AREA);
+      best = i;
+    }
+  }
+  *area = best_area;
+  if (best == 0) return cv::Mat::zeros(mask.size(), CV_8UC1);
+  return labels == best;
+}
+
+// Mean colour of the masked pixels whose colour is within `angle_deg` of `ref`.
+cv::Vec3f MeanColor(const cv::Mat& bgr, const cv::Mat& mask, const cv::Vec3f& ref,
+                    double angle_deg) {
+  cv::Vec3d sum(0, 0, 0);
+  double n = 0;
+  const double c = std::cos(angle_deg * kPi / 180);
+  for (int y = 0; y < bgr.rows; y += 2) {
+    const cv::Vec3b* p = bgr.ptr<cv::Vec3b>(y);
+    const uint8_t* m = mask.ptr<uint8_t>(y);
+    for (int x = 0; x < bgr.cols; x += 2) {
+      if (!m[x]) continue;
+      const cv::Vec3f v(p[x][0], p[x][1], p[x][2]);
+      const double nv = cv::norm(v);
+      if (nv < 1 || v.dot(ref) < c * nv * cv::norm(ref)) continue;
+      sum += cv::Vec3d(v[0], v[1], v[2]);
+      n += 1;
+    }
+  }
+  if (n < 1) return ref;
+  return cv::Vec3f(static_cast<float>(sum[0] / n), static_cast<float>(sum[1] / n),
+                   static_cast<float>(sum[2] / n));
+}
+
+struct Line {  // n . p = rho, |n| = 1
+  cv::Point2d n;
+  double rho;
+  double Distance(const cv::Point2d& p) const { return n.dot(p) - rho; }
+};
+
+bool Intersect(const Line& a, const Line& b, cv::Point2d* p) {
+  const double det = a.n.x * b.n.y - a.n.y * b.n.x;
+  if (std::abs(det) < 1e-9) return false;
+  p->x = (a.rho * b.n.y - b.rho * a.n.y) / det;
+  p->y = (a.n.x * b.rho - b.n.x * a.rho) / det;
+  return true;
+}
+
+cv::Vec3f Bilinear(const cv::Mat& bgr, double x, double y) {
+  x = std::clamp(x, 0.0, bgr.cols - 1.001);
+  y = std::clamp(y, 0.0, bgr.rows - 1.001);
+  const int x0 = static_cast<int>(x), y0 = static_cast<int>(y);
+  const float fx = static_cast<float>(x - x0), fy = static_cast<float>(y - y0);
+  const cv::Vec3b& a = bgr.at<cv::Vec3b>(y0, x0);
+  const cv::Vec3b& b = bgr.at<cv::Vec3b>(y0, x0 + 1);
+  const cv::Vec3b& c = bgr.at<cv::Vec3b>(y0 + 1, x0);
+  const cv::Vec3b& d = bgr.at<cv::Vec3b>(y0 + 1, x0 + 1);
+  cv::Vec3f out;
+  for (int k = 0; k < 3; ++k)
+    out[k] = (1 - fy) * ((1 - fx) * a[k] + fx * b[k]) + fy * ((1 - fx) * c[k] + fx * d[k]);
+  return out;
+}
+
+// Sub-pixel points of the cloth/rail colour edge along the side from `a` to `b`, found
+// on profiles across the side (`outward` points away from the cloth): the place where
+// the colour is half-way between the cloth and the rail beyond it, which is where the
+// edge is for any symmetric blur.
+std::vector<cv::Point2d> EdgePoints(const cv::Mat& bgr, const cv::Point2d& a,
+                                    const cv::Point2d& b, const cv::Point2d& outward,
+                                    const cv::Vec3f& cloth) {
+  constexpr double kReach = 5.0, kStep = 0.5;
+  constexpr int kSamples = static_cast<int>(2 * kReach / kStep) + 1;
+  const double length = cv::norm(b - a);
+  const cv::Point2d dir = (b - a) / std::max(1e-9, length);
+  struct Profile {
+    cv::Point2d base;
+    std::array<cv::Vec3f, kSamples> colour;
+    cv::Vec3f inside, outside;
+  };
+  std::vector<Profile> profiles;
+  for (double s = 0.1 * length; s <= 0.9 * length; s += 1.5) {
+    Profile p;
+    p.base = a + dir * s;
+    for (int i = 0; i < kSamples; ++i) {
+      const cv::Point2d q = p.base + outward * (-kReach + i * kStep);
+      if (q.x < 0 || q.y < 0 || q.x > bgr.cols - 1 || q.y > bgr.rows - 1) goto skip;
+      p.colour[i] = Bilinear(bgr, q.x, q.y);
+    }
+    p.inside = (p.colour[0] + p.colour[1] + p.colour[2] + p.colour[3]) / 4.f;
+    p.outside = (p.colour[kSamples - 1] + p.colour[kSamples - 2] + p.colour[kSamples - 3] +
+                 p.colour[kSamples - 4]) / 4.f;
+    profiles.push_back(p);
+  skip:;
+  }
+  if (profiles.empty()) return {};
+  // The rail colour: per-channel median of the outside plateaus.
+  cv::Vec3f rail;
+  for (int k = 0; k < 3; ++k) {
+    std::vector<float> v;
+    for (const auto& p : profiles) v.push_back(p.outside[k]);
+    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+    rail[k] = v[v.size() / 2];
+  }
+  std::vector<cv::Point2d> points;
+  for (const auto& p : profiles) {
+    // Balls on the cushion, pockets and diamonds make profiles that are not this edge.
+    if (cv::norm(p.outside - rail, cv::NORM_L1) > 60) continue;
+    if (ColorAngleDeg(p.inside, cloth) > 12) continue;
+    const cv::Vec3f diff = p.inside - p.outside;
+    const float contrast = diff.dot(diff);
+    if (contrast < 15 * 15) continue;
+    // f = 1 on the cloth, 0 on the rail, linear in the mixture of the two.
+    std::array<double, kSamples> f;
+    for (int i = 0; i < kSamples; ++i) f[i] = (p.colour[i] - p.outside).dot(diff) / contrast;
+    // The outermost fall from cloth to rail: the cloth-covered cushion top is the last
+    // cloth before the rail (a dark cushion face seen nearer the cloth makes an earlier,
+    // wrong fall on the far side of the table).
+    double best_t = 1e9;
+    for (int i = kSamples - 2; i >= 0; --i) {
+      if (f[i] >= 0.5 && f[i + 1] < 0.5) {
+        best_t = -kReach + kStep * (i + (f[i] - 0.5) / (f[i] - f[i + 1]));
+        break;
+      }
+    }
+    if (std::abs(best_t) > kReach - 1) continue;
+    points.push_back(p.base + outward * best_t);
+  }
+  return points;
+}
+
+// Least-squares line through points with outlier pruning (Huber first, then L2 on the
+// points within 1 px).
+bool FitLine(const std::vector<cv::Point2d>& points, Line* line) {
+  if (points.size() < 8) return false;
+  std::vector<cv::Point2f> pts(points.begin(), points.end());
+  cv::Vec4f l;
+  cv::fitLine(pts, l, cv::DIST_HUBER, 0, 0.01, 0.01);
+  for (int round = 0; round < 2; ++round) {
+    const cv::Point2d n(-l[1], l[0]);
+    const double rho = n.dot(cv::Point2d(l[2], l[3]));
+    std::vector<cv::Point2f> inliers;
+    for (const auto& p : pts)
+      if (std::abs(n.dot(cv::Point2d(p)) - rho) < (round == 0 ? 1.5 : 0.8)) inliers.push_back(p);
+    if (inliers.size() < 8) break;
+    cv::fitLine(inliers, l, cv::DIST_L2, 0, 0.01, 0.01);
+  }
+  line->n = cv::Point2d(-l[1], l[0]);
+  line->rho = line->n.dot(cv::Point2d(l[2], l[3]));
+  return true;
+}
+
+// Inconsistency of a plane->image homography with a rectangle seen by camera K: the
+// first two columns of K^-1 H must be orthogonal and of equal length (appendix A).
+double RectangleInconsistency(const cv::Matx33d& H, const cv::Matx33d& K) {
+  const cv::Matx33d M = K.inv() * H;
+  const cv::Vec3d c1(M(0, 0), M(1, 0), M(2, 0)), c2(M(0, 1), M(1, 1), M(2, 1));
+  const double n1 = cv::norm(c1), n2 = cv::norm(c2);
+  if (n1 < 1e-12 || n2 < 1e-12) return 1e9;
+  return std::abs(n1 / n2 - 1) + std::abs(c1.dot(c2) / (n1 * n2));
+}
+
+PlanarPose ShiftPlaneToTable(const PlanarPose& plane_pose, double plane_z) {
+  // x_cam = R (X - (0,0,z)) + t'  =>  t = t' - R (0,0,z).
+  PlanarPose pose = plane_pose;
+  pose.t = plane_pose.t - plane_pose.R * cv::Vec3d(0, 0, plane_z);
+  return pose;
+}
+
+}  // namespace
+
+absl::Status PoolTableOptions::Validate() const {
+  if (!(cloth_angle_deg > 0 && cloth_angle_deg < 45))
+    return absl::InvalidArgumentError("cloth_angle_deg must be in (0, 45)");
+  if (!(search_angle_deg >= cloth_angle_deg && search_angle_deg < 60))
+    return absl::InvalidArgumentError("search_angle_deg must be in [cloth_angle_deg, 60)");
+  if (!(min_cloth_brightness >= 0 && min_cloth_brightness < 1))
+    return absl::InvalidArgumentError("min_cloth_brightness must be in [0, 1)");
+  if (!(min_cloth_fraction > 0 && min_cloth_fraction < 1))
+    return absl::InvalidArgumentError("min_cloth_fraction must be in (0, 1)");
+  if (!(max_rectangle_inconsistency > 0))
+    return absl::InvalidArgumentError("max_rectangle_inconsistency must be positive");
+  return absl::OkStatus();
+}
+
+double ColorAngleDeg(const cv::Vec3f& a, const cv::Vec3f& b) {
+  const double na = cv::norm(a), nb = cv::norm(b);
+  if (na < 1e-6 || nb < 1e-6) return 90;
+  return std::acos(std::clamp(a.dot(b) / (na * nb), -1.0, 1.0)) * 180 / kPi;
+}
+
+cv::Point2d ProjectIdeal(const PlanarPose& pose, const cv::Matx33d& K, const cv::Vec3d& point) {
+  const cv::Vec3d q = K * (pose.R * point + pose.t);
+  return {q[0] / q[2], q[1] / q[2]};
+}
+
+cv::Vec3d CameraCentre(const PlanarPose& pose) { return -(pose.R.t() * pose.t); }
+
+bool BackProjectToPlane(const PlanarPose& pose, const cv::Matx33d& K, const cv::Point2d& pixel,
+                        double z, cv::Point2d* table_xy) {
+  const cv::Vec3d d_cam = K.inv() * cv::Vec3d(pixel.x, pixel.y, 1);
+  const cv::Vec3d d = pose.R.t() * d_cam;
+  const cv::Vec3d c = CameraCentre(pose);
+  if (std::abs(d[2]) < 1e-12) return false;
+  const double s = (z - c[2]) / d[2];
+  if (s <= 0) return false;
+  table_xy->x = c[0] + s * d[0];
+  table_xy->y = c[1] + s * d[1];
+  return true;
+}
+
+PlanarPose RotateTableFrame(const PlanarPose& pose, double length_mm, double width_mm) {
+  const cv::Matx33d rz(-1, 0, 0, 0, -1, 0, 0, 0, 1);
+  PlanarPose out;
+  out.R = pose.R * rz;
+  out.t = pose.t + pose.R * cv::Vec3d(length_mm, width_mm, 0);
+  return out;
+}
+
+PoolUndistorter::PoolUndistorter(const CameraModel& camera) : camera_(camera) {
+  if (camera_.has_distortion() && camera_.size.area() > 0) {
+    cv::initUndistortRectifyMap(cv::Mat(camera_.K), cv::Mat(camera_.distortion), cv::Mat(),
+                                cv::Mat(camera_.K), camera_.size, CV_16SC2, map1_, map2_);
+  }
+}
+
+cv::Mat PoolUndistorter::Undistort(const cv::Mat& bgr) const {
+  if (map1_.empty() || bgr.size() != camera_.size) return bgr;
+  cv::Mat out;
+  cv::remap(bgr, out, map1_, map2_, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
+  return out;
+}
+
+cv::Point2d PoolUndistorter::Distort(const cv::Point2d& ideal) const {
+  if (!camera_.has_distortion()) return ideal;
+  const cv::Matx33d& K = camera_.K;
+  std::vector<cv::Point3d> object{{(ideal.x - K(0, 2)) / K(0, 0), (ideal.y - K(1, 2)) / K(1, 1),
+                                   1.0}};
+  std::vector<cv::Point2d> out;
+  cv::projectPoints(object, cv::Vec3d(0, 0, 0), cv::Vec3d(0, 0, 0), cv::Mat(K),
+                    cv::Mat(camera_.distortion), out);
+  return out[0];
+}
+
+absl::StatusOr<PoolTableDetection> DetectPoolTable(const cv::Mat& bgr, const cv::Matx33d& K,
+                                                   const PoolTableProfile& profile,
+                                                   const PoolTableOptions& options) {
+  RETURN_IF_ERROR(options.Validate());
+  RETURN_IF_ERROR(profile.Validate());
+  if (bgr.empty() || bgr.type() != CV_8UC3)
+    return absl::InvalidArgumentError("table detection needs an 8-bit BGR image");
+  PoolTableDetection det;
+  const cv::Vec3f profile_cloth(profile.cloth_bgr[0], profile.cloth_bgr[1], profile.cloth_bgr[2]);
+  // The cloth, its outline and the Hough lines are found at half resolution (four times
+  // fewer pixels); the sides are then refined on the full image.
+  cv::Mat small;
+  cv::pyrDown(bgr, small);
+  // 1. Wide search for the cloth, then its colour measured on this image.
+  int area = 0;
+  cv::Mat region = LargestRegion(AngleMask(small, profile_cloth, options.search_angle_deg, 45),
+                                 &area);
+  const int min_area = static_cast<int>(options.min_cloth_fraction * small.total());
+  if (area < min_area) {
+    return absl::FailedPreconditionError(absl::StrCat(
+        "no pool table in view: no region of the cloth colour (BGR ", profile.cloth_bgr[0], ",",
+        profile.cloth_bgr[1], ",", profile.cloth_bgr[2], ") covers ",
+        100 * options.min_cloth_fraction,
+        "% of the image; point the camera at the table or calibrate the cloth colour"));
+  }
+  cv::Vec3f cloth = MeanColor(small, region, profile_cloth, options.search_angle_deg);
+  cloth = MeanColor(small, region, cloth, options.cloth_angle_deg);
+  const double brightness = (cloth[0] + cloth[1] + cloth[2]) / 3;
+  det.cloth_bgr = cv::Vec3b(cv::saturate_cast<uint8_t>(cloth[0]),
+                            cv::saturate_cast<uint8_t>(cloth[1]),
+                            cv::saturate_cast<uint8_t>(cloth[2]));
+  det.cloth_brightness = brightness;
+  // 2. Seed eq. 4.1 at the cloth angle; the largest region is the table.
+  cv::Mat mask = AngleMask(small, cloth, options.cloth_angle_deg,
+                           3 * options.min_cloth_brightness * brightness);
+  cv::morphologyEx(mask, mask, cv::MORPH_CLOSE,
+                   cv::getStructuringElement(cv::MORPH_RECT, cv::Size(3, 3)));
+  det.cloth_mask = LargestRegion(mask, &area);
+  if (area < min_area)
+    return absl::FailedPreconditionError("no pool table in view: the cloth region is too small");
+
+  // 3. Outline.
+  std::vector<std::vector<cv::Point>> contours;
+  cv::findContours(det.cloth_mask, contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE);
+  if (contours.empty()) return absl::FailedPreconditionError("no pool table in view");
+  const auto& contour = *std::max_element(
+      contours.begin(), contours.end(),
+      [](const auto& a, const auto& b) { return a.size() < b.size(); });
+  int on_border = 0;
+  for (const auto& p : contour)
+    if (p.x <= 0 || p.y <= 0 || p.x >= small.cols - 1 || p.y >= small.rows - 1) ++on_border;
+  const std::string partial_message =
+      "only part of the table is in view: the cloth runs into the image border; step back "
+      "or turn the camera so that all four cushions and corners are visible";
+  if (on_border > static_cast<int>(contour.size() / 50) + 3)
+    return absl::FailedPreconditionError(partial_message);
+
+  // 4. Hough lines on the outline, clustered into distinct lines.
+  cv::Mat outline = cv::Mat::zeros(small.size(), CV_8UC1);
+  cv::polylines(outline, contour, true, cv::Scalar(255), 1);
+  std::vector<cv::Vec3f> hough;
+  const int threshold = std::max(10, static_cast<int>(contour.size() / 40));
+  cv::HoughLines(outline, hough, 1, kPi / 360, threshold);
+  std::vector<Line> lines;
+  for (const auto& h : hough) {
+    Line l{{std::cos(h[1]), std::sin(h[1])}, h[0]};
+    bool distinct = true;
+    for (const auto& k : lines) {
+      const double dot = l.n.dot(k.n);
+      const double same_rho = dot > 0 ? std::abs(l.rho - k.rho) : std::abs(l.rho + k.rho);
+      if (std::abs(dot) > std::cos(6 * kPi / 180) && same_rho < 6) distinct = false;
+    }
+    if (distinct) lines.push_back(l);
+    if (lines.size() >= 9) break;
+  }
+  if (lines.size() < 4)
+    return absl::FailedPreconditionError(
+        "the cloth outline does not have four straight sides (is the whole table in view?)");
+  // 5. The four lines that explain most of the outline and make a convex quadrilateral.
+  const cv::Point2d centroid = [&] {
+    cv::Point2d c(0, 0);
+    for (const auto& p : contour) c += cv::Point2d(p);
+    return c / static_cast<double>(contour.size());
+  }();
+  std::vector<std::vector<int>> near(lines.size());
+  std::vector<double> line_angle(lines.size(), 0);  // of its outline points around the centroid
+  for (size_t i = 0; i < lines.size(); ++i) {
+    double sx = 0, sy = 0;
+    for (size_t k = 0; k < contour.size(); ++k) {
+      if (std::abs(lines[i].Distance(cv::Point2d(contour[k]))) >= 1.5) continue;
+      near[i].push_back(static_cast<int>(k));
+      const double a = std::atan2(contour[k].y - centroid.y, contour[k].x - centroid.x);
+      sx += std::cos(a);
+      sy += std::sin(a);
+    }
+    line_angle[i] = std::atan2(sy, sx);
+  }
+  int best_score = -1;
+  std::array<Line, 4> sides;
+  std::array<cv::Point2d, 4> corners;
+  const int m = static_cast<int>(lines.size());
+  std::vector<uint8_t> covered(contour.size());
+  for (int a = 0; a < m; ++a)
+    for (int b = a + 1; b < m; ++b)
+      for (int c = b + 1; c < m; ++c)
+        for (int d = c + 1; d < m; ++d) {
+          std::array<int, 4> idx = {a, b, c, d};
+          // Order the lines by the angle of their outline points around the centroid.
+          std::array<std::pair<double, int>, 4> order;
+          bool empty = false;
+          for (int i = 0; i < 4; ++i) {
+            if (near[idx[i]].empty()) empty = true;
+            order[i] = {line_angle[idx[i]], idx[i]};
+          }
+          if (empty) continue;
+          std::sort(order.begin(), order.end());
+          std::array<Line, 4> quad_sides;
+          std::array<cv::Point2d, 4> quad;
+          bool ok = true;
+          for (int i = 0; i < 4; ++i) quad_sides[i] = lines[order[i].second];
+          for (int i = 0; i < 4 && ok; ++i)
+            ok = Intersect(quad_sides[i], quad_sides[(i + 1) % 4], &quad[i]);
+          if (!ok) continue;
+          // Convex, not degenerate, corners not far outside the image.
+          double sign = 0;
+          for (int i = 0; i < 4 && ok; ++i) {
+            const cv::Point2d e1 = quad[(i + 1) % 4] - quad[i], e2 = quad[(i + 2) % 4] - quad[(i + 1) % 4];
+            const double cross = e1.x * e2.y - e1.y * e2.x;
+            if (cv::norm(e1) < 10) ok = false;
+            if (sign == 0) sign = cross;
+            if (cross * sign <= 0) ok = false;
+            if (std::abs(quad[i].x) > 4 * small.cols || std::abs(quad[i].y) > 4 * small.rows) ok = false;
+          }
+          if (!ok) continue;
+          std::fill(covered.begin(), covered.end(), 0);
+          for (int i : idx)
+            for (int k : near[i]) covered[k] = 1;
+          const int score = std::accumulate(covered.begin(), covered.end(), 0);
+          if (score > best_score) {
+            best_score = score;
+            sides = quad_sides;
+            corners = quad;
+          }
+        }
+  if (best_score < static_cast<int>(contour.size() / 2))
+    return absl::FailedPreconditionError(
+        "the cloth outline is not a four-sided table (is the whole table in view?)");
+  // Back to full resolution: pyrDown keeps every second pixel, so p_full = 2 p_small.
+  for (auto& side : sides) side.rho *= 2;
+  for (auto& corner : corners) corner *= 2;
+  const cv::Point2d centroid_full = centroid * 2;
+  // 6. Sub-pixel sides on the colour edge; corners between consecutive sides. Side i runs
+  // from corner i-1 to corner i. Twice: the second pass starts from the refined lines.
+  for (int pass = 0; pass < 2; ++pass) {
+    for (int i = 0; i < 4; ++i) {
+      const cv::Point2d a = corners[(i + 3) % 4], b = corners[i];
+      const cv::Point2d mid = (a + b) / 2;
+      cv::Point2d outward(-(b - a).y, (b - a).x);
+      outward /= cv::norm(outward);
+      if (outward.dot(mid - centroid_full) < 0) outward = -outward;
+      Line refined;
+      if (FitLine(EdgePoints(bgr, a, b, outward, cloth), &refined)) sides[i] = refined;
+    }
+    for (int i = 0; i < 4; ++i) {
+      if (!Intersect(sides[i], sides[(i + 1) % 4], &corners[i]))
+        return absl::FailedPreconditionError("table sides are parallel in the image");
+    }
+  }
+  for (const auto& c : corners) {
+    if (c.x < -0.5 || c.y < -0.5 || c.x > bgr.cols - 0.5 || c.y > bgr.rows - 0.5)
+      return absl::FailedPreconditionError(partial_message);
+  }
+
+  // 7. Which image corner is which table corner: of the 8 cyclic assignments, those that
+  // put the camera above the cloth and are consistent with a rectangle of the profile's
+  // proportions seen through K (the long/short side test of seed 4.3.4, made exact by the
+  // intrinsics). The two survivors differ by the table's 180 degree symmetry.
+  const double L = profile.length_mm, W = profile.width_mm, cw = profile.cushion_width_mm;
+  const std::array<cv::Point2f, 4> plane = {cv::Point2f(-cw, -cw), cv::Point2f(L + cw, -cw),
+                                            cv::Point2f(L + cw, W + cw),
+                                            cv::Point2f(-cw, W + cw)};
+  double best_inconsistency = 1e18;
+  std::array<cv::Point2d, 4> best_order;
+  for (int dir = -1; dir <= 1; dir += 2)
+    for (int k = 0; k < 4; ++k) {
+      std::array<cv::Point2f, 4> img;
+      std::array<cv::Point2d, 4> ordered;
+      for (int i = 0; i < 4; ++i) {
+        ordered[i] = corners[((k + dir * i) % 4 + 4) % 4];
+        img[i] = cv::Point2f(ordered[i]);
+      }
+      const cv::Matx33d H = cv::getPerspectiveTransform(plane.data(), img.data());
+      auto pose = PoseFromHomography(H, K);
+      if (!pose.ok() || CameraCentre(*pose)[2] <= 0) continue;
+      const double inconsistency = RectangleInconsistency(H, K);
+      if (inconsistency < best_inconsistency - 1e-9) {
+        best_inconsistency = inconsistency;
+        best_order = ordered;
+      }
+    }
+  if (best_inconsistency > options.max_rectangle_inconsistency) {
+    return absl::FailedPreconditionError(absl::StrCat(
+        "the table outline does not fit a ", L, " x ", W,
+        " mm table seen by this camera (inconsistency ", best_inconsistency,
+        "); check the table profile and the camera intrinsics"));
+  }
+  det.rectangle_inconsistency = best_inconsistency;
+  std::vector<cv::Point2f> plane_points(plane.begin(), plane.end()), pixels;
+  for (const auto& p : best_order) pixels.emplace_back(p);
+  CameraModel ideal;
+  ideal.K = K;
+  ASSIGN_OR_RETURN(const PlanarPose plane_pose, EstimatePlanarPose(plane_points, pixels, ideal));
+  PlanarPose pose = ShiftPlaneToTable(plane_pose, profile.cushion_height_mm);
+  PlanarPose rotated = RotateTableFrame(pose, L, W);
+  // Convention for a single image: the origin is the corner nearer the camera's side
+  // (camera at Y < W/2 when it stands at a long side, X < L/2 at a short side).
+  const cv::Vec3d c = CameraCentre(pose);
+  det.long_side_view = std::abs(c[1] - W / 2) / W >= std::abs(c[0] - L / 2) / L;
+  const bool keep = det.long_side_view ? c[1] < W / 2 : c[0] < L / 2;
+  if (!keep) {
+    std::swap(pose, rotated);
+    std::rotate(best_order.begin(), best_order.begin() + 2, best_order.end());
+  }
+  det.pose = pose;
+  det.rotated_pose = rotated;
+  det.cushion_corners = best_order;
+  return det;
+}
+
+}  // namespace texfree

@@ -1,0 +1,99 @@
+// Finding a pool table in a photograph (seed 4.3.1, 4.3.4): cloth segmentation by the
+// colour angle to the cloth colour (eq. 4.1), the outline of the cloth, Hough lines
+// clustered into the four sides, sub-pixel refinement of each side on the colour edge,
+// corners as intersections, long or short side from the geometry, and the camera pose
+// from the four corners (appendix A, then refined).
+//
+// Works on an undistorted ("ideal pinhole") image: see PoolUndistorter.
+#pragma once
+
+#include <array>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "absl/status/statusor.h"
+#include "common/planar_pose.h"
+#include "common/pool_profile.h"
+
+namespace texfree {
+
+struct PoolTableOptions {
+  // Seed eq. 4.1: a pixel is cloth when its colour is within this angle of the cloth
+  // colour (seed: 10 degrees).
+  double cloth_angle_deg = 10;
+  // First, wider pass that finds the cloth when the light changes its colour; the cloth
+  // colour is then re-measured on the table itself.
+  double search_angle_deg = 22;
+  // Pixels darker than this fraction of the cloth brightness are never cloth (their
+  // colour angle is noise).
+  double min_cloth_brightness = 0.3;
+  // Smallest cloth area, fraction of the image, to call it a table.
+  double min_cloth_fraction = 0.03;
+  // Largest allowed inconsistency of the pose from the corners (0 = a perfect rectangle
+  // of the profile's proportions seen by this camera).
+  double max_rectangle_inconsistency = 0.2;
+
+  absl::Status Validate() const;
+};
+
+// A table found in an ideal (undistorted) image.
+struct PoolTableDetection {
+  // Outer corners of the cloth-covered cushion tops (ideal pixels), in the order of the
+  // table frame: (-c,-c), (L+c,-c), (L+c,W+c), (-c,W+c) at Z = cushion height.
+  std::array<cv::Point2d, 4> cushion_corners;
+  PlanarPose pose;  // table frame -> camera (Z = 0 is the cloth)
+  // The same table with the origin at the opposite corner (the table's 180 degree
+  // symmetry): which of the two is right is decided by the ball arrangement (seed 4.5).
+  PlanarPose rotated_pose;
+  cv::Vec3b cloth_bgr;       // measured on this image
+  double cloth_brightness;   // mean of B, G, R of the cloth
+  bool long_side_view = true;  // camera stands at a long side
+  double rectangle_inconsistency = 0;
+  cv::Mat cloth_mask;  // CV_8U, 255 = cloth (largest region), at half resolution
+};
+
+// Finds the table in `ideal_bgr` (8-bit BGR, undistorted with K). Errors:
+// FAILED_PRECONDITION when no cloth-coloured region of table size is in view ("no pool
+// table in view"), when the table is cut by the image border ("only part of the table is
+// in view") or its outline is not four straight sides; INVALID_ARGUMENT for bad
+// options/profile.
+absl::StatusOr<PoolTableDetection> DetectPoolTable(const cv::Mat& ideal_bgr,
+                                                   const cv::Matx33d& K,
+                                                   const PoolTableProfile& profile,
+                                                   const PoolTableOptions& options = {});
+
+// Colour angle (degrees) between two BGR colours (seed eq. 4.1).
+double ColorAngleDeg(const cv::Vec3f& a, const cv::Vec3f& b);
+
+// Projects a table-frame point (mm) with a pose into ideal pixels.
+cv::Point2d ProjectIdeal(const PlanarPose& pose, const cv::Matx33d& K, const cv::Vec3d& point);
+
+// Intersects the ray through ideal pixel `pixel` with the plane Z = z of the table frame.
+// Returns false when the ray is parallel to the plane or the plane is behind the camera.
+bool BackProjectToPlane(const PlanarPose& pose, const cv::Matx33d& K, const cv::Point2d& pixel,
+                        double z, cv::Point2d* table_xy);
+
+// The camera centre in the table frame.
+cv::Vec3d CameraCentre(const PlanarPose& pose);
+
+// The same table seen with the origin at the opposite corner (x -> L - x, y -> W - y).
+PlanarPose RotateTableFrame(const PlanarPose& pose, double length_mm, double width_mm);
+
+// Undistortion of a camera's images into the ideal pinhole image with the same K, with the
+// remap tables computed once. Not thread-safe to construct; Undistort is const.
+class PoolUndistorter {
+ public:
+  explicit PoolUndistorter(const CameraModel& camera);
+  // Copies (or remaps when the camera has distortion) `bgr` to the ideal image.
+  cv::Mat Undistort(const cv::Mat& bgr) const;
+  // Ideal pixels -> distorted image pixels.
+  cv::Point2d Distort(const cv::Point2d& ideal) const;
+  const CameraModel& camera() const { return camera_; }
+
+ private:
+  CameraModel camera_;
+  cv::Mat map1_, map2_;
+};
+
+}  // namespace texfree

@@ -1,0 +1,179 @@
+// Pool assistant benchmark: renders seeded 640x480 photographs of a table (random side,
+// height, lens, light, blur, noise, JPEG; random layouts with touching and frozen balls),
+// analyses each with PoolAnalyzer on one core and prints a table: frames where the table
+// was found, corner error, ball position error (mean, max) against the ground truth,
+// separated balls found and identified, and analysis time per frame (mean, p95).
+// Shot search is timed separately on the found arrangements.
+//
+//   texfree-bench-pool [--frames 60] [--seed 7] [--nine-foot] [--save DIR] [--verbose]
+#include <CLI/CLI.hpp>
+#include <algorithm>
+#include <cstdio>
+#include <filesystem>
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "common/pool_analyzer.h"
+#include "common/pool_profile.h"
+#include "common/pool_shots.h"
+#include "common/timing.h"
+#include "tests/data/pool_renderer.h"
+#include "tests/data/pool_scoring.h"
+
+namespace {
+
+using namespace texfree;
+using namespace texfree::testdata;
+
+double Percentile(std::vector<double> v, double q) {
+  if (v.empty()) return 0;
+  std::sort(v.begin(), v.end());
+  return v[std::min(v.size() - 1, static_cast<size_t>(q * (v.size() - 1) + 0.5))];
+}
+
+double Mean(const std::vector<double>& v) {
+  double s = 0;
+  for (double x : v) s += x;
+  return v.empty() ? 0 : s / v.size();
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"texfree-bench-pool: pool table analysis accuracy and speed"};
+  int frames = 60;
+  uint64_t seed = 7;
+  bool nine_foot = false, verbose = false;
+  std::string save;
+  app.add_option("--frames", frames, "Rendered photographs")->check(CLI::PositiveNumber);
+  app.add_option("--seed", seed, "Seed of the rendered set");
+  app.add_flag("--nine-foot", nine_foot, "A 9-ft table instead of the 1330x700 mm bench table");
+  app.add_option("--save", save, "Write each image and its ground truth to this folder");
+  app.add_flag("--verbose", verbose, "One line per frame");
+  bool clean = false;
+  app.add_flag("--clean", clean, "No blur, noise, JPEG or lens distortion (the method's floor)");
+  CLI11_PARSE(app, argc, argv);
+  cv::setNumThreads(1);  // one core
+
+  const PoolTableSpec spec = nine_foot ? PoolTableSpec::NineFoot() : PoolTableSpec::Bench();
+  PoolTableProfile profile = nine_foot ? NineFootPoolProfile() : BenchPoolProfile();
+  profile.length_mm = spec.length_mm;
+  profile.width_mm = spec.width_mm;
+  profile.ball_radius_mm = spec.ball_radius_mm;
+  profile.cushion_height_mm = spec.cushion_height_mm;
+  profile.cushion_width_mm = spec.cushion_width_mm;
+  if (!save.empty()) std::filesystem::create_directories(save);
+
+  std::mt19937_64 rng(seed);
+  int found = 0, separated = 0, separated_found = 0, identified = 0, false_balls = 0;
+  int balls_total = 0, balls_matched = 0;
+  std::vector<double> errors, separated_errors, corner_errors, times, per_frame_max, shot_times;
+  std::string failures;
+  for (int f = 0; f < frames; ++f) {
+    PoolScene scene = RandomPoolScene(rng, spec);
+    if (clean) {
+      scene.blur_sigma = scene.noise_sigma = 0;
+      scene.jpeg_quality = 0;
+      scene.camera.k1 = scene.camera.k2 = 0;
+    }
+    const PoolView view = RenderPoolView(scene, seed * 100003 + f);
+    if (!save.empty()) {
+      char name[64];
+      std::snprintf(name, sizeof(name), "%s/pool_%04d", save.c_str(), f);
+      cv::imwrite(std::string(name) + ".png", view.image);
+    }
+    CameraModel camera;
+    camera.K = view.camera_matrix;
+    camera.distortion = view.distortion;
+    camera.size = view.image.size();
+    auto analyzer = PoolAnalyzer::Create(profile, camera);
+    if (!analyzer.ok()) {
+      std::fprintf(stderr, "%s\n", analyzer.status().ToString().c_str());
+      return 1;
+    }
+    // Warm the undistortion tables (built once per camera in a live view).
+    (void)analyzer->Analyze(view.image);
+    const auto t0 = SteadyClock::now();
+    auto analysis = analyzer->Analyze(view.image);
+    times.push_back(MillisecondsSince(t0));
+    balls_total += static_cast<int>(view.balls.size());
+    for (const auto& b : view.balls) separated += b.separated;
+    if (!analysis.ok()) {
+      failures += "  frame " + std::to_string(f) + ": " + analysis.status().ToString() + "\n";
+      continue;
+    }
+    ++found;
+    std::vector<EstimatedPoolBall> est;
+    for (const auto& b : analysis->balls) est.push_back({b.number, b.x_mm, b.y_mm});
+    const PoolScore score = ScorePoolAnalysis(scene, view, analysis->cloth_corners, est);
+    corner_errors.push_back(score.max_corner_error_px);
+    for (const auto& m : score.matches)
+      if (m.separated && m.error_mm >= 0) separated_errors.push_back(m.error_mm);
+    std::vector<PoolBallOnTable> on_table;
+    for (const auto& b : analysis->balls) on_table.push_back({b.number, b.x_mm, b.y_mm});
+    const auto s0 = SteadyClock::now();
+    (void)SuggestPoolShots(profile, on_table);
+    shot_times.push_back(MillisecondsSince(s0));
+    errors.insert(errors.end(), score.position_errors_mm.begin(), score.position_errors_mm.end());
+    balls_matched += static_cast<int>(score.position_errors_mm.size());
+    separated_found += score.separated_found;
+    identified += score.separated_identified;
+    false_balls += score.false_balls;
+    double frame_max = 0;
+    for (double e : score.position_errors_mm) frame_max = std::max(frame_max, e);
+    per_frame_max.push_back(frame_max);
+    if (verbose && score.max_corner_error_px > 1) {
+      for (int i = 0; i < 4; ++i)
+        std::printf("    corner %d: (%.2f, %.2f) truth (%.2f, %.2f)\n", i, analysis->cloth_corners[i].x,
+                    analysis->cloth_corners[i].y, view.cloth_corners[i].x, view.cloth_corners[i].y);
+    }
+    if (verbose) {
+      for (const auto& m : score.matches)
+        if (m.estimated_number != m.truth_number || m.error_mm > 8 || m.error_mm < 0)
+          std::printf("    ball %d%s at px (%.0f, %.0f): found as %d, error %.1f mm (%.1f, %.1f)\n",
+                      m.truth_number, m.separated ? " (separated)" : "", m.pixel.x, m.pixel.y,
+                      m.estimated_number, m.error_mm, m.dx_mm, m.dy_mm);
+    }
+    if (verbose) {
+      const cv::Vec3d c = -(view.rotation.t() * view.translation);
+      std::printf("frame %3d  camera (%6.0f %6.0f %5.0f)  corners %.2f px  balls %zu/%zu  "
+                  "max %.1f mm  separated %d/%d id %d  false %d  %.1f ms\n",
+                  f, c[0], c[1], c[2], score.max_corner_error_px,
+                  score.position_errors_mm.size(), view.balls.size(), frame_max,
+                  score.separated_found, score.separated, score.separated_identified,
+                  score.false_balls, times.back());
+      for (const auto& [stage, ms] : analysis->timings_ms) std::printf("    %s %.1f ms", stage.c_str(), ms);
+      std::printf("\n");
+    }
+  }
+  std::printf("\nPool analysis benchmark: %d frames of 640x480, %s table (%.0f x %.0f mm, ball "
+              "radius %.3f mm), seed %llu, one core\n\n",
+              frames, nine_foot ? "9-ft" : "bench", spec.length_mm, spec.width_mm,
+              spec.ball_radius_mm, static_cast<unsigned long long>(seed));
+  std::printf("| measure | value |\n|---|---|\n");
+  std::printf("| table found | %d / %d frames |\n", found, frames);
+  std::printf("| corner error (max per frame), median / p95 | %.2f / %.2f px |\n",
+              Percentile(corner_errors, 0.5), Percentile(corner_errors, 0.95));
+  std::printf("| balls located (within one radius) | %d / %d |\n", balls_matched, balls_total);
+  std::printf("| position error mean | %.2f mm |\n", Mean(errors));
+  std::printf("| position error p95 / max | %.2f / %.2f mm |\n", Percentile(errors, 0.95),
+              errors.empty() ? 0.0 : *std::max_element(errors.begin(), errors.end()));
+  std::printf("| position error, separated balls: mean / max | %.2f / %.2f mm |\n",
+              Mean(separated_errors),
+              separated_errors.empty()
+                  ? 0.0
+                  : *std::max_element(separated_errors.begin(), separated_errors.end()));
+  std::printf("| separated balls found | %d / %d |\n", separated_found, separated);
+  std::printf("| separated balls identified | %d / %d (%.1f%%) |\n", identified, separated,
+              separated ? 100.0 * identified / separated : 0.0);
+  std::printf("| false balls | %d |\n", false_balls);
+  std::printf("| analysis time per frame mean / p95 | %.1f / %.1f ms |\n", Mean(times),
+              Percentile(times, 0.95));
+  std::printf("| shot search per arrangement mean / p95 | %.1f / %.1f ms |\n", Mean(shot_times),
+              Percentile(shot_times, 0.95));
+  if (!failures.empty()) std::printf("\nFailures:\n%s", failures.c_str());
+  return 0;
+}

@@ -1,0 +1,129 @@
+// Seeded synthetic photographs of a pool table with exact ground truth, for the pool
+// assistant's tests and benchmark.
+//
+// The renderer is a small ray caster in the table frame (millimetres; origin at a corner
+// of the playing surface, X along the long side, Y along the short side, Z up; the cloth
+// is Z = 0): cloth bed, cushions (cloth-covered, top at the cushion height), wooden rails
+// with sight diamonds, six pockets, the floor, and balls as true spheres of the ball
+// radius resting on the cloth (centre at Z = radius), lit by lamps above the table with
+// soft shadows, ambient occlusion and specular highlights. Each pixel is a 3x3
+// supersampled pinhole ray (with radial lens distortion), then lens vignetting, blur,
+// sensor noise and JPEG as in a real camera. Because spheres are ray-cast, a ball's image
+// is the true perspective silhouette (an ellipse), so accuracy measured against this
+// ground truth is honest. Independent of the code under test (no texfree_common).
+#ifndef TEXFREE_TESTS_DATA_POOL_RENDERER_H_
+#define TEXFREE_TESTS_DATA_POOL_RENDERER_H_
+
+#include <array>
+#include <cstdint>
+#include <opencv2/core.hpp>
+#include <random>
+#include <string>
+#include <vector>
+
+namespace texfree::testdata {
+
+// Table dimensions (mm) and colours (RGB 0..255) of the rendered table.
+struct PoolTableSpec {
+  double length_mm = 1330;  // playing surface between the cushion noses
+  double width_mm = 700;
+  double ball_radius_mm = 24;
+  double cushion_height_mm = 37;  // nose/top of the cushion above the cloth
+  double cushion_width_mm = 42;   // cloth-covered cushion top, nose to rail
+  double rail_width_mm = 110;     // wooden rail outside the cushions
+  double corner_pocket_mm = 100;  // mouth width
+  double side_pocket_mm = 110;
+  cv::Vec3d cloth_rgb{38, 128, 92};
+  cv::Vec3d rail_rgb{105, 58, 30};
+
+  // The bench table of seed 4.6 (1330 x 700 mm, ball radius 24 mm) and a standard 9-ft
+  // table (2540 x 1270 mm, 28.575 mm).
+  static PoolTableSpec Bench();
+  static PoolTableSpec NineFoot();
+};
+
+// Reference albedo (RGB) of ball `number` (0 = cue, 9 = yellow stripe on white).
+cv::Vec3d PoolBallRgb(int number);
+
+struct PoolBallPlacement {
+  int number = 0;  // 0 = cue, 1..9
+  double x_mm = 0, y_mm = 0;
+};
+
+// Which side of the table the camera stands at.
+enum class PoolViewSide { kLongNear, kLongFar, kShortLeft, kShortRight };
+
+struct PoolCamera {
+  cv::Size image_size{640, 480};
+  double horizontal_fov_deg = 62;
+  cv::Vec3d position_mm{665, -900, 900};  // camera centre in the table frame
+  cv::Vec3d look_at_mm{665, 350, 0};
+  double roll_deg = 0;
+  double k1 = 0, k2 = 0;  // radial distortion (OpenCV model)
+};
+
+struct PoolScene {
+  PoolTableSpec table;
+  std::vector<PoolBallPlacement> balls;
+  PoolCamera camera;
+  int lamps = 2;              // lamps above the long axis, 900 mm over the cloth
+  double light_gain = 1.0;    // overall exposure
+  double vignetting = 0.25;   // brightness lost in the image corners
+  double blur_sigma = 0.5;    // px
+  double noise_sigma = 2.0;   // gray levels
+  int jpeg_quality = 90;      // 0 = no JPEG round trip
+};
+
+struct PoolBallTruth {
+  int number = 0;
+  double x_mm = 0, y_mm = 0;  // centre at Z = ball radius
+  cv::Point2d pixel;          // projection of the centre (distorted image pixels)
+  int visible_pixels = 0;     // pixels where this ball is the first surface hit
+  bool separated = false;     // fully visible and not touching another ball in the image
+};
+
+struct PoolView {
+  cv::Mat image;  // CV_8UC3 BGR
+  cv::Matx33d camera_matrix;
+  std::vector<double> distortion;  // k1 k2 p1 p2 k3
+  cv::Matx33d rotation;            // table -> camera
+  cv::Vec3d translation;
+  // Playing-surface corners (Z = 0) in the order (0,0), (L,0), (L,W), (0,W), image pixels.
+  std::array<cv::Point2d, 4> cloth_corners;
+  // Outer corners of the cloth-covered cushion tops (Z = cushion height), same order.
+  std::array<cv::Point2d, 4> cushion_corners;
+  std::vector<PoolBallTruth> balls;
+};
+
+// Renders the scene; deterministic for (scene, seed).
+PoolView RenderPoolView(const PoolScene& scene, uint64_t seed);
+
+// Projects a table-frame point with the view's camera (distortion included).
+cv::Point2d ProjectTablePoint(const PoolView& view, const cv::Vec3d& point_mm);
+
+// A camera at `side`, with its optical axis `elevation_deg` below the horizontal, moved
+// back until the whole table (rails included) fits the image with `margin` (fraction of
+// the image) to spare.
+PoolCamera FramedPoolCamera(const PoolTableSpec& table, PoolViewSide side,
+                            double elevation_deg, double horizontal_fov_deg,
+                            double azimuth_offset_deg = 0, double roll_deg = 0,
+                            double margin = 0.04, cv::Size image_size = {640, 480});
+
+// Random ball layout: the cue and `count - 1` numbered balls (always including the 9),
+// non-overlapping, some frozen against a cushion and some touching another ball when
+// `allow_touching`.
+std::vector<PoolBallPlacement> RandomPoolLayout(std::mt19937_64& rng, const PoolTableSpec& table,
+                                                int count, bool allow_touching);
+
+// A random scene as the benchmark uses: random layout of 6..10 balls, random side,
+// elevation 30..65 degrees, field of view 55..70, small roll, slight distortion, 1..3
+// lamps, exposure, blur 0.3..1.0, noise 1..4, JPEG 70..95.
+PoolScene RandomPoolScene(std::mt19937_64& rng, const PoolTableSpec& table,
+                          bool allow_touching = true);
+
+// Ground truth as JSON text (camera, pose, corners, balls) for writing beside an image.
+std::string PoolViewGroundTruthJson(const PoolScene& scene, const PoolView& view);
+
+}  // namespace texfree::testdata
+
+#endif  // TEXFREE_TESTS_DATA_POOL_RENDERER_H_
