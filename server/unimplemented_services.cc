@@ -48,8 +48,6 @@ Status MapService::RetrieveMap(ServerContext*, const v1::RetrieveMapRequest*,
   return NotYet("MapService", "RetrieveMap", kMaps);
 }
 
-}
-
 }  // namespace unimplemented
 
 std::vector<std::unique_ptr<grpc::Service>> MakeNotYetImplementedServices() {

@@ -32,8 +32,6 @@ class MapService final : public texfree::v1::MapService::Service {
                            texfree::v1::RetrieveMapResponse* response) override;
 };
 
-};
-
 }  // namespace unimplemented
 
 // One instance of each placeholder service, ready for ServerBuilder::
