@@ -31,6 +31,50 @@ void InvertedIndex::Add(uint32_t document, const std::vector<uint64_t>& hashes, 
   }
 }
 
+void InvertedIndex::AddBatch(const std::vector<Batch>& batch, int per_point) {
+  // Counting sort of the new entries by bucket.
+  std::vector<uint32_t> cursor(heads_.size(), 0);
+  size_t total = 0;
+  for (const Batch& d : batch) {
+    for (uint64_t h : *d.hashes) {
+      if (h == 0) continue;
+      ++cursor[Bucket(h)];
+      ++total;
+    }
+  }
+  if (total == 0) return;
+  const size_t base = pool_.size();
+  if (base + total >= kNil) throw std::length_error("inverted index is full (4G entries)");
+  uint32_t offset = 0;
+  for (uint32_t& c : cursor) {  // exclusive prefix sums: where each bucket's run starts
+    const uint32_t n = c;
+    c = offset;
+    offset += n;
+  }
+  pool_.resize(base + total);
+  for (const Batch& d : batch) {
+    const std::vector<uint64_t>& hashes = *d.hashes;
+    for (size_t i = 0; i < hashes.size(); ++i) {
+      const uint64_t h = hashes[i];
+      if (h == 0) continue;
+      pool_[base + cursor[Bucket(h)]++] = {d.document, static_cast<uint16_t>(i / per_point),
+                                           Check(h), kNil};
+    }
+  }
+  // cursor[b] is now the end of bucket b's run; link each run, then the older chain.
+  uint32_t begin = 0;
+  for (size_t b = 0; b < heads_.size(); ++b) {
+    const uint32_t end = cursor[b];
+    if (end == begin) continue;
+    for (uint32_t e = begin; e + 1 < end; ++e)
+      pool_[base + e].next = static_cast<uint32_t>(base + e + 1);
+    pool_[base + end - 1].next = heads_[b];
+    heads_[b] = static_cast<uint32_t>(base + begin);
+    begin = end;
+  }
+  live_ += total;
+}
+
 bool InvertedIndex::AddIfAbsent(uint64_t hash, uint32_t document, uint16_t keypoint) {
   if (hash == 0) return false;
   const size_t b = Bucket(hash);

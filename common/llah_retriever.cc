@@ -8,6 +8,7 @@
 #include <mutex>
 #include <opencv2/calib3d.hpp>
 #include <thread>
+#include <unordered_set>
 
 #include "absl/container/flat_hash_map.h"
 #include "absl/strings/str_cat.h"
@@ -73,40 +74,25 @@ absl::Status LlahRetriever::AddDocuments(
     std::unique_lock lock(mutex_);
     index_.Reserve(index_.entries() + total_points * describer_.descriptors_per_point());
   }
-  // Workers compute descriptors; the index is filled in order under the lock,
-  // in batches.
+  // Workers compute the descriptors that are not stored; then one bucket-ordered load.
   std::atomic<size_t> next{0}, done{0};
-  std::mutex insert_mutex;
-  absl::Status status;
+  std::mutex callback_mutex;
+  const size_t per = static_cast<size_t>(describer_.descriptors_per_point());
   auto work = [&]() {
-    std::vector<uint64_t> hashes;
     while (true) {
       const size_t i = next.fetch_add(1);
       if (i >= total) return;
       DocumentKeypoints &d = documents[i];
-      if (d.hashes.size() == d.keypoints.size() * describer_.descriptors_per_point()) {
-        hashes = std::move(d.hashes);
-      } else {
-        describer_.Describe(d.keypoints, &hashes);
+      if (d.hashes.size() != d.keypoints.size() * per) {
+        describer_.Describe(d.keypoints, &d.hashes);
         if (computed) {
-          std::lock_guard g(insert_mutex);
-          computed(d.id, hashes);
+          std::lock_guard g(callback_mutex);
+          computed(d.id, d.hashes);
         }
-      }
-      auto model = std::make_shared<Model>(Model{std::move(d.keypoints), d.size});
-      {
-        std::unique_lock lock(mutex_);
-        if (models_.count(d.id)) {
-          std::lock_guard g(insert_mutex);
-          status = absl::AlreadyExistsError(absl::StrCat("document ", d.id, " indexed twice"));
-          continue;
-        }
-        index_.Add(d.id, hashes, describer_.descriptors_per_point());
-        models_.emplace(d.id, std::move(model));
       }
       const size_t n = done.fetch_add(1) + 1;
-      if (progress && (n % 500 == 0 || n == total)) {
-        std::lock_guard g(insert_mutex);
+      if (progress && (n % 2000 == 0 || n == total)) {
+        std::lock_guard g(callback_mutex);
         progress(n, total);
       }
     }
@@ -115,6 +101,29 @@ absl::Status LlahRetriever::AddDocuments(
   for (int t = 1; t < std::max(1, threads); ++t) pool.emplace_back(work);
   work();
   for (auto &t : pool) t.join();
+
+  std::unique_lock lock(mutex_);
+  // A known id is reported; the other documents are still added.
+  absl::Status status;
+  std::vector<InvertedIndex::Batch> batch;
+  batch.reserve(documents.size());
+  std::vector<char> added(documents.size(), 0);
+  std::unordered_set<uint32_t> ids;
+  for (size_t i = 0; i < documents.size(); ++i) {
+    const DocumentKeypoints &d = documents[i];
+    if (models_.count(d.id) || !ids.insert(d.id).second) {
+      status = absl::AlreadyExistsError(absl::StrCat("document ", d.id, " indexed twice"));
+      continue;
+    }
+    batch.push_back({d.id, &d.hashes});
+    added[i] = 1;
+  }
+  index_.AddBatch(batch, static_cast<int>(per));
+  for (size_t i = 0; i < documents.size(); ++i) {
+    if (!added[i]) continue;
+    DocumentKeypoints &d = documents[i];
+    models_.emplace(d.id, std::make_shared<Model>(Model{std::move(d.keypoints), d.size}));
+  }
   return status;
 }
 

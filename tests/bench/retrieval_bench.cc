@@ -102,6 +102,7 @@ int main(int argc, char **argv) {
                  "documents verified per query");
   app.add_option("--prefilter", registry_options.retrieval.prefilter_documents,
                  "documents whose hits are ranked (0: all)");
+  app.add_option("--log2-buckets", registry_options.log2_buckets, "index hash table size");
   bool no_fallback = false;
   app.add_flag("--no-fallback", no_fallback, "query with the registration extractor only");
   CLI11_PARSE(app, argc, argv);

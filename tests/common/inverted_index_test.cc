@@ -144,6 +144,36 @@ TEST(InvertedIndexTest, AddIfAbsentRefusesDuplicate) {
   EXPECT_FALSE(index.AddIfAbsent(h, 6, 0));
 }
 
+// The start-up batch load holds exactly the entries Add() would, on top of what the index
+// already holds, and they can be removed one document at a time as usual.
+TEST(InvertedIndexTest, AddBatchEqualsAddAndSupportsRemove) {
+  std::mt19937_64 rng(77);
+  std::vector<std::vector<uint64_t>> docs(30);
+  for (auto& d : docs) {
+    d.resize(3 * 40);
+    for (auto& h : d) h = rng() % 5 == 0 ? 0x1234567800000000ull + rng() % 3 : rng();
+    d[5] = 0;  // "no descriptor" slots are skipped
+  }
+  InvertedIndex one_by_one(12), batched(12);
+  one_by_one.Add(500, docs[0], 3);
+  batched.Add(500, docs[0], 3);  // already indexed before the batch
+  std::vector<InvertedIndex::Batch> batch;
+  for (size_t d = 1; d < docs.size(); ++d) {
+    one_by_one.Add(static_cast<uint32_t>(d), docs[d], 3);
+    batch.push_back({static_cast<uint32_t>(d), &docs[d]});
+  }
+  batched.AddBatch(batch, 3);
+  EXPECT_EQ(batched.entries(), one_by_one.entries());
+  for (const auto& d : docs)
+    for (uint64_t h : d) EXPECT_EQ(Lookup(batched, h), Lookup(one_by_one, h));
+  EXPECT_EQ(batched.Remove(7, docs[7], 3), 119u);
+  EXPECT_EQ(batched.Remove(500, docs[0], 3), 119u);
+  one_by_one.Remove(7, docs[7], 3);
+  one_by_one.Remove(500, docs[0], 3);
+  for (const auto& d : docs)
+    for (uint64_t h : d) EXPECT_EQ(Lookup(batched, h), Lookup(one_by_one, h));
+}
+
 TEST(InvertedIndexTest, CountStopsAtLimit) {
   InvertedIndex index(10);
   const uint64_t h = 0x5555AAAA5555AAAAull;
