@@ -24,7 +24,7 @@ struct RetrievalOptions {
   // max_hits_per_1000_documents * documents / 1000) are too common to vote (stop words).
   // The limit grows with the database: text is regular, so informative descriptors also
   // recur on many pages of a large one (at 10,000 pages a fixed limit of 24 loses most).
-  int max_hits_per_descriptor = 24;
+  int max_hits_per_descriptor = 12;
   int max_hits_per_1000_documents = 30;
   // Only the hits of this many documents (those with most hits) are grouped and ranked;
   // 0 keeps all. Bounds the query time of large databases.
