@@ -21,29 +21,14 @@
 #include <vector>
 
 #include "texfree/v1/document.grpc.pb.h"
+#include "tests/client/cli_runner.h"
 
 namespace texfree::client {
 namespace {
 
 using nlohmann::json;
 
-struct Result {
-  int code = 0;
-  std::string out;
-  std::string err;
-};
-
-Result RunTexfree(std::vector<std::string> args) {
-  args.insert(args.begin(), "texfree");
-  std::vector<char*> argv;
-  for (auto& arg : args) argv.push_back(arg.data());
-  std::ostringstream out, err;
-  Result result;
-  result.code = RunCli(static_cast<int>(argv.size()), argv.data(), out, err);
-  result.out = out.str();
-  result.err = err.str();
-  return result;
-}
+using Result = CliResult;
 
 // A TCP port on which nobody listens (bound, read, then closed).
 int UnusedPort() {

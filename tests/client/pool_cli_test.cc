@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "client/cli.h"
+#include "tests/client/cli_runner.h"
 #include "tests/data/pool_renderer.h"
 #include "tests/server/server_process.h"
 
@@ -23,22 +24,7 @@ namespace {
 namespace fs = std::filesystem;
 using nlohmann::json;
 
-struct Result {
-  int code = 0;
-  std::string out, err;
-};
-
-Result RunTexfree(std::vector<std::string> args) {
-  args.insert(args.begin(), "texfree");
-  std::vector<char*> argv;
-  for (auto& arg : args) argv.push_back(arg.data());
-  std::ostringstream out, err;
-  Result r;
-  r.code = RunCli(static_cast<int>(argv.size()), argv.data(), out, err);
-  r.out = out.str();
-  r.err = err.str();
-  return r;
-}
+using Result = CliResult;
 
 class PoolCliTest : public ::testing::Test {
  protected:

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "client/cli.h"
+#include "tests/client/cli_runner.h"
 #include "client/frame_source.h"
 #include "texfree/v1/tracking.grpc.pb.h"
 
@@ -24,22 +25,7 @@ namespace {
 namespace fs = std::filesystem;
 using nlohmann::json;
 
-struct Result {
-  int code = 0;
-  std::string out, err;
-};
-
-Result RunTexfree(std::vector<std::string> args) {
-  args.insert(args.begin(), "texfree");
-  std::vector<char*> argv;
-  for (auto& a : args) argv.push_back(a.data());
-  std::ostringstream out, err;
-  Result r;
-  r.code = RunCli(static_cast<int>(argv.size()), argv.data(), out, err);
-  r.out = out.str();
-  r.err = err.str();
-  return r;
-}
+using Result = CliResult;
 
 // Answers every frame with one TRACKING page whose homography is a translation by the
 // frame index, remembering what it was sent.
