@@ -46,7 +46,7 @@ struct IdOptions {
   std::string annotations;
 };
 
-std::unique_ptr<v1::DocumentService::Stub> Stub(CommandContext& ctx) {
+std::unique_ptr<v1::DocumentService::Stub> DocumentStub(CommandContext& ctx) {
   return v1::DocumentService::NewStub(ctx.Channel());
 }
 
@@ -126,7 +126,7 @@ int RunRegister(CommandContext& ctx, const RegisterOptions& options) {
   for (const auto& annotation : annotations) {
     *request.add_annotations() = AnnotationToProto(annotation);
   }
-  auto stub = Stub(ctx);
+  auto stub = DocumentStub(ctx);
   grpc::ClientContext context;
   ctx.Prepare(&context);
   v1::RegisterDocumentResponse response;
@@ -176,7 +176,7 @@ int RunRetrieve(CommandContext& ctx, const RetrieveOptions& options) {
   request.mutable_image()->set_encoded(std::move(bytes));
   if (camera) *request.mutable_intrinsics() = IntrinsicsToProto(*camera);
   request.set_max_results(options.max_results);
-  auto stub = Stub(ctx);
+  auto stub = DocumentStub(ctx);
   grpc::ClientContext context;
   ctx.Prepare(&context);
   v1::RetrieveDocumentsResponse response;
@@ -246,7 +246,7 @@ int RunRetrieve(CommandContext& ctx, const RetrieveOptions& options) {
 int RunDelete(CommandContext& ctx, const IdOptions& options) {
   v1::DeleteDocumentRequest request;
   request.set_document_id(options.document_id);
-  auto stub = Stub(ctx);
+  auto stub = DocumentStub(ctx);
   grpc::ClientContext context;
   ctx.Prepare(&context);
   v1::DeleteDocumentResponse response;
@@ -263,7 +263,7 @@ int RunDelete(CommandContext& ctx, const IdOptions& options) {
 }
 
 int RunList(CommandContext& ctx) {
-  auto stub = Stub(ctx);
+  auto stub = DocumentStub(ctx);
   std::vector<v1::Document> documents;
   std::set<std::string> seen_tokens;
   std::string token;
@@ -320,7 +320,7 @@ int RunList(CommandContext& ctx) {
 int RunShow(CommandContext& ctx, const IdOptions& options) {
   v1::GetDocumentRequest request;
   request.set_document_id(options.document_id);
-  auto stub = Stub(ctx);
+  auto stub = DocumentStub(ctx);
   grpc::ClientContext context;
   ctx.Prepare(&context);
   v1::Document document;
@@ -345,7 +345,7 @@ int RunAnnotate(CommandContext& ctx, const IdOptions& options) {
       LoadAnnotationsOrUsage(options.annotations);
   if (annotations.empty())
     throw UsageError(options.annotations + ": no annotations");
-  auto stub = Stub(ctx);
+  auto stub = DocumentStub(ctx);
   json added = json::array();
   for (size_t i = 0; i < annotations.size(); ++i) {
     v1::AddAnnotationRequest request;
@@ -380,7 +380,7 @@ int RunDeleteAnnotation(CommandContext& ctx, const IdOptions& options) {
   v1::DeleteAnnotationRequest request;
   request.set_document_id(options.document_id);
   request.set_annotation_id(options.annotation_id);
-  auto stub = Stub(ctx);
+  auto stub = DocumentStub(ctx);
   grpc::ClientContext context;
   ctx.Prepare(&context);
   v1::DeleteAnnotationResponse response;

@@ -45,22 +45,6 @@ bool NormaliseInFront(cv::Matx33d& H, const cv::Point2d& inside) {
   return true;
 }
 
-// A page homography worth drawing: finite, the seen points in front of the camera, the
-// page not mirrored and its local scale sane at the seen points' centre.
-bool Plausible(const cv::Matx33d& H, const std::vector<cv::Point2f>& seen) {
-  if (!Finite(H) || seen.empty()) return false;
-  for (const auto& p : seen)
-    if (W(H, p) <= 1e-9) return false;
-  const cv::Point2d c = Centroid(seen);
-  const cv::Point2d p0 = ApplyHomography(H, c), px = ApplyHomography(H, c + cv::Point2d(1, 0)),
-                    py = ApplyHomography(H, c + cv::Point2d(0, 1));
-  const cv::Point2d ex = px - p0, ey = py - p0;
-  const double det = ex.x * ey.y - ex.y * ey.x;
-  if (!(det > 0)) return false;
-  const double scale = std::sqrt(det);
-  return scale > 1.0 / 40 && scale < 40;
-}
-
 double RotationAngleDeg(const cv::Matx33d& a, const cv::Matx33d& b) {
   const cv::Matx33d d = a * b.t();
   const double c = std::clamp((cv::trace(d) - 1) / 2, -1.0, 1.0);
@@ -88,7 +72,8 @@ absl::Status TrackerOptions::Validate() const {
     return absl::InvalidArgumentError(absl::StrCat(
         "update_inlier_threshold must be in [0, 100000], got ", update_inlier_threshold));
   if (llah_interval < 1)
-    return absl::InvalidArgumentError(absl::StrCat("llah_interval must be >= 1, got ", llah_interval));
+    return absl::InvalidArgumentError(
+        absl::StrCat("llah_interval must be >= 1, got ", llah_interval));
   if (!(search_radius_chars > 0) || !(min_search_radius_px > 0) ||
       !(max_search_radius_px >= min_search_radius_px))
     return absl::InvalidArgumentError(
@@ -99,28 +84,27 @@ absl::Status TrackerOptions::Validate() const {
         "inlier distance: inlier_chars and min_inlier_px must be > 0 and "
         "max_inlier_px >= min_inlier_px");
   if (ransac_iterations < 10)
-    return absl::InvalidArgumentError(absl::StrCat("ransac_iterations must be >= 10, got ", ransac_iterations));
+    return absl::InvalidArgumentError(
+        absl::StrCat("ransac_iterations must be >= 10, got ", ransac_iterations));
   if (min_inliers < 6)
     return absl::InvalidArgumentError(absl::StrCat(
         "min_inliers must be >= 6 (a homography has 4 points of freedom), got ", min_inliers));
   if (max_hits_per_descriptor < 1)
     return absl::InvalidArgumentError("max_hits_per_descriptor must be >= 1");
-  if (min_llah_confirm < 1)
-    return absl::InvalidArgumentError("min_llah_confirm must be >= 1");
+  if (min_llah_confirm < 1) return absl::InvalidArgumentError("min_llah_confirm must be >= 1");
   if (!(min_match_ratio >= 0 && min_match_ratio <= 1))
     return absl::InvalidArgumentError("min_match_ratio must be in [0, 1]");
   if (!(max_mean_residual > 0 && max_mean_residual <= 1))
     return absl::InvalidArgumentError("max_mean_residual must be in (0, 1]");
-  if (!(max_jump_fraction > 0))
-    return absl::InvalidArgumentError("max_jump_fraction must be > 0");
+  if (!(max_jump_fraction > 0)) return absl::InvalidArgumentError("max_jump_fraction must be > 0");
   if (reacquire_min_llah_inliers < min_inliers)
     return absl::InvalidArgumentError("reacquire_min_llah_inliers must be >= min_inliers");
   if (!(max_rotation_jump_deg > 0) || max_rotation_jump_deg > 180)
     return absl::InvalidArgumentError("max_rotation_jump_deg must be in (0, 180]");
-  if (retrieval_interval < 1)
-    return absl::InvalidArgumentError("retrieval_interval must be >= 1");
+  if (retrieval_interval < 1) return absl::InvalidArgumentError("retrieval_interval must be >= 1");
   if (max_documents < 1 || max_documents > 64)
-    return absl::InvalidArgumentError(absl::StrCat("max_documents must be in [1, 64], got ", max_documents));
+    return absl::InvalidArgumentError(
+        absl::StrCat("max_documents must be in [1, 64], got ", max_documents));
   if (forget_after_frames < 1)
     return absl::InvalidArgumentError("forget_after_frames must be >= 1");
   return absl::OkStatus();
@@ -137,8 +121,8 @@ struct DocumentTracker::Followed {
   cv::Point2d seen_centroid;                    // reference points seen last
   bool has_motion = false;
   std::optional<PlanarPose> pose;
-  uint64_t last_seen = 0;      // frame of the last accepted pose
-  uint64_t last_llah = 0;      // frame of the last LLAH matching
+  uint64_t last_seen = 0;  // frame of the last accepted pose
+  uint64_t last_llah = 0;  // frame of the last LLAH matching
   int lost_frames = 0;
 };
 
@@ -155,8 +139,8 @@ struct DocumentTracker::Frame {
         grid(kp.points) {
     const double ch = kp.char_height > 0 ? kp.char_height : 10.0;
     inlier_px = std::clamp(o.inlier_chars * ch, o.min_inlier_px, o.max_inlier_px);
-    search_px = std::clamp(o.search_radius_chars * ch, o.min_search_radius_px,
-                           o.max_search_radius_px);
+    search_px =
+        std::clamp(o.search_radius_chars * ch, o.min_search_radius_px, o.max_search_radius_px);
     char_height = kp.char_height;
   }
 
@@ -202,8 +186,8 @@ Pairs ProjectionMatch(const cv::Matx33d& H, const std::vector<cv::Point2f>& refe
     if (!(p.x >= -margin && p.y >= -margin && p.x < size.width + margin &&
           p.y < size.height + margin))
       continue;
-    grid.NearestTo(cv::Point2f(static_cast<float>(p.x), static_cast<float>(p.y)),
-                   ratio > 0 ? 2 : 1, -1, &nearest);
+    grid.NearestTo(cv::Point2f(static_cast<float>(p.x), static_cast<float>(p.y)), ratio > 0 ? 2 : 1,
+                   -1, &nearest);
     if (nearest.empty() || used[nearest[0]]) continue;
     const double d1 = cv::norm(cv::Point2d(points[nearest[0]]) - p);
     if (d1 > radius) continue;
@@ -263,7 +247,8 @@ Fit RansacFit(const Pairs& pairs, const Pairs& sample, const std::vector<cv::Poi
   if (static_cast<int>(fit.inliers.size()) < min_inliers) return fit;
   std::vector<cv::Point2f> seen;
   for (const auto& [q, r] : fit.inliers) seen.push_back(ref[r]);
-  if (!NormaliseInFront(fit.H, Centroid(seen)) || !Plausible(fit.H, seen)) return fit;
+  if (!NormaliseInFront(fit.H, Centroid(seen)) || !MakePlausibleHomography(&fit.H, seen))
+    return fit;
   fit.ok = true;
   return fit;
 }
@@ -379,16 +364,16 @@ void DocumentTracker::MatchLlah(const Followed& doc, Frame& frame, Pairs* all,
       });
     }
     if (votes.empty()) continue;
-    const auto best = std::max_element(votes.begin(), votes.end(), [](const auto& a, const auto& b) {
-      return a.second < b.second || (a.second == b.second && a.first > b.first);
-    });
+    const auto best =
+        std::max_element(votes.begin(), votes.end(), [](const auto& a, const auto& b) {
+          return a.second < b.second || (a.second == b.second && a.first > b.first);
+        });
     all->emplace_back(q, best->first);
     if (best->second >= 2) strong->emplace_back(q, best->first);
   }
 }
 
-TrackedDocument DocumentTracker::TrackOne(Followed& doc, Frame& frame,
-                                          TrackerTimings& timings) {
+TrackedDocument DocumentTracker::TrackOne(Followed& doc, Frame& frame, TrackerTimings& timings) {
   auto t = SteadyClock::now();
   TrackedDocument out;
   out.document = doc.id;
@@ -402,16 +387,16 @@ TrackedDocument DocumentTracker::TrackOne(Followed& doc, Frame& frame,
     if (doc.has_motion && doc.lost_frames == 0) {
       cv::Matx33d moved = doc.motion * doc.homography;
       if (NormaliseInFront(moved, doc.seen_centroid) &&
-          Plausible(moved, {cv::Point2f(doc.seen_centroid)}))
+          MakePlausibleHomography(&moved, {cv::Point2f(doc.seen_centroid)}))
         predicted = moved;
     }
   }
   Fit projected;
   if (predicted) {
-    const Pairs candidates = ProjectionMatch(*predicted, ref, frame.points, frame.grid,
-                                             frame.used, frame.size, frame.search_px, 0.8);
-    projected = RansacFit(candidates, {}, ref, frame.points, frame.inlier_px, 200,
-                          options_.min_inliers);
+    const Pairs candidates = ProjectionMatch(*predicted, ref, frame.points, frame.grid, frame.used,
+                                             frame.size, frame.search_px, 0.8);
+    projected =
+        RansacFit(candidates, {}, ref, frame.points, frame.inlier_px, 200, options_.min_inliers);
     if (projected.ok) projected = Refine(projected, ref, frame, options_.min_inliers);
   }
 
@@ -431,10 +416,10 @@ TrackedDocument DocumentTracker::TrackOne(Followed& doc, Frame& frame,
   // page, or of a mirror image, fall on the predicted lines) meet neither.
   Fit chosen;
   if (projected.ok) {
-    const int agree = llah_ran ? static_cast<int>(
-                                     InliersOf(projected.H, llah, ref, frame.points,
-                                               frame.inlier_px).size())
-                               : -1;
+    const int agree =
+        llah_ran ? static_cast<int>(
+                       InliersOf(projected.H, llah, ref, frame.points, frame.inlier_px).size())
+                 : -1;
     const Evidence evidence = Measure(projected, ref, frame);
     if (agree >= options_.min_llah_confirm ||
         (evidence.match_ratio >= options_.min_match_ratio &&
@@ -445,8 +430,8 @@ TrackedDocument DocumentTracker::TrackOne(Followed& doc, Frame& frame,
   }
   if (!chosen.ok && llah_ran) {
     // LLAH correspondences agreeing on one homography are evidence of their own.
-    chosen = RansacFit(llah, strong, ref, frame.points, frame.inlier_px,
-                       options_.ransac_iterations, options_.min_inliers);
+    chosen = RansacFit(llah, strong, ref, frame.points, frame.inlier_px, options_.ransac_iterations,
+                       options_.min_inliers);
     if (chosen.ok) {
       chosen = Refine(chosen, ref, frame, options_.min_inliers);
       out.method = "llah";
@@ -569,7 +554,7 @@ void DocumentTracker::Follow(uint32_t id, const DocumentHit& hit, Frame& frame,
   result.timings.match_ms += MillisecondsSince(t);
   t = SteadyClock::now();
   if (static_cast<int>(matches.size()) < options_.min_inliers ||
-      !NormaliseInFront(H, Centroid(seen)) || !Plausible(H, seen)) {
+      !NormaliseInFront(H, Centroid(seen)) || !MakePlausibleHomography(&H, seen)) {
     out.state = TrackState::kLost;
     result.documents[slot] = out;
     return;
@@ -641,7 +626,8 @@ TrackerFrameResult DocumentTracker::Track(const WordKeypoints& keypoints,
   }
 
   // Retrieval: pages not followed yet, and lost ones the session index cannot re-find.
-  if (!any_tracked || frame_count_ - last_retrieval_ >= static_cast<uint64_t>(options_.retrieval_interval)) {
+  if (!any_tracked ||
+      frame_count_ - last_retrieval_ >= static_cast<uint64_t>(options_.retrieval_interval)) {
     t = SteadyClock::now();
     last_retrieval_ = frame_count_;
     std::vector<int> free_index;

@@ -228,13 +228,6 @@ std::vector<Correspondence> BestCorrespondences(const std::vector<Hit> &hits) {
   return out;
 }
 
-// Plausibility of a page homography: orientation kept (no mirror), finite, the
-// local scale at the inliers' centre within a sane range, all inliers in front
-// of the camera.
-// Also fixes the sign of H (known up to scale) so that w > 0 at the matched points, which
-// are in front of the camera: with h22 = 1 that fails when the page origin is behind the
-// camera (close and steeply tilted). Matched points on both sides of the horizon mean a
-// wrong homography.
 // Keeps only the hits of the `keep` documents with most hits: a large database gives
 // common descriptors many entries, and sorting every hit would cost more than the rest of
 // the query. Counting per document is linear.
@@ -252,31 +245,6 @@ void PrefilterHits(int keep, std::vector<Hit> *hits) {
   hits->erase(std::remove_if(hits->begin(), hits->end(),
                              [&](const Hit &h) { return per_document[h.document] < floor; }),
               hits->end());
-}
-
-bool PlausibleHomography(cv::Matx33d *H_inout, const std::vector<cv::Point2f> &ref) {
-  cv::Matx33d &H = *H_inout;
-  for (int i = 0; i < 9; ++i)
-    if (!std::isfinite(H.val[i])) return false;
-  cv::Point2d c(0, 0);
-  int positive = 0, negative = 0;
-  for (const auto &p : ref) {
-    const double w = H(2, 0) * p.x + H(2, 1) * p.y + H(2, 2);
-    positive += w > 1e-9;
-    negative += w < -1e-9;
-    c += cv::Point2d(p.x, p.y);
-  }
-  if (positive != static_cast<int>(ref.size()) && negative != static_cast<int>(ref.size()))
-    return false;
-  if (negative > 0) H = H * -1.0;
-  c *= 1.0 / std::max<size_t>(1, ref.size());
-  const cv::Point2d p0 = ApplyHomography(H, c), px = ApplyHomography(H, c + cv::Point2d(1, 0)),
-                    py = ApplyHomography(H, c + cv::Point2d(0, 1));
-  const cv::Point2d ex = px - p0, ey = py - p0;
-  const double det = ex.x * ey.y - ex.y * ey.x;
-  if (!(det > 0)) return false;
-  const double scale = std::sqrt(det);
-  return scale > 1.0 / 40 && scale < 40;
 }
 
 }  // namespace
@@ -396,7 +364,7 @@ std::vector<DocumentHit> LlahRetriever::Retrieve(const std::vector<cv::Point2f> 
       }
     }
     if (static_cast<int>(inlier_pairs.size()) < o.min_inliers) continue;
-    if (!PlausibleHomography(&H, inlier_ref)) continue;
+    if (!MakePlausibleHomography(&H, inlier_ref)) continue;
 
     // Guided refinement: every reference keypoint projected by H takes the
     // nearest free query keypoint within the threshold; the homography is
@@ -435,7 +403,7 @@ std::vector<DocumentHit> LlahRetriever::Retrieve(const std::vector<cv::Point2f> 
       cv::Mat refined = cv::findHomography(gr, gq, 0);
       if (refined.empty()) break;
       cv::Matx33d refined_h(refined);
-      if (!PlausibleHomography(&refined_h, gr)) break;
+      if (!MakePlausibleHomography(&refined_h, gr)) break;
       H = refined_h;
     }
     // Re-count LLAH inliers under the final homography.

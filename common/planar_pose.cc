@@ -93,4 +93,29 @@ cv::Point2d ApplyHomography(const cv::Matx33d &H, const cv::Point2d &p) {
           (H(1, 0) * p.x + H(1, 1) * p.y + H(1, 2)) / w};
 }
 
+bool MakePlausibleHomography(cv::Matx33d *H_inout, const std::vector<cv::Point2f> &seen) {
+  cv::Matx33d &H = *H_inout;
+  if (seen.empty()) return false;
+  for (double v : H.val)
+    if (!std::isfinite(v)) return false;
+  cv::Point2d c(0, 0);
+  size_t positive = 0, negative = 0;
+  for (const auto &p : seen) {
+    const double w = H(2, 0) * p.x + H(2, 1) * p.y + H(2, 2);
+    positive += w > 1e-9;
+    negative += w < -1e-9;
+    c += cv::Point2d(p.x, p.y);
+  }
+  if (positive != seen.size() && negative != seen.size()) return false;
+  if (negative > 0) H = H * -1.0;
+  c *= 1.0 / seen.size();
+  const cv::Point2d p0 = ApplyHomography(H, c), px = ApplyHomography(H, c + cv::Point2d(1, 0)),
+                    py = ApplyHomography(H, c + cv::Point2d(0, 1));
+  const cv::Point2d ex = px - p0, ey = py - p0;
+  const double det = ex.x * ey.y - ex.y * ey.x;
+  if (!(det > 0)) return false;
+  const double scale = std::sqrt(det);
+  return scale > 1.0 / 40 && scale < 40;
+}
+
 }  // namespace texfree
