@@ -7,6 +7,7 @@
 #include <cmath>
 #include <mutex>
 #include <opencv2/calib3d.hpp>
+#include <opencv2/imgproc.hpp>
 #include <thread>
 #include <unordered_set>
 
@@ -36,6 +37,18 @@ absl::Status RetrievalOptions::Validate() const {
   if (min_inliers < 6)
     return absl::InvalidArgumentError(absl::StrCat(
         "min_inliers must be >= 6 (a homography has 4 points of freedom), got ", min_inliers));
+  if (min_weak_inliers < 5 || min_weak_inliers > min_inliers)
+    return absl::InvalidArgumentError(absl::StrCat(
+        "min_weak_inliers must be in [5, min_inliers] (a homography needs 4 points and one "
+        "to check), got ",
+        min_weak_inliers));
+  if (min_layout_matches < min_inliers)
+    return absl::InvalidArgumentError(absl::StrCat("min_layout_matches must be >= min_inliers (",
+                                                   min_inliers, "), got ", min_layout_matches));
+  if (min_layout_ratio <= 0.25 || min_layout_ratio > 1)
+    return absl::InvalidArgumentError(absl::StrCat(
+        "min_layout_ratio must be in (0.25, 1] (chance alignments of text reach ~0.2), got ",
+        min_layout_ratio));
   if (max_results < 0) return absl::InvalidArgumentError("max_results must be >= 0");
   return absl::OkStatus();
 }
@@ -247,6 +260,24 @@ void PrefilterHits(int keep, std::vector<Hit> *hits) {
               hits->end());
 }
 
+// The layout check for documents with few LLAH inliers: the share of the reference
+// keypoints that H puts inside the query keypoints' hull which found a query keypoint
+// (`matched`, from the guided refinement).
+bool LayoutConfirms(const std::vector<cv::Point2f> &reference, const cv::Matx33d &H,
+                    const std::vector<cv::Point2f> &query_hull, int matched,
+                    const RetrievalOptions &o) {
+  if (matched < o.min_layout_matches || query_hull.size() < 3) return false;
+  int inside = 0;
+  for (const cv::Point2f &r : reference) {
+    const cv::Point2d p = ApplyHomography(H, r);
+    if (!std::isfinite(p.x) || !std::isfinite(p.y)) continue;
+    if (cv::pointPolygonTest(
+            query_hull, cv::Point2f(static_cast<float>(p.x), static_cast<float>(p.y)), false) >= 0)
+      ++inside;
+  }
+  return matched >= o.min_layout_ratio * inside;
+}
+
 }  // namespace
 
 std::vector<DocumentHit> LlahRetriever::Retrieve(const std::vector<cv::Point2f> &query,
@@ -318,6 +349,7 @@ std::vector<DocumentHit> LlahRetriever::Retrieve(const std::vector<cv::Point2f> 
                                : std::clamp(0.45 * query_char_height, 2.5, 12.0);
   std::vector<char> used(query.size(), 0);
   NeighborGrid query_grid(query);
+  std::vector<cv::Point2f> query_hull;  // computed when a layout check needs it
   std::vector<int> nearest;
   for (const Candidate &candidate : ranked) {
     const uint32_t doc = candidate.document;
@@ -335,7 +367,7 @@ std::vector<DocumentHit> LlahRetriever::Retrieve(const std::vector<cv::Point2f> 
       pairs.emplace_back(c.query, c.reference);
       strength.push_back(c.count);
     }
-    if (static_cast<int>(pairs.size()) < o.min_inliers) continue;
+    if (static_cast<int>(pairs.size()) < o.min_weak_inliers) continue;
     // RANSAC on the strong correspondences when there are enough of them: a far
     // higher inlier ratio than all of them, so far fewer iterations.
     std::vector<cv::Point2f> sample_ref, sample_query;
@@ -363,7 +395,7 @@ std::vector<DocumentHit> LlahRetriever::Retrieve(const std::vector<cv::Point2f> 
         inlier_pairs.push_back(pairs[i]);
       }
     }
-    if (static_cast<int>(inlier_pairs.size()) < o.min_inliers) continue;
+    if (static_cast<int>(inlier_pairs.size()) < o.min_weak_inliers) continue;
     if (!MakePlausibleHomography(&H, inlier_ref)) continue;
 
     // Guided refinement: every reference keypoint projected by H takes the
@@ -372,7 +404,11 @@ std::vector<DocumentHit> LlahRetriever::Retrieve(const std::vector<cv::Point2f> 
     // correspondences only: projected text lands near some word by chance too
     // often to count as evidence.)
     std::vector<std::pair<int, int>> guided;
-    for (int round = 0; round < 2; ++round) {
+    // The gate starts at the RANSAC threshold and then shrinks to a few times the median
+    // residual, so that extra keypoints a few pixels from a projected word stop pulling the
+    // least-squares refit.
+    double gate = threshold;
+    for (int round = 0; round < 3; ++round) {
       std::vector<int> owner(query.size(), -1);
       std::vector<float> owner_d(query.size(), 0.f);
       for (int r = 0; r < static_cast<int>(model.keypoints.size()); ++r) {
@@ -382,7 +418,7 @@ std::vector<DocumentHit> LlahRetriever::Retrieve(const std::vector<cv::Point2f> 
                              &nearest);
         if (nearest.empty() || used[nearest[0]]) continue;
         const float d = static_cast<float>(cv::norm(cv::Point2d(query[nearest[0]]) - p));
-        if (d > threshold) continue;
+        if (d > gate) continue;
         if (owner[nearest[0]] < 0 || d < owner_d[nearest[0]]) {
           owner[nearest[0]] = r;
           owner_d[nearest[0]] = d;
@@ -405,6 +441,12 @@ std::vector<DocumentHit> LlahRetriever::Retrieve(const std::vector<cv::Point2f> 
       cv::Matx33d refined_h(refined);
       if (!MakePlausibleHomography(&refined_h, gr)) break;
       H = refined_h;
+      std::vector<double> residuals(gr.size());
+      for (size_t i = 0; i < gr.size(); ++i)
+        residuals[i] = cv::norm(ApplyHomography(H, gr[i]) - cv::Point2d(gq[i]));
+      std::nth_element(residuals.begin(), residuals.begin() + residuals.size() / 2,
+                       residuals.end());
+      gate = std::clamp(3.0 * residuals[residuals.size() / 2], 1.0, threshold);
     }
     // Re-count LLAH inliers under the final homography.
     int inliers = 0;
@@ -412,7 +454,12 @@ std::vector<DocumentHit> LlahRetriever::Retrieve(const std::vector<cv::Point2f> 
       const cv::Point2d p = ApplyHomography(H, ref_pts[i]);
       if (cv::norm(p - cv::Point2d(query_pts[i])) <= threshold) ++inliers;
     }
-    if (inliers < o.min_inliers) continue;
+    if (inliers < o.min_weak_inliers) continue;
+    if (inliers < o.min_inliers) {
+      if (query_hull.empty()) cv::convexHull(query, query_hull);
+      if (!LayoutConfirms(model.keypoints, H, query_hull, static_cast<int>(guided.size()), o))
+        continue;
+    }
     DocumentHit hit;
     hit.document = doc;
     // h22 = +-1, keeping the sign that puts the matched points in front of the camera.

@@ -34,10 +34,10 @@ struct RetrievalOptions {
   // level boundary.
   int query_probes = 1;
   // A document needs this many query keypoints voting for it to be verified.
-  int min_votes = 12;
+  int min_votes = 6;
   // ...of which this many agree on one reference keypoint with two or more
   // descriptors.
-  int min_strong_votes = 4;
+  int min_strong_votes = 2;
   // ...and at least this share of the best document's votes.
   double candidate_vote_ratio = 0.05;
   // At most this many documents are verified per query (RANSAC is the costly
@@ -50,6 +50,16 @@ struct RetrievalOptions {
   // A document is visible when at least this many LLAH correspondences agree
   // with one homography.
   int min_inliers = 12;
+  // Large type, blur or a steep view leave few keypoints whose whole neighbourhood
+  // survives, so few LLAH correspondences even for the right page. From
+  // min_weak_inliers LLAH inliers up, the page's layout decides: the homography must
+  // put at least min_layout_matches reference keypoints, and min_layout_ratio of those
+  // it projects inside the query's keypoints, onto query keypoints. The right page
+  // scores 0.5-0.9; a wrong page's words land near query words by chance (~0.1-0.2,
+  // even with aligned text lines, since words along a line fall at random).
+  int min_weak_inliers = 6;
+  int min_layout_matches = 16;
+  double min_layout_ratio = 0.45;
   // 0 = every visible document.
   int max_results = 0;
 

@@ -3,6 +3,7 @@
 
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <chrono>
 #include <sstream>
 
@@ -23,6 +24,13 @@ constexpr const char *kQuantizerKey = "llah.quantizer";
 // Version of the descriptor hash function; stored hashes of another version are recomputed.
 constexpr const char *kHashVersionKey = "llah.hash_version";
 constexpr const char *kHashVersion = "1";
+// How the database's pages were cut into words. Absent in databases built before it was
+// stored, which all used the line closing.
+constexpr const char *kGroupingKey = "keypoints.grouping";
+
+const char *GroupingName(WordGrouping g) {
+  return g == WordGrouping::kLetterGraph ? "letter_graph" : "line_closing";
+}
 
 std::string FormatOptions(const LlahOptions &o) { return absl::StrCat(o.n, ",", o.m, ",", o.k); }
 
@@ -58,12 +66,34 @@ absl::StatusOr<InvariantQuantizer> ParseThresholds(const std::string &s, int k) 
 
 }  // namespace
 
-std::vector<WordKeypointOptions> DefaultFallbackKeypointOptions() {
+WordKeypointOptions DefaultKeypointOptions() {
   WordKeypointOptions letter_graph;
   letter_graph.grouping = WordGrouping::kLetterGraph;
-  WordKeypointOptions wide_closing;
+  return letter_graph;
+}
+
+std::vector<WordKeypointOptions> DefaultFallbackKeypointOptions() {
+  WordKeypointOptions closing;
+  closing.grouping = WordGrouping::kLineClosing;
+  WordKeypointOptions wide_closing = closing;
   wide_closing.gap_factor = 0.35;
-  return {letter_graph, wide_closing};
+  return {closing, wide_closing};
+}
+
+void DocumentRegistry::UseRegistrationGrouping(WordGrouping grouping) {
+  if (options_.keypoints.grouping == grouping) return;
+  auto it = std::find_if(options_.fallback_keypoints.begin(), options_.fallback_keypoints.end(),
+                         [&](const WordKeypointOptions &o) { return o.grouping == grouping; });
+  if (it != options_.fallback_keypoints.end()) {
+    std::swap(options_.keypoints, *it);
+  } else {
+    options_.fallback_keypoints.insert(options_.fallback_keypoints.begin(), options_.keypoints);
+    options_.keypoints.grouping = grouping;
+  }
+  extractor_ = WordKeypointExtractor(options_.keypoints);
+  fallback_extractors_.clear();
+  for (const WordKeypointOptions &o : options_.fallback_keypoints)
+    fallback_extractors_.emplace_back(o);
 }
 
 absl::Status DocumentRegistryOptions::Validate() const {
@@ -118,6 +148,21 @@ absl::Status DocumentRegistry::LoadIndex() {
         *stored_options);
   }
   options_.llah = llah;
+  ASSIGN_OR_RETURN(auto stored_grouping, store_->GetSetting(kGroupingKey));
+  const WordGrouping grouping =
+      stored_grouping && *stored_grouping == GroupingName(WordGrouping::kLetterGraph)
+          ? WordGrouping::kLetterGraph
+          : WordGrouping::kLineClosing;
+  if (stored_grouping && *stored_grouping != GroupingName(grouping))
+    return absl::DataLossError(
+        absl::StrCat("stored keypoint grouping '", *stored_grouping, "' is unknown"));
+  if (grouping != options_.keypoints.grouping) {
+    spdlog::warn(
+        "document index: pages were cut into words by the {}; keeping it for this database "
+        "(register the pages into a new database to use the {})",
+        GroupingName(grouping), GroupingName(options_.keypoints.grouping));
+    UseRegistrationGrouping(grouping);
+  }
   ASSIGN_OR_RETURN(InvariantQuantizer quantizer, ParseThresholds(*stored_thresholds, llah.k));
   auto retriever =
       std::make_shared<LlahRetriever>(llah, std::move(quantizer), options_.log2_buckets);
@@ -168,6 +213,7 @@ absl::Status DocumentRegistry::CreateRetriever(const std::vector<cv::Point2f> &t
   RETURN_IF_ERROR(store_->PutSetting(kQuantizerKey, FormatThresholds(quantizer.thresholds())));
   RETURN_IF_ERROR(store_->PutSetting(kLlahOptionsKey, FormatOptions(options_.llah)));
   RETURN_IF_ERROR(store_->PutSetting(kHashVersionKey, kHashVersion));
+  RETURN_IF_ERROR(store_->PutSetting(kGroupingKey, GroupingName(options_.keypoints.grouping)));
   spdlog::info("document index: learned {} quantisation levels: {}", options_.llah.k,
                FormatThresholds(quantizer.thresholds()));
   std::unique_lock lock(mutex_);

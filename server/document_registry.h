@@ -22,13 +22,18 @@
 
 namespace texfree::server {
 
-// Query extractors tried, in order, when the registration extractor's keypoints
-// retrieve nothing: letters joined by the letter graph, then a wider closing
-// (monospace, blur).
+// Registration (and first query) extractor of a new database: letters joined into words by
+// the letter graph, which learns each page's letter and word spacing (monospace, tight or
+// loose typesetting) and follows the local text size (headings, perspective).
+WordKeypointOptions DefaultKeypointOptions();
+// Query extractors tried, in order, when the first one's keypoints retrieve nothing: one
+// closing along the text lines (copes better with blur), then a wider closing.
 std::vector<WordKeypointOptions> DefaultFallbackKeypointOptions();
 
 struct DocumentRegistryOptions {
-  WordKeypointOptions keypoints;
+  // A database keeps the grouping it was built with (setting keypoints.grouping): pages
+  // must be registered alike, and queries try that grouping first.
+  WordKeypointOptions keypoints = DefaultKeypointOptions();
   std::vector<WordKeypointOptions> fallback_keypoints = DefaultFallbackKeypointOptions();
   // Used for a new database; an existing one keeps the settings it was built
   // with.
@@ -91,7 +96,9 @@ class DocumentRegistry {
   // registered; read-only for sessions), a document's summary by index id (nullopt once
   // deleted) and its annotations.
   std::shared_ptr<const LlahRetriever> retriever() const;
-  std::optional<DocumentSummary> FindByIndexId(uint32_t index_id) const { return Summary(index_id); }
+  std::optional<DocumentSummary> FindByIndexId(uint32_t index_id) const {
+    return Summary(index_id);
+  }
   absl::StatusOr<std::vector<AnnotationRecord>> AnnotationsByIndexId(uint32_t index_id) const;
 
   size_t index_memory_bytes() const;
@@ -101,6 +108,8 @@ class DocumentRegistry {
  private:
   DocumentRegistry(std::unique_ptr<DocumentStore> store, DocumentRegistryOptions options);
   absl::Status LoadIndex();
+  // Makes `grouping` the registration and first query extractor (the database's own).
+  void UseRegistrationGrouping(WordGrouping grouping);
   absl::Status CreateRetriever(const std::vector<cv::Point2f> &training_points);
   std::optional<DocumentSummary> Summary(uint32_t index_id) const;
 

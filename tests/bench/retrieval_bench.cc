@@ -23,8 +23,10 @@
 #include <vector>
 
 #include "common/image_io.h"
+#include "common/neighbor_grid.h"
 #include "common/planar_pose.h"
 #include "common/timing.h"
+#include "common/word_keypoints.h"
 #include "server/document_registry.h"
 #include "server/document_store.h"
 #include "tests/data/camera_view.h"
@@ -57,6 +59,7 @@ struct Query {
   int page;  // -1: never registered
   cv::Matx33d truth;
   cv::Size page_size;
+  texfree::testdata::CameraViewOptions view;
 };
 
 std::vector<Query> MakeQueries(int count, int registered, uint64_t seed, bool unregistered) {
@@ -73,10 +76,86 @@ std::vector<Query> MakeQueries(int count, int registered, uint64_t seed, bool un
     std::vector<uchar> bytes;
     cv::imencode(".jpg", view.image, bytes,
                  {cv::IMWRITE_JPEG_QUALITY, 60 + static_cast<int>(rng() % 36)});
-    out.push_back(
-        {std::string(bytes.begin(), bytes.end()), page, view.homography, rendered.image.size()});
+    out.push_back({std::string(bytes.begin(), bytes.end()), page, view.homography,
+                   rendered.image.size(), options});
   }
   return out;
+}
+
+// How well one extractor's keypoints in a view repeat the registered page's: the share of
+// reference keypoints inside the view found again (within a third of the text height), of
+// those how many kept at least m of their n nearest neighbours (so that one LLAH
+// descriptor can match), and how many share a descriptor with their reference keypoint.
+std::string RepeatStats(const std::vector<cv::Point2f> &points, double char_height,
+                        const std::vector<cv::Point2f> &ref, const cv::Matx33d &truth,
+                        const cv::Size &image, const texfree::LlahDescriber &describer) {
+  std::vector<uint64_t> ref_hashes, query_hashes;
+  describer.Describe(ref, &ref_hashes);
+  describer.Describe(points, &query_hashes);
+  const int per = describer.descriptors_per_point();
+  const int n = describer.options().n, m = describer.options().m;
+  std::vector<int> match(points.size(), -1);  // query -> ref
+  int in_view = 0, found = 0, kept_m = 0, equal = 0;
+  const double tol = std::max(2.0, char_height / 3);
+  for (size_t r = 0; r < ref.size(); ++r) {
+    const cv::Point2d v = texfree::ApplyHomography(truth, cv::Point2d(ref[r].x, ref[r].y));
+    if (v.x < 0 || v.y < 0 || v.x >= image.width || v.y >= image.height) continue;
+    ++in_view;
+    for (size_t i = 0; i < points.size(); ++i)
+      if (std::hypot(points[i].x - v.x, points[i].y - v.y) < tol) {
+        ++found;
+        match[i] = static_cast<int>(r);
+        break;
+      }
+  }
+  if (points.size() > static_cast<size_t>(n) && ref.size() > static_cast<size_t>(n)) {
+    texfree::NeighborGrid ref_grid(ref), query_grid(points);
+    std::vector<int> qn, rn;
+    for (size_t i = 0; i < points.size(); ++i) {
+      if (match[i] < 0) continue;
+      query_grid.Nearest(static_cast<int>(i), n, &qn);
+      ref_grid.Nearest(match[i], n, &rn);
+      int common = 0;
+      for (int a : qn)
+        if (match[a] >= 0 && std::find(rn.begin(), rn.end(), match[a]) != rn.end()) ++common;
+      if (common >= m) ++kept_m;
+      bool same = false;
+      for (int a = 0; a < per && !same; ++a)
+        for (int b = 0; b < per && !same; ++b) {
+          const uint64_t hq = query_hashes[i * per + a];
+          same = hq != 0 && hq == ref_hashes[static_cast<size_t>(match[i]) * per + b];
+        }
+      if (same) ++equal;
+    }
+  }
+  char line[200];
+  std::snprintf(line, sizeof(line),
+                "kp %zu h %.1f: %d/%d found (%.0f%%), %d keep %d/%d nn, %d desc", points.size(),
+                char_height, found, in_view, in_view ? 100.0 * found / in_view : 0.0, kept_m, m, n,
+                equal);
+  return line;
+}
+
+// One line per missed query: the view, and how each query extractor saw it.
+void PrintMiss(const DocumentRegistry &registry, const Query &q, const cv::Mat &gray,
+               const std::string &id, const texfree::server::RetrievalResult *result) {
+  auto record = registry.Get(id);
+  if (!record.ok()) return;
+  const auto ref = registry.retriever()->Keypoints(record->index_id);
+  std::string stats;
+  std::vector<texfree::WordKeypointOptions> extractors{registry.options().keypoints};
+  for (const auto &o : registry.options().fallback_keypoints) extractors.push_back(o);
+  for (const auto &o : extractors) {
+    const auto kp = texfree::WordKeypointExtractor(o).Extract(gray);
+    stats += " | " + RepeatStats(kp.points, kp.char_height, ref, q.truth, gray.size(),
+                                 registry.retriever()->describer());
+  }
+  std::fprintf(
+      stderr, "miss page %d: tilt %.0f scale %.2f blur %.1f noise %.1f light %.2f%s | %s\n", q.page,
+      q.view.tilt_deg, q.view.scale, q.view.blur_sigma, q.view.noise_sigma,
+      q.view.illumination_gradient, stats.c_str(),
+      result == nullptr || result->documents.empty() ? "nothing"
+                                                     : result->documents[0].document.title.c_str());
 }
 
 }  // namespace
@@ -102,10 +181,28 @@ int main(int argc, char **argv) {
                  "documents verified per query");
   app.add_option("--prefilter", registry_options.retrieval.prefilter_documents,
                  "documents whose hits are ranked (0: all)");
+  app.add_option("--min-votes", registry_options.retrieval.min_votes,
+                 "query keypoints voting for a document before it is verified");
+  app.add_option("--min-strong", registry_options.retrieval.min_strong_votes,
+                 "...of which agree on one reference keypoint with 2+ descriptors");
+  app.add_option("--min-weak-inliers", registry_options.retrieval.min_weak_inliers,
+                 "LLAH inliers from which the layout check may confirm a page");
+  app.add_option("--layout-ratio", registry_options.retrieval.min_layout_ratio,
+                 "share of projected reference keypoints that must meet query keypoints");
+  app.add_option("--llah-n", registry_options.llah.n, "LLAH neighbours (new database only)");
+  app.add_option("--llah-m", registry_options.llah.m, "LLAH neighbours per descriptor");
+  app.add_option("--llah-k", registry_options.llah.k, "LLAH quantisation levels");
+  app.add_option("--gap-factor", registry_options.keypoints.gap_factor,
+                 "closing gap / text height");
+  bool line_closing = false;
+  app.add_flag("--line-closing", line_closing,
+               "register and query first with the line closing (new database only)");
   app.add_option("--log2-buckets", registry_options.log2_buckets, "index hash table size");
-  bool no_fallback = false;
+  bool no_fallback = false, misses = false;
+  app.add_flag("--misses", misses, "print why each missed query failed (keypoint repeatability)");
   app.add_flag("--no-fallback", no_fallback, "query with the registration extractor only");
   CLI11_PARSE(app, argc, argv);
+  if (line_closing) std::swap(registry_options.keypoints, registry_options.fallback_keypoints[0]);
   if (no_fallback) registry_options.fallback_keypoints.clear();
   spdlog::set_level(spdlog::level::warn);
   std::sort(checkpoints.begin(), checkpoints.end());
@@ -191,6 +288,8 @@ int main(int argc, char **argv) {
             result->documents[0].homography, q.truth, q.page_size, gray->size());
         errors.push_back(err);
         if (err < 10) ++correct;
+      } else if (misses) {
+        PrintMiss(*registry, q, *gray, id_of_page[q.page], result.ok() ? &*result : nullptr);
       }
       if (result.ok()) {
         for (const auto &d : result->documents)

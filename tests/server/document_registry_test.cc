@@ -1,0 +1,160 @@
+// DocumentRegistry: a database remembers how its pages were cut into words, so that pages
+// registered later and queries match the ones registered earlier, also for databases built
+// before the grouping was stored (line closing).
+#include "server/document_registry.h"
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <opencv2/imgproc.hpp>
+
+#include "server/document_store.h"
+#include "server/sqlite_db.h"
+#include "tests/data/camera_view.h"
+#include "tests/data/page_renderer.h"
+
+namespace texfree::server {
+namespace {
+
+namespace fs = std::filesystem;
+
+cv::Mat Gray(const cv::Mat& bgr) {
+  cv::Mat gray;
+  cv::cvtColor(bgr, gray, cv::COLOR_BGR2GRAY);
+  return gray;
+}
+
+class DocumentRegistryTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() / ("texfree-registry-" + std::to_string(::getpid()));
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+    path_ = (dir_ / "t.db").string();
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  std::unique_ptr<DocumentRegistry> Open(const DocumentRegistryOptions& options) {
+    auto store = DocumentStore::Open(path_);
+    EXPECT_TRUE(store.ok()) << store.status();
+    if (!store.ok()) return nullptr;
+    auto registry = DocumentRegistry::Open(std::move(*store), options);
+    EXPECT_TRUE(registry.ok()) << registry.status();
+    return registry.ok() ? std::move(*registry) : nullptr;
+  }
+
+  std::optional<std::string> Setting(const std::string& key) {
+    auto store = DocumentStore::Open(path_);
+    EXPECT_TRUE(store.ok()) << store.status();
+    auto value = (*store)->GetSetting(key);
+    EXPECT_TRUE(value.ok()) << value.status();
+    return value.ok() ? *value : std::nullopt;
+  }
+
+  // A tilted, blurred, noisy camera view of the page retrieves it with the right homography.
+  static void ExpectRetrieved(const DocumentRegistry& registry, const cv::Mat& page,
+                              const std::string& id, uint64_t seed) {
+    testdata::CameraViewOptions view;
+    view.tilt_deg = 25;
+    view.tilt_azimuth_deg = 30;
+    view.roll_deg = 10;
+    view.scale = 0.9;
+    view.blur_sigma = 0.8;
+    view.noise_sigma = 3;
+    view.jpeg_quality = 85;
+    const auto photo = testdata::RenderCameraView(page, view, seed);
+    auto result = registry.Retrieve(Gray(photo.image), std::nullopt, 0);
+    ASSERT_TRUE(result.ok()) << result.status();
+    ASSERT_EQ(result->documents.size(), 1u);
+    EXPECT_EQ(result->documents[0].document.id, id);
+    EXPECT_LT(testdata::MeanHomographyError(result->documents[0].homography, photo.homography,
+                                            page.size(), photo.image.size()),
+              2.0);
+  }
+
+  fs::path dir_;
+  std::string path_;
+};
+
+TEST_F(DocumentRegistryTest, NewDatabaseKeepsItsGroupingWhateverTheServerIsConfiguredWith) {
+  const auto page = testdata::RenderTextPage(11);
+  std::string id;
+  {
+    auto registry = Open({});
+    ASSERT_NE(registry, nullptr);
+    EXPECT_EQ(registry->options().keypoints.grouping, WordGrouping::kLetterGraph);
+    auto record = registry->Register(Gray(page.image), "eleven", {});
+    ASSERT_TRUE(record.ok()) << record.status();
+    id = record->id;
+  }
+  EXPECT_EQ(Setting("keypoints.grouping"), "letter_graph");
+
+  // Reopened by a server configured for the line closing: the database's grouping wins and
+  // the configured one becomes a query fallback.
+  DocumentRegistryOptions closing;
+  closing.keypoints.grouping = WordGrouping::kLineClosing;
+  closing.fallback_keypoints = {};
+  auto registry = Open(closing);
+  ASSERT_NE(registry, nullptr);
+  EXPECT_EQ(registry->options().keypoints.grouping, WordGrouping::kLetterGraph);
+  ASSERT_EQ(registry->options().fallback_keypoints.size(), 1u);
+  EXPECT_EQ(registry->options().fallback_keypoints[0].grouping, WordGrouping::kLineClosing);
+  ExpectRetrieved(*registry, page.image, id, 5);
+}
+
+TEST_F(DocumentRegistryTest, DatabaseFromBeforeTheGroupingWasStoredKeepsTheLineClosing) {
+  const auto first = testdata::RenderTextPage(21), second = testdata::RenderTextPage(22);
+  std::string first_id;
+  {
+    DocumentRegistryOptions closing;
+    std::swap(closing.keypoints, closing.fallback_keypoints[0]);
+    ASSERT_EQ(closing.keypoints.grouping, WordGrouping::kLineClosing);
+    auto registry = Open(closing);
+    ASSERT_NE(registry, nullptr);
+    auto record = registry->Register(Gray(first.image), "first", {});
+    ASSERT_TRUE(record.ok()) << record.status();
+    first_id = record->id;
+  }
+  {  // What such a database looked like: no keypoints.grouping setting.
+    auto db = SqliteDb::Open(path_);
+    ASSERT_TRUE(db.ok()) << db.status();
+    ASSERT_TRUE((*db)->Exec("DELETE FROM settings WHERE key = 'keypoints.grouping'").ok());
+  }
+  ASSERT_EQ(Setting("keypoints.grouping"), std::nullopt);
+
+  auto registry = Open({});  // default options: letter graph
+  ASSERT_NE(registry, nullptr);
+  EXPECT_EQ(registry->options().keypoints.grouping, WordGrouping::kLineClosing);
+  bool letter_graph_fallback = false;
+  for (const auto& o : registry->options().fallback_keypoints)
+    letter_graph_fallback |= o.grouping == WordGrouping::kLetterGraph;
+  EXPECT_TRUE(letter_graph_fallback);
+  // A page registered now is cut like the old ones; both are found.
+  auto record = registry->Register(Gray(second.image), "second", {});
+  ASSERT_TRUE(record.ok()) << record.status();
+  ExpectRetrieved(*registry, first.image, first_id, 6);
+  ExpectRetrieved(*registry, second.image, record->id, 7);
+}
+
+TEST_F(DocumentRegistryTest, UnknownStoredGroupingIsDataLoss) {
+  {
+    auto registry = Open({});
+    ASSERT_NE(registry, nullptr);
+    ASSERT_TRUE(registry->Register(Gray(testdata::RenderTextPage(31).image), "p", {}).ok());
+  }
+  {
+    auto store = DocumentStore::Open(path_);
+    ASSERT_TRUE(store.ok());
+    ASSERT_TRUE((*store)->PutSetting("keypoints.grouping", "hand_drawn").ok());
+  }
+  auto store = DocumentStore::Open(path_);
+  ASSERT_TRUE(store.ok());
+  auto registry = DocumentRegistry::Open(std::move(*store), {});
+  ASSERT_FALSE(registry.ok());
+  EXPECT_EQ(registry.status().code(), absl::StatusCode::kDataLoss);
+  EXPECT_NE(registry.status().message().find("hand_drawn"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace texfree::server
