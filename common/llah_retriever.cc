@@ -6,6 +6,7 @@
 #include <atomic>
 #include <cmath>
 #include <mutex>
+#include <numeric>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 #include <thread>
@@ -368,21 +369,20 @@ std::vector<DocumentHit> LlahRetriever::Retrieve(const std::vector<cv::Point2f> 
       strength.push_back(c.count);
     }
     if (static_cast<int>(pairs.size()) < o.min_weak_inliers) continue;
-    // RANSAC on the strong correspondences when there are enough of them: a far
-    // higher inlier ratio than all of them, so far fewer iterations.
+    // PROSAC: correspondences ordered by how many descriptors agree on them, so that
+    // hypotheses come from the likeliest inliers first and a good model stops the search
+    // early; hopeless candidates still cost at most ransac_iterations.
+    std::vector<int> order(pairs.size());
+    std::iota(order.begin(), order.end(), 0);
+    std::stable_sort(order.begin(), order.end(),
+                     [&](int a, int b) { return strength[a] > strength[b]; });
     std::vector<cv::Point2f> sample_ref, sample_query;
-    for (size_t i = 0; i < pairs.size(); ++i) {
-      if (strength[i] >= 2) {
-        sample_ref.push_back(ref_pts[i]);
-        sample_query.push_back(query_pts[i]);
-      }
-    }
-    if (sample_ref.size() < 10) {
-      sample_ref = ref_pts;
-      sample_query = query_pts;
+    for (int i : order) {
+      sample_ref.push_back(ref_pts[i]);
+      sample_query.push_back(query_pts[i]);
     }
     std::vector<uchar> mask;
-    cv::Mat Hm = cv::findHomography(sample_ref, sample_query, cv::RANSAC, threshold, mask,
+    cv::Mat Hm = cv::findHomography(sample_ref, sample_query, cv::USAC_PROSAC, threshold, mask,
                                     o.ransac_iterations, 0.995);
     if (Hm.empty()) continue;
     cv::Matx33d H(Hm);

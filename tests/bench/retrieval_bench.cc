@@ -189,6 +189,8 @@ int main(int argc, char **argv) {
                  "LLAH inliers from which the layout check may confirm a page");
   app.add_option("--layout-ratio", registry_options.retrieval.min_layout_ratio,
                  "share of projected reference keypoints that must meet query keypoints");
+  app.add_option("--ransac-iterations", registry_options.retrieval.ransac_iterations,
+                 "RANSAC iterations per candidate document");
   app.add_option("--llah-n", registry_options.llah.n, "LLAH neighbours (new database only)");
   app.add_option("--llah-m", registry_options.llah.m, "LLAH neighbours per descriptor");
   app.add_option("--llah-k", registry_options.llah.k, "LLAH quantisation levels");
@@ -199,6 +201,8 @@ int main(int argc, char **argv) {
                "register and query first with the line closing (new database only)");
   app.add_option("--log2-buckets", registry_options.log2_buckets, "index hash table size");
   bool no_fallback = false, misses = false;
+  double slow_ms = 0;
+  app.add_option("--slow", slow_ms, "print the stages of queries slower than this (ms)");
   app.add_flag("--misses", misses, "print why each missed query failed (keypoint repeatability)");
   app.add_flag("--no-fallback", no_fallback, "query with the registration extractor only");
   CLI11_PARSE(app, argc, argv);
@@ -282,6 +286,13 @@ int main(int argc, char **argv) {
       times.push_back(texfree::MillisecondsSince(t0));
       if (result.ok())
         for (const auto &[stage, ms] : result->timings.stages) stage_ms[stage] += ms;
+      if (slow_ms > 0 && times.back() > slow_ms && result.ok()) {
+        std::string stages;
+        for (const auto &[stage, ms] : result->timings.stages)
+          stages += " " + stage + " " + std::to_string(static_cast<int>(ms)) + " ms";
+        std::fprintf(stderr, "slow query, page %d: %.0f ms (%d keypoints):%s\n", q.page,
+                     times.back(), result->query_keypoints, stages.c_str());
+      }
       if (result.ok() && !result->documents.empty() &&
           result->documents[0].document.id == id_of_page[q.page]) {
         const double err = texfree::testdata::MeanHomographyError(
