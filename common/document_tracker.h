@@ -76,6 +76,10 @@ struct TrackerOptions {
   double inlier_chars = 0.45;
   double min_inlier_px = 2.5;
   double max_inlier_px = 12;
+  // Matching by projection skips a reference keypoint that the prediction puts closer
+  // than this many inlier distances to another one (lines squeezed below the camera's
+  // resolution at grazing tilt). 0: never.
+  double min_separation_inliers = 2.0;
   int ransac_iterations = 1000;
   // A pose needs this many correspondences agreeing with one homography.
   int min_inliers = 12;
@@ -117,6 +121,8 @@ struct TrackedDocument {
   cv::Matx33d homography = cv::Matx33d::eye();
   std::optional<PlanarPose> pose;  // with intrinsics, unless lost
   int inliers = 0;                 // correspondences agreeing with the homography
+  // Those correspondences: (frame keypoint index, reference keypoint index).
+  std::vector<std::pair<int, int>> matches;
   int llah_inliers = -1;           // LLAH correspondences among them; -1: LLAH not run
   int learned = 0;                 // entries added to the session index on this frame
   size_t learned_entries = 0;      // entries learned for this page so far (kept)

@@ -37,6 +37,7 @@
 
 #include "common/document_tracker.h"
 #include "common/timing.h"
+#include "common/video_keypoints.h"
 #include "common/word_keypoints.h"
 #include "server/document_registry.h"
 #include "server/document_store.h"
@@ -47,6 +48,7 @@
 namespace fs = std::filesystem;
 using texfree::MillisecondsSince;
 using texfree::SteadyClock;
+using texfree::TrackedDocument;
 using texfree::testdata::CameraSequenceOptions;
 
 namespace {
@@ -142,6 +144,9 @@ int main(int argc, char** argv) {
   bool no_grpc = false, no_baselines = false;
   std::string dir = "/tmp/texfree-bench-tracking";
   std::string only;
+  double trace_from = 1e9;
+  std::string trace_dir;
+  texfree::VideoKeypointOptions video;
   app.add_option("--step", step, "tilt step per frame, degrees");
   app.add_option("--print-every", print_every, "print a row every this many degrees");
   app.add_option("--distractors", distractors, "other pages registered besides the tracked one");
@@ -149,6 +154,15 @@ int main(int argc, char** argv) {
   app.add_option("--fps", fps, "frame rate of each concurrent stream");
   app.add_option("--seconds", seconds, "duration of each throughput test");
   app.add_option("--only", only, "run only the sequence with this name");
+  app.add_option("--trace-from", trace_from,
+                 "print every tracker frame from this tilt (or frame) on, to stderr");
+  app.add_option("--trace-dir", trace_dir,
+                 "with --trace-from: write each traced frame with its keypoints (red), the "
+                 "page keypoints where the truth puts them (green) and the estimate (blue)");
+  app.add_option("--measure-every", video.measure_every_frames,
+                 "measure the text size on one frame in this many (1: every frame)");
+  app.add_option("--half-resolution-above", video.half_resolution_above_char_height,
+                 "group words at half resolution when the text is taller (px; 0: never)");
   app.add_flag("--no-grpc", no_grpc, "skip the gRPC throughput test");
   app.add_flag("--no-baselines", no_baselines, "skip ORB and SIFT");
   app.add_option("--dir", dir, "working directory for the database");
@@ -241,7 +255,6 @@ int main(int argc, char** argv) {
     }
   }
 
-  texfree::WordKeypointExtractor extractor((*registry)->options().keypoints);
   std::map<std::string, std::vector<double>> all_ms;
   for (const Sequence& seq : sequences) {
     std::printf("\n### %s (%zu frames)\n\n", seq.name.c_str(), seq.views.size());
@@ -251,6 +264,8 @@ int main(int argc, char** argv) {
       const Method& method = methods[m];
       std::unique_ptr<texfree::DocumentTracker> tracker;
       std::unique_ptr<FeatureBaseline> baseline;
+      // As the server's stream: the text is measured now and then, not on every frame.
+      texfree::VideoKeypointExtractor extractor((*registry)->options().keypoints, video);
       if (method.baseline == 1)
         baseline = std::make_unique<FeatureBaseline>(
             cv::ORB::create(3000), cv::makePtr<cv::BFMatcher>(cv::NORM_HAMMING), page_gray);
@@ -270,12 +285,78 @@ int main(int argc, char** argv) {
           const auto keypoints = extractor.Extract(gray);
           const auto result = tracker->Track(keypoints, gray.size(), shared);
           s.ms = MillisecondsSince(t0);
+          const TrackedDocument* doc = nullptr;
           for (const auto& d : result.documents) {
-            if (d.document != tracked_id || d.state == texfree::TrackState::kLost) continue;
+            if (d.document != tracked_id) continue;
+            doc = &d;
+            if (d.state == texfree::TrackState::kLost) continue;
             s.found = true;
             s.inliers = d.llah_inliers >= 0 ? d.llah_inliers : d.inliers;
             s.error = texfree::testdata::MeanHomographyError(d.homography, view.homography,
                                                              page_gray.size(), gray.size());
+          }
+          const size_t i = samples[m].size();
+          const double where = seq.frames[0].nominal_tilt_deg != seq.frames.back().nominal_tilt_deg
+                                   ? seq.frames[i].nominal_tilt_deg
+                                   : static_cast<double>(i);
+          if (where >= trace_from)
+            std::fprintf(stderr,
+                         "%s %s %.1f: %zu keypoints, h %.1f px, %s, inliers %d, llah %d, "
+                         "learned %d, error %.2f px, %.1f ms\n",
+                         seq.name.c_str(), method.name.c_str(), where, keypoints.points.size(),
+                         keypoints.char_height, doc ? (doc->method.empty() ? "lost" : doc->method.c_str()) : "-",
+                         doc ? doc->inliers : 0, doc ? doc->llah_inliers : -1,
+                         doc ? doc->learned : 0, s.found ? s.error : -1.0, s.ms);
+          if (where >= trace_from) {
+            // Oracle: frame keypoints within 1.5 px of a reference keypoint placed by the
+            // truth, and the homography they give.
+            const auto reference = shared->Keypoints(tracked_id);
+            std::vector<cv::Point2f> src, dst;
+            for (const auto& p : reference) {
+              const cv::Vec3d t = view.homography * cv::Vec3d(p.x, p.y, 1);
+              if (t[2] <= 0) continue;
+              const cv::Point2f q(t[0] / t[2], t[1] / t[2]);
+              int best = -1; double bd = 1.5;
+              for (size_t k = 0; k < keypoints.points.size(); ++k) {
+                const double d = cv::norm(keypoints.points[k] - q);
+                if (d < bd) { bd = d; best = static_cast<int>(k); }
+              }
+              if (best >= 0) { src.push_back(p); dst.push_back(keypoints.points[best]); }
+            }
+            double oracle = -1;
+            if (src.size() >= 8) {
+              cv::Mat H = cv::findHomography(src, dst, 0);
+              if (!H.empty()) oracle = texfree::testdata::MeanHomographyError(cv::Matx33d(H), view.homography, page_gray.size(), gray.size());
+            }
+            std::fprintf(stderr, "   oracle: %zu true keypoints, error %.2f px\n", src.size(), oracle);
+            if (doc) {
+              std::fprintf(stderr, "   inliers (truth residual px):");
+              for (const auto& [q, r] : doc->matches) {
+                const cv::Vec3d t = view.homography * cv::Vec3d(reference[r].x, reference[r].y, 1);
+                const cv::Vec3d e = doc->homography * cv::Vec3d(reference[r].x, reference[r].y, 1);
+                std::fprintf(stderr, " (%.0f,%.0f) %.1f/%.1f", t[0] / t[2], t[1] / t[2],
+                             cv::norm(keypoints.points[q] - cv::Point2f(t[0] / t[2], t[1] / t[2])),
+                             cv::norm(cv::Point2d(e[0] / e[2], e[1] / e[2]) - cv::Point2d(t[0] / t[2], t[1] / t[2])));
+              }
+              std::fprintf(stderr, "\n");
+            }
+          }
+          if (where >= trace_from && !trace_dir.empty()) {
+            cv::Mat canvas = view.image.clone();
+            const auto reference = shared->Keypoints(tracked_id);
+            for (const auto& p : reference) {
+              const cv::Vec3d t = view.homography * cv::Vec3d(p.x, p.y, 1);
+              if (t[2] > 0) cv::circle(canvas, {cvRound(t[0] / t[2]), cvRound(t[1] / t[2])}, 3, {0, 200, 0}, 1);
+              if (s.found) {
+                const cv::Vec3d e = doc->homography * cv::Vec3d(p.x, p.y, 1);
+                if (e[2] > 0) cv::circle(canvas, {cvRound(e[0] / e[2]), cvRound(e[1] / e[2])}, 5, {255, 0, 0}, 1);
+              }
+            }
+            for (const auto& p : keypoints.points) cv::circle(canvas, p, 1, {0, 0, 255}, -1);
+            fs::create_directories(trace_dir);
+            cv::imwrite(trace_dir + "/" + seq.name + "-" + method.name + "-" +
+                            std::to_string(where).substr(0, 5) + ".png",
+                        canvas);
           }
         }
         samples[m].push_back(s);
