@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <opencv2/calib3d.hpp>
+#include <opencv2/imgproc.hpp>
 #include <utility>
 
 #include "absl/strings/str_cat.h"
@@ -117,6 +118,7 @@ absl::Status TrackerOptions::Validate() const {
 struct DocumentTracker::Followed {
   uint32_t id = 0;
   std::vector<cv::Point2f> reference;  // registration-image keypoints
+  std::vector<cv::Point2f> hull;       // their convex hull (the page's text area)
   TrackState state = TrackState::kInitializing;
   bool has_homography = false;
   cv::Matx33d homography = cv::Matx33d::eye();  // last accepted
@@ -564,6 +566,7 @@ void DocumentTracker::Follow(uint32_t id, const DocumentHit& hit, Frame& frame,
     session_.AddDocument(id, std::move(hashes), shared_->describer().descriptors_per_point());
     auto followed = std::make_unique<Followed>();
     followed->id = id;
+    cv::convexHull(reference, followed->hull);
     followed->reference = std::move(reference);
     doc = followed.get();
     followed_.push_back(std::move(followed));
@@ -660,8 +663,27 @@ TrackerFrameResult DocumentTracker::Track(const WordKeypoints& keypoints,
     last_retrieval_ = frame_count_;
     std::vector<int> free_index;
     std::vector<cv::Point2f> free_points;
+    // Keypoints on a tracked page's text area belong to it: retrieval looks for other
+    // pages elsewhere (with the page filling the view, it has nothing to do).
+    std::vector<std::vector<cv::Point2f>> covered;
+    for (size_t i = 0; i < followed_.size(); ++i) {
+      if (result.documents[i].state == TrackState::kLost) continue;
+      const cv::Matx33d& H = result.documents[i].homography;
+      std::vector<cv::Point2f> outline;
+      for (const auto& p : followed_[i]->hull) {
+        if (W(H, p) <= 1e-9) break;  // the text area crosses the horizon
+        const cv::Point2d q = ApplyHomography(H, p);
+        outline.emplace_back(static_cast<float>(q.x), static_cast<float>(q.y));
+      }
+      if (outline.size() == followed_[i]->hull.size() && outline.size() >= 3)
+        covered.push_back(std::move(outline));
+    }
     for (int q = 0; q < static_cast<int>(keypoints.points.size()); ++q) {
       if (frame.used[q]) continue;
+      bool on_page = false;
+      for (const auto& outline : covered)
+        on_page = on_page || cv::pointPolygonTest(outline, keypoints.points[q], false) >= 0;
+      if (on_page) continue;
       free_index.push_back(q);
       free_points.push_back(keypoints.points[q]);
     }
