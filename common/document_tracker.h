@@ -4,11 +4,14 @@
 // Per frame (word keypoints of the frame in, one result per followed page out):
 //   1. Initialisation by retrieval: LLAH over the shared document index (LlahRetriever)
 //      finds pages not followed yet, on every frame while nothing is followed and every
-//      `retrieval_interval` frames otherwise (on the keypoints no followed page claims).
+//      `retrieval_interval` frames otherwise (on the keypoints off the text areas of the
+//      pages tracked on this frame: a page filling the view leaves it nothing to do).
 //   2. Prediction: the page's previous homography, moved on by the last inter-frame
 //      motion, projects the reference keypoints into the frame; a frame keypoint that is
 //      the mutual nearest neighbour of a projected one within a search radius is a
 //      candidate correspondence ("matching by projection", cheap and valid at any tilt).
+//      Reference keypoints the prediction squeezes together (lines below the camera's
+//      resolution at grazing tilt) are left out: the blobs there match none of them.
 //   3. LLAH matching against the session index (the page's reference descriptors plus
 //      what this session learned) gives correspondences that do not depend on the
 //      prediction: they re-find a page after fast motion or a loss, and their count is

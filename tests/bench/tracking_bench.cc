@@ -6,7 +6,8 @@
 // tilt. For every frame
 // and method it measures inliers and the pose error (mean distance between where the
 // estimate and the truth put an 11 x 11 grid of page points, over those in view) and the
-// time per frame. Methods:
+// time per frame: wall and CPU, on one core (OpenCV single-threaded), with keypoints
+// extracted as the server's stream does (VideoKeypointExtractor). Methods:
 //   track+learn  DocumentTracker, default options (prediction, LLAH, on-line learning)
 //   track        the same without learning
 //   llah+learn   no prediction: LLAH against the session index every frame + learning
@@ -17,7 +18,8 @@
 // stream sending JPEG frames as fast as results come back, and N streams at 30 fps.
 //
 //   texfree-bench-tracking [--step 0.5] [--print-every 5] [--distractors 20]
-//                          [--streams 8] [--fps 30] [--seconds 10]
+//                          [--streams 8] [--fps 30] [--seconds 10] [--only SEQUENCE]
+//                          [--no-grpc] [--no-baselines] [--trace-from DEG [--trace-dir D]]
 #include <spdlog/spdlog.h>
 
 #include <CLI/CLI.hpp>
@@ -465,7 +467,8 @@ int main(int argc, char** argv) {
       cv::imencode(".jpg", v.image, bytes, {cv::IMWRITE_JPEG_QUALITY, 85});
       jpegs.emplace_back(bytes.begin(), bytes.end());
     }
-    texfree::bench::RunGrpcThroughput(registry->get(), jpegs, streams, fps, seconds);
+    texfree::bench::RunGrpcThroughput(registry->get(), jpegs, sequences[0].name, streams, fps,
+                                      seconds);
   }
   return 0;
 }
