@@ -161,6 +161,7 @@ int main(int argc, char** argv) {
   double trace_from = 1e9;
   std::string trace_dir;
   texfree::VideoKeypointOptions video;
+  uint64_t sequence_seed = 77;
   texfree::TrackerOptions tracking;  // of the track methods
   app.add_option("--step", step, "tilt step per frame, degrees");
   app.add_option("--print-every", print_every, "print a row every this many degrees");
@@ -178,6 +179,7 @@ int main(int argc, char** argv) {
                  "measure the text size on one frame in this many (1: every frame)");
   app.add_option("--half-resolution-above", video.half_resolution_above_char_height,
                  "group words at half resolution when the text is taller (px; 0: never)");
+  app.add_option("--seed", sequence_seed, "seed of the camera paths' hand shake and noise");
   app.add_option("--llah-interval", tracking.llah_interval,
                  "track methods: LLAH matching every this many frames while projection holds");
   app.add_option("--min-separation", tracking.min_separation_inliers,
@@ -230,10 +232,10 @@ int main(int argc, char** argv) {
     if (!only.empty() && only != name) return;
     Sequence s;
     s.name = name;
-    s.frames = texfree::testdata::MakeCameraSequence(page_gray.size(), o, 77);
+    s.frames = texfree::testdata::MakeCameraSequence(page_gray.size(), o, sequence_seed);
     for (size_t i = 0; i < s.frames.size(); ++i)
       s.views.push_back(texfree::testdata::RenderSequenceFrame(
-          later.empty() || i < clear_frames ? page_image : later, s.frames[i], 77,
+          later.empty() || i < clear_frames ? page_image : later, s.frames[i], sequence_seed,
           static_cast<int>(i)));
     std::fprintf(stderr, "rendered %s: %zu frames\n", name.c_str(), s.views.size());
     sequences.push_back(std::move(s));
