@@ -5,9 +5,8 @@
 // 4x cheaper). Large text is grouped at half resolution.
 #pragma once
 
-#include <optional>
-
 #include <opencv2/core.hpp>
+#include <optional>
 
 #include "absl/status/status.h"
 #include "common/word_keypoints.h"

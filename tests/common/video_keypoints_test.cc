@@ -106,8 +106,8 @@ TEST(VideoKeypointsTest, MeasuresOnScheduleAndWhenTheViewChanges) {
     EXPECT_GT(kp.points.size(), 20u);
     measured.push_back(m);
   }
-  EXPECT_EQ(measured, std::vector<bool>({true, false, false, false, true, false, false, false,
-                                         true}));
+  EXPECT_EQ(measured,
+            std::vector<bool>({true, false, false, false, true, false, false, false, true}));
   // The camera comes 3x closer: text measured for the old view finds too few words, so the
   // frame is measured again at once.
   cv::Mat closer;
