@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <opencv2/calib3d.hpp>
+#include <opencv2/imgproc.hpp>
 #include <utility>
 
 #include "absl/strings/str_cat.h"
@@ -83,6 +84,9 @@ absl::Status TrackerOptions::Validate() const {
     return absl::InvalidArgumentError(
         "inlier distance: inlier_chars and min_inlier_px must be > 0 and "
         "max_inlier_px >= min_inlier_px");
+  if (!(min_separation_inliers >= 0) || min_separation_inliers > 10)
+    return absl::InvalidArgumentError(absl::StrCat(
+        "min_separation_inliers must be in [0, 10], got ", min_separation_inliers));
   if (ransac_iterations < 10)
     return absl::InvalidArgumentError(
         absl::StrCat("ransac_iterations must be >= 10, got ", ransac_iterations));
@@ -114,6 +118,7 @@ absl::Status TrackerOptions::Validate() const {
 struct DocumentTracker::Followed {
   uint32_t id = 0;
   std::vector<cv::Point2f> reference;  // registration-image keypoints
+  std::vector<cv::Point2f> hull;       // their convex hull (the page's text area)
   TrackState state = TrackState::kInitializing;
   bool has_homography = false;
   cv::Matx33d homography = cv::Matx33d::eye();  // last accepted
@@ -142,6 +147,7 @@ struct DocumentTracker::Frame {
     search_px =
         std::clamp(o.search_radius_chars * ch, o.min_search_radius_px, o.max_search_radius_px);
     char_height = kp.char_height;
+    separation_px = o.min_separation_inliers * inlier_px;
   }
 
   void EnsureHashes(const std::vector<int>& which) {
@@ -161,7 +167,7 @@ struct DocumentTracker::Frame {
   std::vector<char> described;
   std::vector<char> used;  // claimed by a page on this frame
   NeighborGrid grid;
-  double inlier_px = 4, search_px = 10, char_height = 0;
+  double inlier_px = 4, search_px = 10, char_height = 0, separation_px = 0;
 };
 
 namespace {
@@ -169,16 +175,19 @@ namespace {
 // Matching by projection: each reference keypoint projected by H takes its nearest frame
 // keypoint within `radius` (and, with ratio > 0, clearly nearer than the second nearest);
 // a frame keypoint chosen by several keeps the closest. Claimed keypoints are skipped.
+// A reference keypoint whose projection lies closer than `min_separation` to another
+// projected reference keypoint is skipped too: at grazing tilt the page's lines are
+// squeezed below what the camera resolves, and a frame keypoint there (a blob of merged
+// lines) cannot say which of them it is.
 Pairs ProjectionMatch(const cv::Matx33d& H, const std::vector<cv::Point2f>& reference,
                       const std::vector<cv::Point2f>& points, const NeighborGrid& grid,
                       const std::vector<char>& used, const cv::Size& size, double radius,
-                      double ratio) {
+                      double ratio, double min_separation) {
   Pairs out;
   if (points.empty()) return out;
-  std::vector<int> owner(points.size(), -1);
-  std::vector<float> owner_d(points.size(), 0.f);
-  std::vector<int> nearest;
   const double margin = radius;
+  std::vector<int> in_view;
+  std::vector<cv::Point2f> projected;
   for (int r = 0; r < static_cast<int>(reference.size()); ++r) {
     const cv::Point2d ref(reference[r].x, reference[r].y);
     if (W(H, ref) <= 1e-9) continue;
@@ -186,8 +195,26 @@ Pairs ProjectionMatch(const cv::Matx33d& H, const std::vector<cv::Point2f>& refe
     if (!(p.x >= -margin && p.y >= -margin && p.x < size.width + margin &&
           p.y < size.height + margin))
       continue;
-    grid.NearestTo(cv::Point2f(static_cast<float>(p.x), static_cast<float>(p.y)), ratio > 0 ? 2 : 1,
-                   -1, &nearest);
+    in_view.push_back(r);
+    projected.emplace_back(static_cast<float>(p.x), static_cast<float>(p.y));
+  }
+  std::vector<char> separated(projected.size(), 1);
+  std::vector<int> nearest;
+  if (min_separation > 0 && projected.size() > 1) {
+    const NeighborGrid projected_grid(projected);
+    for (int i = 0; i < static_cast<int>(projected.size()); ++i) {
+      projected_grid.Nearest(i, 1, &nearest);
+      if (!nearest.empty() && cv::norm(projected[nearest[0]] - projected[i]) < min_separation)
+        separated[i] = 0;
+    }
+  }
+  std::vector<int> owner(points.size(), -1);
+  std::vector<float> owner_d(points.size(), 0.f);
+  for (size_t i = 0; i < projected.size(); ++i) {
+    if (!separated[i]) continue;
+    const int r = in_view[i];
+    const cv::Point2d p(projected[i].x, projected[i].y);
+    grid.NearestTo(projected[i], ratio > 0 ? 2 : 1, -1, &nearest);
     if (nearest.empty() || used[nearest[0]]) continue;
     const double d1 = cv::norm(cv::Point2d(points[nearest[0]]) - p);
     if (d1 > radius) continue;
@@ -259,7 +286,7 @@ template <typename FrameT>
 Fit Refine(Fit fit, const std::vector<cv::Point2f>& ref, const FrameT& frame, int min_inliers) {
   for (int round = 0; round < 2; ++round) {
     const Pairs guided = ProjectionMatch(fit.H, ref, frame.points, frame.grid, frame.used,
-                                         frame.size, frame.inlier_px, 0);
+                                         frame.size, frame.inlier_px, 0, frame.separation_px);
     if (guided.size() < fit.inliers.size()) break;
     Fit refined = RansacFit(guided, {}, ref, frame.points, frame.inlier_px, 100, min_inliers);
     if (!refined.ok || refined.inliers.size() < fit.inliers.size()) break;
@@ -394,7 +421,8 @@ TrackedDocument DocumentTracker::TrackOne(Followed& doc, Frame& frame, TrackerTi
   Fit projected;
   if (predicted) {
     const Pairs candidates = ProjectionMatch(*predicted, ref, frame.points, frame.grid, frame.used,
-                                             frame.size, frame.search_px, 0.8);
+                                             frame.size, frame.search_px, 0.8,
+                                             frame.separation_px);
     projected =
         RansacFit(candidates, {}, ref, frame.points, frame.inlier_px, 200, options_.min_inliers);
     if (projected.ok) projected = Refine(projected, ref, frame, options_.min_inliers);
@@ -507,6 +535,7 @@ TrackedDocument DocumentTracker::TrackOne(Followed& doc, Frame& frame, TrackerTi
   out.state = TrackState::kTracking;
   out.homography = H;
   out.pose = pose;
+  out.matches = matches;
 
   t = SteadyClock::now();
   if (ShouldLearn(out.llah_inliers)) Learn(doc, frame, matches, out);
@@ -537,6 +566,7 @@ void DocumentTracker::Follow(uint32_t id, const DocumentHit& hit, Frame& frame,
     session_.AddDocument(id, std::move(hashes), shared_->describer().descriptors_per_point());
     auto followed = std::make_unique<Followed>();
     followed->id = id;
+    cv::convexHull(reference, followed->hull);
     followed->reference = std::move(reference);
     doc = followed.get();
     followed_.push_back(std::move(followed));
@@ -584,6 +614,7 @@ void DocumentTracker::Follow(uint32_t id, const DocumentHit& hit, Frame& frame,
   out.homography = H;
   out.pose = pose;
   out.inliers = static_cast<int>(matches.size());
+  out.matches = matches;
   out.llah_inliers = hit.inliers;
   out.method = "retrieval";
   t = SteadyClock::now();
@@ -632,8 +663,27 @@ TrackerFrameResult DocumentTracker::Track(const WordKeypoints& keypoints,
     last_retrieval_ = frame_count_;
     std::vector<int> free_index;
     std::vector<cv::Point2f> free_points;
+    // Keypoints on a tracked page's text area belong to it: retrieval looks for other
+    // pages elsewhere (with the page filling the view, it has nothing to do).
+    std::vector<std::vector<cv::Point2f>> covered;
+    for (size_t i = 0; i < followed_.size(); ++i) {
+      if (result.documents[i].state == TrackState::kLost) continue;
+      const cv::Matx33d& H = result.documents[i].homography;
+      std::vector<cv::Point2f> outline;
+      for (const auto& p : followed_[i]->hull) {
+        if (W(H, p) <= 1e-9) break;  // the text area crosses the horizon
+        const cv::Point2d q = ApplyHomography(H, p);
+        outline.emplace_back(static_cast<float>(q.x), static_cast<float>(q.y));
+      }
+      if (outline.size() == followed_[i]->hull.size() && outline.size() >= 3)
+        covered.push_back(std::move(outline));
+    }
     for (int q = 0; q < static_cast<int>(keypoints.points.size()); ++q) {
       if (frame.used[q]) continue;
+      bool on_page = false;
+      for (const auto& outline : covered)
+        on_page = on_page || cv::pointPolygonTest(outline, keypoints.points[q], false) >= 0;
+      if (on_page) continue;
       free_index.push_back(q);
       free_points.push_back(keypoints.points[q]);
     }

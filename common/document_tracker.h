@@ -4,11 +4,14 @@
 // Per frame (word keypoints of the frame in, one result per followed page out):
 //   1. Initialisation by retrieval: LLAH over the shared document index (LlahRetriever)
 //      finds pages not followed yet, on every frame while nothing is followed and every
-//      `retrieval_interval` frames otherwise (on the keypoints no followed page claims).
+//      `retrieval_interval` frames otherwise (on the keypoints off the text areas of the
+//      pages tracked on this frame: a page filling the view leaves it nothing to do).
 //   2. Prediction: the page's previous homography, moved on by the last inter-frame
 //      motion, projects the reference keypoints into the frame; a frame keypoint that is
 //      the mutual nearest neighbour of a projected one within a search radius is a
 //      candidate correspondence ("matching by projection", cheap and valid at any tilt).
+//      Reference keypoints the prediction squeezes together (lines below the camera's
+//      resolution at grazing tilt) are left out: the blobs there match none of them.
 //   3. LLAH matching against the session index (the page's reference descriptors plus
 //      what this session learned) gives correspondences that do not depend on the
 //      prediction: they re-find a page after fast motion or a loss, and their count is
@@ -76,6 +79,10 @@ struct TrackerOptions {
   double inlier_chars = 0.45;
   double min_inlier_px = 2.5;
   double max_inlier_px = 12;
+  // Matching by projection skips a reference keypoint that the prediction puts closer
+  // than this many inlier distances to another one (lines squeezed below the camera's
+  // resolution at grazing tilt). 0: never.
+  double min_separation_inliers = 2.0;
   int ransac_iterations = 1000;
   // A pose needs this many correspondences agreeing with one homography.
   int min_inliers = 12;
@@ -117,6 +124,8 @@ struct TrackedDocument {
   cv::Matx33d homography = cv::Matx33d::eye();
   std::optional<PlanarPose> pose;  // with intrinsics, unless lost
   int inliers = 0;                 // correspondences agreeing with the homography
+  // Those correspondences: (frame keypoint index, reference keypoint index).
+  std::vector<std::pair<int, int>> matches;
   int llah_inliers = -1;           // LLAH correspondences among them; -1: LLAH not run
   int learned = 0;                 // entries added to the session index on this frame
   size_t learned_entries = 0;      // entries learned for this page so far (kept)

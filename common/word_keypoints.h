@@ -71,8 +71,18 @@ struct WordKeypointOptions {
   bool drop_border_blobs = true;
   // Upper bound of keypoints returned (largest blobs kept).
   int max_keypoints = 20000;
+  // When > 0 and the text is taller than this many pixels, words are grouped on a
+  // half-resolution image (4x fewer pixels; word centroids move by about a tenth of the
+  // text height at most). 0 (default): always at full resolution.
+  double half_resolution_above_char_height = 0;
 
   absl::Status Validate() const;
+};
+
+// The text's size and direction in an image, as Extract measures them.
+struct TextGeometry {
+  double char_height = 0;     // pixels
+  double text_angle_rad = 0;  // text line direction
 };
 
 struct WordKeypoints {
@@ -87,9 +97,21 @@ class WordKeypointExtractor {
   explicit WordKeypointExtractor(WordKeypointOptions options = {});
   // gray: CV_8UC1, dark text on light paper.
   WordKeypoints Extract(const cv::Mat &gray) const;
+  // The same without measuring the text (the first of the two thresholding passes, about
+  // half the work): `known` is what a recent frame of the same video measured. Gives the
+  // keypoints of Extract(gray) when `known` equals what Extract(gray) would measure.
+  // Returns no keypoints when known.char_height is outside [min_char_height,
+  // max_char_height].
+  WordKeypoints Extract(const cv::Mat &gray, const TextGeometry &known) const;
   const WordKeypointOptions &options() const { return options_; }
 
  private:
+  // Pass 2: words of text of height h along `angle`. `ink` is the ink mask of `smooth` at
+  // window 3 h when the caller has it already. `fast_stats`: the same component
+  // statistics computed by a faster route.
+  WordKeypoints GroupWords(const cv::Mat &gray, const cv::Mat &smooth, double h, double angle,
+                           cv::Mat ink, bool fast_stats) const;
+
   WordKeypointOptions options_;
 };
 

@@ -38,6 +38,7 @@ absl::Status TrackingSessionOptions::Validate() const {
     return absl::InvalidArgumentError(absl::StrCat("queue_frames must be in [1, 64], got ", queue_frames));
   RETURN_IF_ERROR(limits.Validate());
   RETURN_IF_ERROR(tracker.Validate());
+  RETURN_IF_ERROR(keypoints.Validate());
   if (camera) RETURN_IF_ERROR(camera->Validate());
   return absl::OkStatus();
 }
@@ -47,7 +48,7 @@ TrackingSession::TrackingSession(const DocumentRegistry* registry,
     : registry_(registry),
       options_(std::move(options)),
       writer_(std::move(writer)),
-      extractor_(registry->options().keypoints),
+      extractor_(registry->options().keypoints, options_.keypoints),
       tracker_(options_.tracker, options_.camera) {
   extract_thread_ = std::thread([this] { ExtractLoop(); });
   match_thread_ = std::thread([this] { MatchLoop(); });
@@ -104,7 +105,7 @@ TrackingSessionStats TrackingSession::stats() const {
   return stats_;
 }
 
-TrackingSession::Extracted TrackingSession::Extract(Pending pending) const {
+TrackingSession::Extracted TrackingSession::Extract(Pending pending) {
   Extracted e;
   e.frame_index = pending.frame.frame_index();
   e.timestamp_us = pending.frame.timestamp_us();

@@ -26,6 +26,7 @@
 #include "common/image_io.h"
 #include "common/planar_pose.h"
 #include "common/timing.h"
+#include "common/video_keypoints.h"
 #include "common/word_keypoints.h"
 #include "server/document_registry.h"
 #include "texfree/v1/tracking.pb.h"
@@ -38,6 +39,8 @@ struct TrackingSessionOptions {
   int queue_frames = 2;
   ImageLimits limits;
   TrackerOptions tracker;
+  // How often stage 1 measures the text size (frames in between reuse it).
+  VideoKeypointOptions keypoints;
   std::optional<CameraModel> camera;  // frames must have its size when it has one
 
   absl::Status Validate() const;
@@ -93,14 +96,14 @@ class TrackingSession {
 
   void ExtractLoop();
   void MatchLoop();
-  Extracted Extract(Pending pending) const;
+  Extracted Extract(Pending pending);  // stage 1 only
   v1::TrackResponse Respond(const Extracted& frame, const TrackerFrameResult* tracked);
   void Stop(bool drain);
 
   const DocumentRegistry* registry_;
   const TrackingSessionOptions options_;
   const Writer writer_;
-  WordKeypointExtractor extractor_;
+  VideoKeypointExtractor extractor_;  // stage 1 only
   DocumentTracker tracker_;  // stage 2 only
   // Annotations of the followed pages (stage 2 only), fetched when a page is found.
   std::unordered_map<uint32_t, std::vector<AnnotationRecord>> annotations_;

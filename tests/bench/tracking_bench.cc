@@ -6,7 +6,8 @@
 // tilt. For every frame
 // and method it measures inliers and the pose error (mean distance between where the
 // estimate and the truth put an 11 x 11 grid of page points, over those in view) and the
-// time per frame. Methods:
+// time per frame: wall and CPU, on one core (OpenCV single-threaded), with keypoints
+// extracted as the server's stream does (VideoKeypointExtractor). Methods:
 //   track+learn  DocumentTracker, default options (prediction, LLAH, on-line learning)
 //   track        the same without learning
 //   llah+learn   no prediction: LLAH against the session index every frame + learning
@@ -17,13 +18,15 @@
 // stream sending JPEG frames as fast as results come back, and N streams at 30 fps.
 //
 //   texfree-bench-tracking [--step 0.5] [--print-every 5] [--distractors 20]
-//                          [--streams 8] [--fps 30] [--seconds 10]
+//                          [--streams 8] [--fps 30] [--seconds 10] [--only SEQUENCE]
+//                          [--no-grpc] [--no-baselines] [--trace-from DEG [--trace-dir D]]
 #include <spdlog/spdlog.h>
 
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <atomic>
 #include <cstdio>
+#include <ctime>
 #include <filesystem>
 #include <map>
 #include <memory>
@@ -37,6 +40,7 @@
 
 #include "common/document_tracker.h"
 #include "common/timing.h"
+#include "common/video_keypoints.h"
 #include "common/word_keypoints.h"
 #include "server/document_registry.h"
 #include "server/document_store.h"
@@ -47,11 +51,20 @@
 namespace fs = std::filesystem;
 using texfree::MillisecondsSince;
 using texfree::SteadyClock;
+using texfree::TrackedDocument;
 using texfree::testdata::CameraSequenceOptions;
 
 namespace {
 
 constexpr double kCorrectPx = 3.0;  // a pose is correct within this mean error
+
+// CPU time of the calling thread (OpenCV runs single-threaded during the sequences, so
+// this is all the work of a frame, whatever else the machine is doing).
+double ThreadCpuMs() {
+  timespec ts{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
+}
 
 double Percentile(std::vector<double> v, double q) {
   if (v.empty()) return 0;
@@ -64,6 +77,7 @@ struct Sample {
   int inliers = 0;
   double error = 1e9;
   double ms = 0;
+  double cpu_ms = 0;
 };
 
 struct Sequence {
@@ -85,6 +99,7 @@ class FeatureBaseline {
   Sample Run(const cv::Mat& gray, const cv::Matx33d& truth, const cv::Size& page_size) {
     Sample s;
     const auto t0 = SteadyClock::now();
+    const double c0 = ThreadCpuMs();
     std::vector<cv::KeyPoint> keypoints;
     cv::Mat descriptors;
     detector_->detectAndCompute(gray, cv::noArray(), keypoints, descriptors);
@@ -112,6 +127,7 @@ class FeatureBaseline {
       }
     }
     s.ms = MillisecondsSince(t0);
+    s.cpu_ms = ThreadCpuMs() - c0;
     return s;
   }
 
@@ -142,6 +158,11 @@ int main(int argc, char** argv) {
   bool no_grpc = false, no_baselines = false;
   std::string dir = "/tmp/texfree-bench-tracking";
   std::string only;
+  double trace_from = 1e9;
+  std::string trace_dir;
+  texfree::VideoKeypointOptions video;
+  uint64_t sequence_seed = 77;
+  texfree::TrackerOptions tracking;  // of the track methods
   app.add_option("--step", step, "tilt step per frame, degrees");
   app.add_option("--print-every", print_every, "print a row every this many degrees");
   app.add_option("--distractors", distractors, "other pages registered besides the tracked one");
@@ -149,6 +170,21 @@ int main(int argc, char** argv) {
   app.add_option("--fps", fps, "frame rate of each concurrent stream");
   app.add_option("--seconds", seconds, "duration of each throughput test");
   app.add_option("--only", only, "run only the sequence with this name");
+  app.add_option("--trace-from", trace_from,
+                 "print every tracker frame from this tilt (or frame) on, to stderr");
+  app.add_option("--trace-dir", trace_dir,
+                 "with --trace-from: write each traced frame with its keypoints (red), the "
+                 "page keypoints where the truth puts them (green) and the estimate (blue)");
+  app.add_option("--measure-every", video.measure_every_frames,
+                 "measure the text size on one frame in this many (1: every frame)");
+  app.add_option("--half-resolution-above", video.half_resolution_above_char_height,
+                 "group words at half resolution when the text is taller (px; 0: never)");
+  app.add_option("--seed", sequence_seed, "seed of the camera paths' hand shake and noise");
+  app.add_option("--llah-interval", tracking.llah_interval,
+                 "track methods: LLAH matching every this many frames while projection holds");
+  app.add_option("--min-separation", tracking.min_separation_inliers,
+                 "track methods: projection skips reference keypoints closer than this many "
+                 "inlier distances");
   app.add_flag("--no-grpc", no_grpc, "skip the gRPC throughput test");
   app.add_flag("--no-baselines", no_baselines, "skip ORB and SIFT");
   app.add_option("--dir", dir, "working directory for the database");
@@ -196,10 +232,10 @@ int main(int argc, char** argv) {
     if (!only.empty() && only != name) return;
     Sequence s;
     s.name = name;
-    s.frames = texfree::testdata::MakeCameraSequence(page_gray.size(), o, 77);
+    s.frames = texfree::testdata::MakeCameraSequence(page_gray.size(), o, sequence_seed);
     for (size_t i = 0; i < s.frames.size(); ++i)
       s.views.push_back(texfree::testdata::RenderSequenceFrame(
-          later.empty() || i < clear_frames ? page_image : later, s.frames[i], 77,
+          later.empty() || i < clear_frames ? page_image : later, s.frames[i], sequence_seed,
           static_cast<int>(i)));
     std::fprintf(stderr, "rendered %s: %zu frames\n", name.c_str(), s.views.size());
     sequences.push_back(std::move(s));
@@ -223,13 +259,13 @@ int main(int argc, char** argv) {
 
   std::vector<Method> methods;
   {
-    Method m{"track+learn", {}, 0};
+    Method m{"track+learn", tracking, 0};
     methods.push_back(m);
     m.name = "track";
     m.options.update_policy = texfree::UpdatePolicy::kNever;
     methods.push_back(m);
     m.name = "llah+learn";
-    m.options = {};
+    m.options = tracking;
     m.options.predict = false;
     methods.push_back(m);
     m.name = "llah";
@@ -241,8 +277,8 @@ int main(int argc, char** argv) {
     }
   }
 
-  texfree::WordKeypointExtractor extractor((*registry)->options().keypoints);
-  std::map<std::string, std::vector<double>> all_ms;
+  std::map<std::string, std::vector<double>> all_ms, all_cpu_ms;
+  cv::setNumThreads(1);  // one core per frame, as the targets count it
   for (const Sequence& seq : sequences) {
     std::printf("\n### %s (%zu frames)\n\n", seq.name.c_str(), seq.views.size());
     std::vector<std::vector<Sample>> samples(methods.size());
@@ -251,6 +287,8 @@ int main(int argc, char** argv) {
       const Method& method = methods[m];
       std::unique_ptr<texfree::DocumentTracker> tracker;
       std::unique_ptr<FeatureBaseline> baseline;
+      // As the server's stream: the text is measured now and then, not on every frame.
+      texfree::VideoKeypointExtractor extractor((*registry)->options().keypoints, video);
       if (method.baseline == 1)
         baseline = std::make_unique<FeatureBaseline>(
             cv::ORB::create(3000), cv::makePtr<cv::BFMatcher>(cv::NORM_HAMMING), page_gray);
@@ -267,19 +305,89 @@ int main(int argc, char** argv) {
           s = baseline->Run(gray, view.homography, page_gray.size());
         } else {
           const auto t0 = SteadyClock::now();
+          const double c0 = ThreadCpuMs();
           const auto keypoints = extractor.Extract(gray);
           const auto result = tracker->Track(keypoints, gray.size(), shared);
           s.ms = MillisecondsSince(t0);
+          s.cpu_ms = ThreadCpuMs() - c0;
+          const TrackedDocument* doc = nullptr;
           for (const auto& d : result.documents) {
-            if (d.document != tracked_id || d.state == texfree::TrackState::kLost) continue;
+            if (d.document != tracked_id) continue;
+            doc = &d;
+            if (d.state == texfree::TrackState::kLost) continue;
             s.found = true;
             s.inliers = d.llah_inliers >= 0 ? d.llah_inliers : d.inliers;
             s.error = texfree::testdata::MeanHomographyError(d.homography, view.homography,
                                                              page_gray.size(), gray.size());
           }
+          const size_t i = samples[m].size();
+          const double where = seq.frames[0].nominal_tilt_deg != seq.frames.back().nominal_tilt_deg
+                                   ? seq.frames[i].nominal_tilt_deg
+                                   : static_cast<double>(i);
+          if (where >= trace_from)
+            std::fprintf(stderr,
+                         "%s %s %.1f: %zu keypoints, h %.1f px, %s, inliers %d, llah %d, "
+                         "learned %d, error %.2f px, %.1f ms (match %.1f pose %.1f update %.1f)\n",
+                         seq.name.c_str(), method.name.c_str(), where, keypoints.points.size(),
+                         keypoints.char_height, doc ? (doc->method.empty() ? "lost" : doc->method.c_str()) : "-",
+                         doc ? doc->inliers : 0, doc ? doc->llah_inliers : -1,
+                         doc ? doc->learned : 0, s.found ? s.error : -1.0, s.ms,
+                         result.timings.match_ms, result.timings.pose_ms, result.timings.update_ms);
+          if (where >= trace_from) {
+            // Oracle: frame keypoints within 1.5 px of a reference keypoint placed by the
+            // truth, and the homography they give.
+            const auto reference = shared->Keypoints(tracked_id);
+            std::vector<cv::Point2f> src, dst;
+            for (const auto& p : reference) {
+              const cv::Vec3d t = view.homography * cv::Vec3d(p.x, p.y, 1);
+              if (t[2] <= 0) continue;
+              const cv::Point2f q(t[0] / t[2], t[1] / t[2]);
+              int best = -1; double bd = 1.5;
+              for (size_t k = 0; k < keypoints.points.size(); ++k) {
+                const double d = cv::norm(keypoints.points[k] - q);
+                if (d < bd) { bd = d; best = static_cast<int>(k); }
+              }
+              if (best >= 0) { src.push_back(p); dst.push_back(keypoints.points[best]); }
+            }
+            double oracle = -1;
+            if (src.size() >= 8) {
+              cv::Mat H = cv::findHomography(src, dst, 0);
+              if (!H.empty()) oracle = texfree::testdata::MeanHomographyError(cv::Matx33d(H), view.homography, page_gray.size(), gray.size());
+            }
+            std::fprintf(stderr, "   oracle: %zu true keypoints, error %.2f px\n", src.size(), oracle);
+            if (doc) {
+              std::fprintf(stderr, "   inliers (truth residual px):");
+              for (const auto& [q, r] : doc->matches) {
+                const cv::Vec3d t = view.homography * cv::Vec3d(reference[r].x, reference[r].y, 1);
+                const cv::Vec3d e = doc->homography * cv::Vec3d(reference[r].x, reference[r].y, 1);
+                std::fprintf(stderr, " (%.0f,%.0f) %.1f/%.1f", t[0] / t[2], t[1] / t[2],
+                             cv::norm(keypoints.points[q] - cv::Point2f(t[0] / t[2], t[1] / t[2])),
+                             cv::norm(cv::Point2d(e[0] / e[2], e[1] / e[2]) - cv::Point2d(t[0] / t[2], t[1] / t[2])));
+              }
+              std::fprintf(stderr, "\n");
+            }
+          }
+          if (where >= trace_from && !trace_dir.empty()) {
+            cv::Mat canvas = view.image.clone();
+            const auto reference = shared->Keypoints(tracked_id);
+            for (const auto& p : reference) {
+              const cv::Vec3d t = view.homography * cv::Vec3d(p.x, p.y, 1);
+              if (t[2] > 0) cv::circle(canvas, {cvRound(t[0] / t[2]), cvRound(t[1] / t[2])}, 3, {0, 200, 0}, 1);
+              if (s.found) {
+                const cv::Vec3d e = doc->homography * cv::Vec3d(p.x, p.y, 1);
+                if (e[2] > 0) cv::circle(canvas, {cvRound(e[0] / e[2]), cvRound(e[1] / e[2])}, 5, {255, 0, 0}, 1);
+              }
+            }
+            for (const auto& p : keypoints.points) cv::circle(canvas, p, 1, {0, 0, 255}, -1);
+            fs::create_directories(trace_dir);
+            cv::imwrite(trace_dir + "/" + seq.name + "-" + method.name + "-" +
+                            std::to_string(where).substr(0, 5) + ".png",
+                        canvas);
+          }
         }
         samples[m].push_back(s);
         all_ms[method.name].push_back(s.ms);
+        all_cpu_ms[method.name].push_back(s.cpu_ms);
       }
       if (tracker) learned[m] = tracker->session_index().learned_entries();
     }
@@ -313,39 +421,47 @@ int main(int argc, char** argv) {
     }
     // Summary per method.
     std::printf("\n| method | correct frames (<= %.0f px) | holds to | median err px | median ms | "
-                "learned entries |\n|---|---:|---:|---:|---:|---:|\n",
+                "median CPU ms | learned entries |\n|---|---:|---:|---:|---:|---:|---:|\n",
                 kCorrectPx);
     for (size_t m = 0; m < methods.size(); ++m) {
       int correct = 0;
       double holds = -1;
       bool broken = false;
-      std::vector<double> errors, ms;
+      std::vector<double> errors, ms, cpu_ms;
       for (size_t i = 0; i < samples[m].size(); ++i) {
         const Sample& s = samples[m][i];
         const bool ok = s.found && s.error <= kCorrectPx;
         correct += ok;
         if (ok) errors.push_back(s.error);
         ms.push_back(s.ms);
+        cpu_ms.push_back(s.cpu_ms);
         if (!ok) broken = true;
         if (!broken) holds = orbit ? seq.frames[i].nominal_tilt_deg : static_cast<double>(i);
       }
       std::string holds_text = holds < 0 ? "-" : (orbit ? std::to_string(holds).substr(0, 4) + " deg"
                                                         : "frame " + std::to_string(static_cast<int>(holds)));
       if (!broken) holds_text = "all";
-      std::printf("| %s | %d / %zu | %s | %.2f | %.1f | %zu |\n", methods[m].name.c_str(), correct,
-                  samples[m].size(), holds_text.c_str(), Percentile(errors, 0.5),
-                  Percentile(ms, 0.5), learned[m]);
+      std::printf("| %s | %d / %zu | %s | %.2f | %.1f | %.1f | %zu |\n", methods[m].name.c_str(),
+                  correct, samples[m].size(), holds_text.c_str(), Percentile(errors, 0.5),
+                  Percentile(ms, 0.5), Percentile(cpu_ms, 0.5), learned[m]);
     }
     std::fflush(stdout);
   }
 
-  std::printf("\n### time per frame over all sequences (extraction included)\n\n"
-              "| method | median ms | p95 ms |\n|---|---:|---:|\n");
-  for (const auto& m : methods)
-    std::printf("| %s | %.1f | %.1f |\n", m.name.c_str(), Percentile(all_ms[m.name], 0.5),
-                Percentile(all_ms[m.name], 0.95));
+  std::printf("\n### time per frame over all sequences (extraction included, one core)\n\n"
+              "| method | median ms | p95 ms | median CPU ms | mean CPU ms | p95 CPU ms |\n"
+              "|---|---:|---:|---:|---:|---:|\n");
+  for (const auto& m : methods) {
+    const auto& cpu = all_cpu_ms[m.name];
+    double mean = 0;
+    for (double v : cpu) mean += v / std::max<size_t>(1, cpu.size());
+    std::printf("| %s | %.1f | %.1f | %.2f | %.2f | %.1f |\n", m.name.c_str(),
+                Percentile(all_ms[m.name], 0.5), Percentile(all_ms[m.name], 0.95),
+                Percentile(cpu, 0.5), mean, Percentile(cpu, 0.95));
+  }
   std::fflush(stdout);
 
+  cv::setNumThreads(-1);  // the server as deployed: OpenCV's default threads
   if (!no_grpc && !sequences.empty()) {
     std::vector<std::string> jpegs;
     for (const auto& v : sequences[0].views) {
@@ -353,7 +469,8 @@ int main(int argc, char** argv) {
       cv::imencode(".jpg", v.image, bytes, {cv::IMWRITE_JPEG_QUALITY, 85});
       jpegs.emplace_back(bytes.begin(), bytes.end());
     }
-    texfree::bench::RunGrpcThroughput(registry->get(), jpegs, streams, fps, seconds);
+    texfree::bench::RunGrpcThroughput(registry->get(), jpegs, sequences[0].name, streams, fps,
+                                      seconds);
   }
   return 0;
 }

@@ -8,6 +8,7 @@
 #include <chrono>
 #include <condition_variable>
 #include <cstdio>
+#include <ctime>
 #include <mutex>
 #include <thread>
 
@@ -18,6 +19,13 @@ namespace texfree::bench {
 namespace {
 
 using Clock = std::chrono::steady_clock;
+
+// CPU time of the whole process (server and client threads), milliseconds.
+double ProcessCpuMs() {
+  timespec ts{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+  return ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
+}
 
 double Median(std::vector<double> v) {
   if (v.empty()) return 0;
@@ -101,8 +109,8 @@ StreamResult RunStream(v1::TrackingService::Stub& stub, const std::vector<std::s
 }  // namespace
 
 void RunGrpcThroughput(const server::DocumentRegistry* registry,
-                       const std::vector<std::string>& jpegs, int streams, double fps,
-                       double seconds) {
+                       const std::vector<std::string>& jpegs, const std::string& sequence,
+                       int streams, double fps, double seconds) {
   server::TrackingServiceOptions options;
   server::TrackingServiceImpl service(registry, options);
   grpc::ServerBuilder builder;
@@ -117,21 +125,25 @@ void RunGrpcThroughput(const server::DocumentRegistry* registry,
     return grpc::CreateCustomChannel("127.0.0.1:" + std::to_string(port),
                                      grpc::InsecureChannelCredentials(), args);
   };
-  std::printf("\n### gRPC loopback throughput (%u cores, JPEG 640x480 frames of orbit-near)\n\n",
-              std::thread::hardware_concurrency());
+  std::printf("\n### gRPC loopback throughput (%u cores, JPEG 640x480 frames of %s)\n\n",
+              std::thread::hardware_concurrency(), sequence.c_str());
   std::printf("| test | streams | frames answered | fps per stream | dropped | tracked | "
-              "median server ms | median latency ms |\n|---|---:|---:|---:|---:|---:|---:|---:|\n");
+              "median server ms | median latency ms | CPU ms per frame |\n"
+              "|---|---:|---:|---:|---:|---:|---:|---:|---:|\n");
   {
     auto stub = v1::TrackingService::NewStub(channel_for());
+    const double cpu0 = ProcessCpuMs();
     const StreamResult r = RunStream(*stub, jpegs, 2, 0, seconds);
-    std::printf("| 1 stream, 2 frames in flight | 1 | %d | %.1f | %d | %.0f%% | %.2f | %.1f |\n",
+    const double cpu = ProcessCpuMs() - cpu0;
+    std::printf("| 1 stream, 2 frames in flight | 1 | %d | %.1f | %d | %.0f%% | %.2f | %.1f | %.2f |\n",
                 r.results, r.results / r.seconds, r.dropped, 100.0 * r.tracked / std::max(1, r.results),
-                Median(r.server_ms), Median(r.latency_ms));
+                Median(r.server_ms), Median(r.latency_ms), cpu / std::max(1, r.results));
     std::fflush(stdout);
   }
   {
     std::vector<StreamResult> results(streams);
     std::vector<std::thread> threads;
+    const double cpu0 = ProcessCpuMs();
     for (int s = 0; s < streams; ++s) {
       threads.emplace_back([&, s] {
         auto stub = v1::TrackingService::NewStub(channel_for());
@@ -139,6 +151,7 @@ void RunGrpcThroughput(const server::DocumentRegistry* registry,
       });
     }
     for (auto& t : threads) t.join();
+    const double cpu = ProcessCpuMs() - cpu0;
     int answered = 0, dropped = 0, tracked = 0, sent = 0;
     double rate = 0;
     std::vector<double> server_ms, latency;
@@ -151,9 +164,15 @@ void RunGrpcThroughput(const server::DocumentRegistry* registry,
       server_ms.insert(server_ms.end(), r.server_ms.begin(), r.server_ms.end());
       latency.insert(latency.end(), r.latency_ms.begin(), r.latency_ms.end());
     }
-    std::printf("| %d streams at %.0f fps | %d | %d of %d | %.1f | %d | %.0f%% | %.2f | %.1f |\n",
-                streams, fps, streams, answered, sent, rate / std::max(1, streams), dropped,
-                100.0 * tracked / std::max(1, answered), Median(server_ms), Median(latency));
+    std::printf(
+        "| %d streams at %.0f fps | %d | %d of %d | %.1f | %d | %.0f%% | %.2f | %.1f | %.2f |\n",
+        streams, fps, streams, answered, sent, rate / std::max(1, streams), dropped,
+        100.0 * tracked / std::max(1, answered), Median(server_ms), Median(latency),
+        cpu / std::max(1, answered));
+    std::printf("\nCPU time counts server and client threads; %d streams at %.0f fps need %.0f "
+                "frames/s x CPU ms per frame of the %u cores' %u ms per second.\n",
+                streams, fps, streams * fps, std::thread::hardware_concurrency(),
+                1000 * std::thread::hardware_concurrency());
   }
   server->Shutdown(std::chrono::system_clock::now() + std::chrono::seconds(2));
 }

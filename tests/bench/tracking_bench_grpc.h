@@ -1,6 +1,7 @@
 // gRPC loopback throughput of TrackingService for the tracking benchmark: one stream
 // sending JPEG frames as fast as results come back (two frames in flight), then N streams
-// sending at a fixed frame rate like cameras; prints fps, server time, latency, drops.
+// sending at a fixed frame rate like cameras; prints fps, server time, latency, drops and
+// the process's CPU time per answered frame (frames are encoded once, beforehand).
 #pragma once
 
 #include <string>
@@ -11,7 +12,7 @@
 namespace texfree::bench {
 
 void RunGrpcThroughput(const server::DocumentRegistry* registry,
-                       const std::vector<std::string>& jpegs, int streams, double fps,
-                       double seconds);
+                       const std::vector<std::string>& jpegs, const std::string& sequence,
+                       int streams, double fps, double seconds);
 
 }  // namespace texfree::bench
