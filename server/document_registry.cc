@@ -98,6 +98,8 @@ void DocumentRegistry::UseRegistrationGrouping(WordGrouping grouping) {
 
 absl::Status DocumentRegistryOptions::Validate() const {
   RETURN_IF_ERROR(keypoints.Validate());
+  if (absl::Status s = tracking_keypoints.Validate(); !s.ok())
+    return absl::InvalidArgumentError(absl::StrCat("tracking_keypoints: ", s.message()));
   for (size_t i = 0; i < fallback_keypoints.size(); ++i) {
     if (absl::Status s = fallback_keypoints[i].Validate(); !s.ok())
       return absl::InvalidArgumentError(absl::StrCat("fallback_keypoints[", i, "]: ", s.message()));

@@ -48,7 +48,7 @@ TrackingSession::TrackingSession(const DocumentRegistry* registry,
     : registry_(registry),
       options_(std::move(options)),
       writer_(std::move(writer)),
-      extractor_(registry->options().keypoints, options_.keypoints),
+      extractor_(registry->options().tracking_keypoints, options_.keypoints),
       tracker_(options_.tracker, options_.camera) {
   extract_thread_ = std::thread([this] { ExtractLoop(); });
   match_thread_ = std::thread([this] { MatchLoop(); });

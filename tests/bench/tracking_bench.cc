@@ -121,8 +121,8 @@ class FeatureBaseline {
         s.inliers = cv::countNonZero(mask);
         if (s.inliers >= 12) {
           s.found = true;
-          s.error = texfree::testdata::MeanHomographyError(cv::Matx33d(H), truth, page_size,
-                                                           gray.size());
+          s.error =
+              texfree::testdata::MeanHomographyError(cv::Matx33d(H), truth, page_size, gray.size());
         }
       }
     }
@@ -198,8 +198,7 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "%s\n", store.status().ToString().c_str());
     return 1;
   }
-  auto registry =
-      texfree::server::DocumentRegistry::Open(std::move(*store), {});
+  auto registry = texfree::server::DocumentRegistry::Open(std::move(*store), {});
   if (!registry.ok()) {
     std::fprintf(stderr, "%s\n", registry.status().ToString().c_str());
     return 1;
@@ -249,8 +248,8 @@ int main(int argc, char** argv) {
   add("orbit-far", far, page.image);
   // As in the seed (3.1.6): tracking starts on the whole page, then a hand covers half of
   // it from 2 deg of tilt on (in this close view it hides half of what the camera sees).
-  add("orbit-near-occluded", near, page.image,
-      texfree::testdata::OccludePageHalf(page.image, 0, 5), 4);
+  add("orbit-near-occluded", near, page.image, texfree::testdata::OccludePageHalf(page.image, 0, 5),
+      4);
   CameraSequenceOptions pan = near;
   pan.motion = CameraSequenceOptions::Motion::kPan;
   pan.start_tilt_deg = 30;
@@ -288,7 +287,7 @@ int main(int argc, char** argv) {
       std::unique_ptr<texfree::DocumentTracker> tracker;
       std::unique_ptr<FeatureBaseline> baseline;
       // As the server's stream: the text is measured now and then, not on every frame.
-      texfree::VideoKeypointExtractor extractor((*registry)->options().keypoints, video);
+      texfree::VideoKeypointExtractor extractor((*registry)->options().tracking_keypoints, video);
       if (method.baseline == 1)
         baseline = std::make_unique<FeatureBaseline>(
             cv::ORB::create(3000), cv::makePtr<cv::BFMatcher>(cv::NORM_HAMMING), page_gray);
@@ -329,7 +328,8 @@ int main(int argc, char** argv) {
                          "%s %s %.1f: %zu keypoints, h %.1f px, %s, inliers %d, llah %d, "
                          "learned %d, error %.2f px, %.1f ms (match %.1f pose %.1f update %.1f)\n",
                          seq.name.c_str(), method.name.c_str(), where, keypoints.points.size(),
-                         keypoints.char_height, doc ? (doc->method.empty() ? "lost" : doc->method.c_str()) : "-",
+                         keypoints.char_height,
+                         doc ? (doc->method.empty() ? "lost" : doc->method.c_str()) : "-",
                          doc ? doc->inliers : 0, doc ? doc->llah_inliers : -1,
                          doc ? doc->learned : 0, s.found ? s.error : -1.0, s.ms,
                          result.timings.match_ms, result.timings.pose_ms, result.timings.update_ms);
@@ -342,19 +342,29 @@ int main(int argc, char** argv) {
               const cv::Vec3d t = view.homography * cv::Vec3d(p.x, p.y, 1);
               if (t[2] <= 0) continue;
               const cv::Point2f q(t[0] / t[2], t[1] / t[2]);
-              int best = -1; double bd = 1.5;
+              int best = -1;
+              double bd = 1.5;
               for (size_t k = 0; k < keypoints.points.size(); ++k) {
                 const double d = cv::norm(keypoints.points[k] - q);
-                if (d < bd) { bd = d; best = static_cast<int>(k); }
+                if (d < bd) {
+                  bd = d;
+                  best = static_cast<int>(k);
+                }
               }
-              if (best >= 0) { src.push_back(p); dst.push_back(keypoints.points[best]); }
+              if (best >= 0) {
+                src.push_back(p);
+                dst.push_back(keypoints.points[best]);
+              }
             }
             double oracle = -1;
             if (src.size() >= 8) {
               cv::Mat H = cv::findHomography(src, dst, 0);
-              if (!H.empty()) oracle = texfree::testdata::MeanHomographyError(cv::Matx33d(H), view.homography, page_gray.size(), gray.size());
+              if (!H.empty())
+                oracle = texfree::testdata::MeanHomographyError(cv::Matx33d(H), view.homography,
+                                                                page_gray.size(), gray.size());
             }
-            std::fprintf(stderr, "   oracle: %zu true keypoints, error %.2f px\n", src.size(), oracle);
+            std::fprintf(stderr, "   oracle: %zu true keypoints, error %.2f px\n", src.size(),
+                         oracle);
             if (doc) {
               std::fprintf(stderr, "   inliers (truth residual px):");
               for (const auto& [q, r] : doc->matches) {
@@ -362,7 +372,8 @@ int main(int argc, char** argv) {
                 const cv::Vec3d e = doc->homography * cv::Vec3d(reference[r].x, reference[r].y, 1);
                 std::fprintf(stderr, " (%.0f,%.0f) %.1f/%.1f", t[0] / t[2], t[1] / t[2],
                              cv::norm(keypoints.points[q] - cv::Point2f(t[0] / t[2], t[1] / t[2])),
-                             cv::norm(cv::Point2d(e[0] / e[2], e[1] / e[2]) - cv::Point2d(t[0] / t[2], t[1] / t[2])));
+                             cv::norm(cv::Point2d(e[0] / e[2], e[1] / e[2]) -
+                                      cv::Point2d(t[0] / t[2], t[1] / t[2])));
               }
               std::fprintf(stderr, "\n");
             }
@@ -372,10 +383,13 @@ int main(int argc, char** argv) {
             const auto reference = shared->Keypoints(tracked_id);
             for (const auto& p : reference) {
               const cv::Vec3d t = view.homography * cv::Vec3d(p.x, p.y, 1);
-              if (t[2] > 0) cv::circle(canvas, {cvRound(t[0] / t[2]), cvRound(t[1] / t[2])}, 3, {0, 200, 0}, 1);
+              if (t[2] > 0)
+                cv::circle(canvas, {cvRound(t[0] / t[2]), cvRound(t[1] / t[2])}, 3, {0, 200, 0}, 1);
               if (s.found) {
                 const cv::Vec3d e = doc->homography * cv::Vec3d(p.x, p.y, 1);
-                if (e[2] > 0) cv::circle(canvas, {cvRound(e[0] / e[2]), cvRound(e[1] / e[2])}, 5, {255, 0, 0}, 1);
+                if (e[2] > 0)
+                  cv::circle(canvas, {cvRound(e[0] / e[2]), cvRound(e[1] / e[2])}, 5, {255, 0, 0},
+                             1);
               }
             }
             for (const auto& p : keypoints.points) cv::circle(canvas, p, 1, {0, 0, 255}, -1);
@@ -420,9 +434,10 @@ int main(int argc, char** argv) {
       std::printf("\n");
     }
     // Summary per method.
-    std::printf("\n| method | correct frames (<= %.0f px) | holds to | median err px | median ms | "
-                "median CPU ms | learned entries |\n|---|---:|---:|---:|---:|---:|---:|\n",
-                kCorrectPx);
+    std::printf(
+        "\n| method | correct frames (<= %.0f px) | holds to | median err px | median ms | "
+        "median CPU ms | learned entries |\n|---|---:|---:|---:|---:|---:|---:|\n",
+        kCorrectPx);
     for (size_t m = 0; m < methods.size(); ++m) {
       int correct = 0;
       double holds = -1;
@@ -438,8 +453,10 @@ int main(int argc, char** argv) {
         if (!ok) broken = true;
         if (!broken) holds = orbit ? seq.frames[i].nominal_tilt_deg : static_cast<double>(i);
       }
-      std::string holds_text = holds < 0 ? "-" : (orbit ? std::to_string(holds).substr(0, 4) + " deg"
-                                                        : "frame " + std::to_string(static_cast<int>(holds)));
+      std::string holds_text = holds < 0
+                                   ? "-"
+                                   : (orbit ? std::to_string(holds).substr(0, 4) + " deg"
+                                            : "frame " + std::to_string(static_cast<int>(holds)));
       if (!broken) holds_text = "all";
       std::printf("| %s | %d / %zu | %s | %.2f | %.1f | %.1f | %zu |\n", methods[m].name.c_str(),
                   correct, samples[m].size(), holds_text.c_str(), Percentile(errors, 0.5),
@@ -448,9 +465,10 @@ int main(int argc, char** argv) {
     std::fflush(stdout);
   }
 
-  std::printf("\n### time per frame over all sequences (extraction included, one core)\n\n"
-              "| method | median ms | p95 ms | median CPU ms | mean CPU ms | p95 CPU ms |\n"
-              "|---|---:|---:|---:|---:|---:|\n");
+  std::printf(
+      "\n### time per frame over all sequences (extraction included, one core)\n\n"
+      "| method | median ms | p95 ms | median CPU ms | mean CPU ms | p95 CPU ms |\n"
+      "|---|---:|---:|---:|---:|---:|\n");
   for (const auto& m : methods) {
     const auto& cpu = all_cpu_ms[m.name];
     double mean = 0;
