@@ -334,11 +334,20 @@ absl::StatusOr<RetrievalResult> DocumentRegistry::Retrieve(const cv::Mat &gray,
   WordKeypoints kp;
   std::vector<DocumentHit> hits;
   double extract_ms = 0, match_ms = 0;
+  // Every extractor measures the text alike (pass 1); the fallbacks reuse the first's
+  // measurement, and when it found no text there is nothing for them to group either.
+  TextGeometry measured;
   for (size_t attempt = 0; attempt <= fallback_extractors_.size(); ++attempt) {
     auto t = Clock::now();
-    kp = attempt == 0 ? extractor_.Extract(gray) : fallback_extractors_[attempt - 1].Extract(gray);
+    if (attempt == 0) {
+      kp = extractor_.Extract(gray);
+      measured = {kp.char_height, kp.text_angle_rad};
+    } else {
+      kp = fallback_extractors_[attempt - 1].Extract(gray, measured);
+    }
     extract_ms += MillisecondsSince(t);
     if (attempt == 0) result.query_keypoints = static_cast<int>(kp.points.size());
+    if (measured.char_height <= 0) break;
     if (!retriever) break;
     t = Clock::now();
     hits = retriever->Retrieve(kp.points, kp.char_height, ro);
