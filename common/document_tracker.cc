@@ -85,8 +85,8 @@ absl::Status TrackerOptions::Validate() const {
         "inlier distance: inlier_chars and min_inlier_px must be > 0 and "
         "max_inlier_px >= min_inlier_px");
   if (!(min_separation_inliers >= 0) || min_separation_inliers > 10)
-    return absl::InvalidArgumentError(
-        absl::StrCat("min_separation_inliers must be in [0, 10], got ", min_separation_inliers));
+    return absl::InvalidArgumentError(absl::StrCat(
+        "min_separation_inliers must be in [0, 10], got ", min_separation_inliers));
   if (ransac_iterations < 10)
     return absl::InvalidArgumentError(
         absl::StrCat("ransac_iterations must be >= 10, got ", ransac_iterations));
@@ -96,9 +96,6 @@ absl::Status TrackerOptions::Validate() const {
   if (max_hits_per_descriptor < 1)
     return absl::InvalidArgumentError("max_hits_per_descriptor must be >= 1");
   if (min_llah_confirm < 1) return absl::InvalidArgumentError("min_llah_confirm must be >= 1");
-  if (weak_confirm_frames < 0 || weak_llah_confirm < 1 || weak_llah_confirm > min_llah_confirm)
-    return absl::InvalidArgumentError(
-        "weak_confirm_frames must be >= 0 and weak_llah_confirm in [1, min_llah_confirm]");
   if (!(min_match_ratio >= 0 && min_match_ratio <= 1))
     return absl::InvalidArgumentError("min_match_ratio must be in [0, 1]");
   if (!(max_mean_residual > 0 && max_mean_residual <= 1))
@@ -129,9 +126,8 @@ struct DocumentTracker::Followed {
   cv::Point2d seen_centroid;                    // reference points seen last
   bool has_motion = false;
   std::optional<PlanarPose> pose;
-  uint64_t last_seen = 0;       // frame of the last accepted pose
-  uint64_t last_llah = 0;       // frame of the last LLAH matching
-  uint64_t last_confirmed = 0;  // frame of the last pose with evidence of its own
+  uint64_t last_seen = 0;  // frame of the last accepted pose
+  uint64_t last_llah = 0;  // frame of the last LLAH matching
   int lost_frames = 0;
 };
 
@@ -425,7 +421,8 @@ TrackedDocument DocumentTracker::TrackOne(Followed& doc, Frame& frame, TrackerTi
   Fit projected;
   if (predicted) {
     const Pairs candidates = ProjectionMatch(*predicted, ref, frame.points, frame.grid, frame.used,
-                                             frame.size, frame.search_px, 0.8, frame.separation_px);
+                                             frame.size, frame.search_px, 0.8,
+                                             frame.separation_px);
     projected =
         RansacFit(candidates, {}, ref, frame.points, frame.inlier_px, 200, options_.min_inliers);
     if (projected.ok) projected = Refine(projected, ref, frame, options_.min_inliers);
@@ -446,43 +443,27 @@ TrackedDocument DocumentTracker::TrackOne(Followed& doc, Frame& frame, TrackerTi
   // the page it claims to see, tightly. Chance alignments (the text lines of another
   // page, or of a mirror image, fall on the predicted lines) meet neither.
   Fit chosen;
-  bool confirmed = false;  // evidence of its own, not only the page's recent history
-  bool weakly_confirmed = false;
   if (projected.ok) {
     const int agree =
         llah_ran ? static_cast<int>(
                        InliersOf(projected.H, llah, ref, frame.points, frame.inlier_px).size())
                  : -1;
     const Evidence evidence = Measure(projected, ref, frame);
-    confirmed = agree >= options_.min_llah_confirm ||
-                (evidence.match_ratio >= options_.min_match_ratio &&
-                 evidence.mean_residual <= options_.max_mean_residual * frame.inlier_px);
-    if (confirmed) {
+    if (agree >= options_.min_llah_confirm ||
+        (evidence.match_ratio >= options_.min_match_ratio &&
+         evidence.mean_residual <= options_.max_mean_residual * frame.inlier_px)) {
       chosen = std::move(projected);
       out.method = "projection";
     }
-    // Weaker evidence carries a page seen with full evidence moments ago when LLAH has no
-    // consensus of its own (below): at grazing tilt LLAH finds only a few correspondences
-    // and most lines are too squeezed to match, so a right pose scores no better than
-    // chance alignments there.
-    weakly_confirmed =
-        !confirmed && agree >= options_.weak_llah_confirm && options_.weak_confirm_frames > 0 &&
-        doc.lost_frames == 0 &&
-        frame_count_ - doc.last_confirmed <= static_cast<uint64_t>(options_.weak_confirm_frames);
   }
   if (!chosen.ok && llah_ran) {
     // LLAH correspondences agreeing on one homography are evidence of their own.
     chosen = RansacFit(llah, strong, ref, frame.points, frame.inlier_px, options_.ransac_iterations,
                        options_.min_inliers);
     if (chosen.ok) {
-      confirmed = true;
       chosen = Refine(chosen, ref, frame, options_.min_inliers);
       out.method = "llah";
     }
-  }
-  if (!chosen.ok && weakly_confirmed) {
-    chosen = std::move(projected);
-    out.method = "projection";
   }
   bool accepted = chosen.ok;
   const cv::Matx33d H = chosen.H;
@@ -549,7 +530,6 @@ TrackedDocument DocumentTracker::TrackOne(Followed& doc, Frame& frame, TrackerTi
   doc.has_homography = true;
   doc.pose = pose;
   doc.last_seen = frame_count_;
-  if (confirmed) doc.last_confirmed = frame_count_;
   doc.lost_frames = 0;
   doc.state = TrackState::kTracking;
   out.state = TrackState::kTracking;
@@ -628,7 +608,6 @@ void DocumentTracker::Follow(uint32_t id, const DocumentHit& hit, Frame& frame,
   doc->pose = pose;
   doc->last_seen = frame_count_;
   doc->last_llah = frame_count_;
-  doc->last_confirmed = frame_count_;
   doc->lost_frames = 0;
   doc->state = TrackState::kInitializing;
   out.state = TrackState::kInitializing;

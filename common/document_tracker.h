@@ -31,10 +31,11 @@
 
 #include <cstdint>
 #include <memory>
-#include <opencv2/core.hpp>
 #include <optional>
 #include <string>
 #include <vector>
+
+#include <opencv2/core.hpp>
 
 #include "absl/status/status.h"
 #include "common/llah_retriever.h"
@@ -94,12 +95,6 @@ struct TrackerOptions {
   int min_llah_confirm = 4;
   double min_match_ratio = 0.4;
   double max_mean_residual = 0.35;
-  // Within this many frames of the last pose with such evidence (and no loss since), a
-  // projection pose with weak_llah_confirm agreeing LLAH correspondences is trusted too
-  // when the LLAH correspondences have no consensus of their own (grazing tilt: few LLAH
-  // matches, most lines squeezed). 0: never.
-  int weak_confirm_frames = 15;
-  int weak_llah_confirm = 1;
 
   // Plausibility: the page's seen points may move at most this fraction of the image
   // diagonal away from the prediction between two frames ...
@@ -131,10 +126,10 @@ struct TrackedDocument {
   int inliers = 0;                 // correspondences agreeing with the homography
   // Those correspondences: (frame keypoint index, reference keypoint index).
   std::vector<std::pair<int, int>> matches;
-  int llah_inliers = -1;       // LLAH correspondences among them; -1: LLAH not run
-  int learned = 0;             // entries added to the session index on this frame
-  size_t learned_entries = 0;  // entries learned for this page so far (kept)
-  std::string method;          // "retrieval", "projection", "llah", "" when lost
+  int llah_inliers = -1;           // LLAH correspondences among them; -1: LLAH not run
+  int learned = 0;                 // entries added to the session index on this frame
+  size_t learned_entries = 0;      // entries learned for this page so far (kept)
+  std::string method;              // "retrieval", "projection", "llah", "" when lost
 };
 
 struct TrackerTimings {
@@ -172,7 +167,8 @@ class DocumentTracker {
   struct Followed;
   struct Frame;
 
-  void Follow(uint32_t document, const DocumentHit& hit, Frame& frame, TrackerFrameResult& result);
+  void Follow(uint32_t document, const DocumentHit& hit, Frame& frame,
+              TrackerFrameResult& result);
   TrackedDocument TrackOne(Followed& doc, Frame& frame, TrackerTimings& timings);
   // LLAH correspondences of the page in the frame from the session index: per free frame
   // keypoint, the reference keypoint most of its descriptors hit (`strong`: two or more).

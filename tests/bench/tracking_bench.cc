@@ -20,6 +20,7 @@
 //   texfree-bench-tracking [--step 0.5] [--print-every 5] [--distractors 20]
 //                          [--streams 8] [--fps 30] [--seconds 10] [--only SEQUENCE]
 //                          [--no-grpc] [--no-baselines] [--trace-from DEG [--trace-dir D]]
+//                          [--seed N] [--frame-letter-graph]
 #include <spdlog/spdlog.h>
 
 #include <CLI/CLI.hpp>
@@ -185,9 +186,6 @@ int main(int argc, char** argv) {
   app.add_option("--min-separation", tracking.min_separation_inliers,
                  "track methods: projection skips reference keypoints closer than this many "
                  "inlier distances");
-  app.add_option("--weak-confirm-frames", tracking.weak_confirm_frames,
-                 "track methods: weak LLAH evidence carries a page confirmed this many frames "
-                 "ago (0: never)");
   bool frame_letter_graph = false;
   app.add_flag("--frame-letter-graph", frame_letter_graph,
                "track methods: cut frames into words by the letter graph (as pages are "
