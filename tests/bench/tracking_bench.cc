@@ -20,6 +20,7 @@
 //   texfree-bench-tracking [--step 0.5] [--print-every 5] [--distractors 20]
 //                          [--streams 8] [--fps 30] [--seconds 10] [--only SEQUENCE]
 //                          [--no-grpc] [--no-baselines] [--trace-from DEG [--trace-dir D]]
+//                          [--seed N] [--frame-letter-graph]
 #include <spdlog/spdlog.h>
 
 #include <CLI/CLI.hpp>
@@ -185,6 +186,10 @@ int main(int argc, char** argv) {
   app.add_option("--min-separation", tracking.min_separation_inliers,
                  "track methods: projection skips reference keypoints closer than this many "
                  "inlier distances");
+  bool frame_letter_graph = false;
+  app.add_flag("--frame-letter-graph", frame_letter_graph,
+               "track methods: cut frames into words by the letter graph (as pages are "
+               "registered) instead of the registry's tracking_keypoints");
   app.add_flag("--no-grpc", no_grpc, "skip the gRPC throughput test");
   app.add_flag("--no-baselines", no_baselines, "skip ORB and SIFT");
   app.add_option("--dir", dir, "working directory for the database");
@@ -287,7 +292,9 @@ int main(int argc, char** argv) {
       std::unique_ptr<texfree::DocumentTracker> tracker;
       std::unique_ptr<FeatureBaseline> baseline;
       // As the server's stream: the text is measured now and then, not on every frame.
-      texfree::VideoKeypointExtractor extractor((*registry)->options().tracking_keypoints, video);
+      texfree::WordKeypointOptions frame_keypoints = (*registry)->options().tracking_keypoints;
+      if (frame_letter_graph) frame_keypoints.grouping = texfree::WordGrouping::kLetterGraph;
+      texfree::VideoKeypointExtractor extractor(frame_keypoints, video);
       if (method.baseline == 1)
         baseline = std::make_unique<FeatureBaseline>(
             cv::ORB::create(3000), cv::makePtr<cv::BFMatcher>(cv::NORM_HAMMING), page_gray);
