@@ -59,14 +59,6 @@ namespace {
 
 constexpr double kCorrectPx = 3.0;  // a pose is correct within this mean error
 
-// CPU time of the calling thread (OpenCV runs single-threaded during the sequences, so
-// this is all the work of a frame, whatever else the machine is doing).
-double ThreadCpuMs() {
-  timespec ts{};
-  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
-  return ts.tv_sec * 1e3 + ts.tv_nsec * 1e-6;
-}
-
 double Percentile(std::vector<double> v, double q) {
   if (v.empty()) return 0;
   std::sort(v.begin(), v.end());
@@ -100,7 +92,7 @@ class FeatureBaseline {
   Sample Run(const cv::Mat& gray, const cv::Matx33d& truth, const cv::Size& page_size) {
     Sample s;
     const auto t0 = SteadyClock::now();
-    const double c0 = ThreadCpuMs();
+    const double c0 = texfree::ThreadCpuMilliseconds();
     std::vector<cv::KeyPoint> keypoints;
     cv::Mat descriptors;
     detector_->detectAndCompute(gray, cv::noArray(), keypoints, descriptors);
@@ -128,7 +120,7 @@ class FeatureBaseline {
       }
     }
     s.ms = MillisecondsSince(t0);
-    s.cpu_ms = ThreadCpuMs() - c0;
+    s.cpu_ms = texfree::ThreadCpuMilliseconds() - c0;
     return s;
   }
 
@@ -311,11 +303,11 @@ int main(int argc, char** argv) {
           s = baseline->Run(gray, view.homography, page_gray.size());
         } else {
           const auto t0 = SteadyClock::now();
-          const double c0 = ThreadCpuMs();
+          const double c0 = texfree::ThreadCpuMilliseconds();
           const auto keypoints = extractor.Extract(gray);
           const auto result = tracker->Track(keypoints, gray.size(), shared);
           s.ms = MillisecondsSince(t0);
-          s.cpu_ms = ThreadCpuMs() - c0;
+          s.cpu_ms = texfree::ThreadCpuMilliseconds() - c0;
           const TrackedDocument* doc = nullptr;
           for (const auto& d : result.documents) {
             if (d.document != tracked_id) continue;
