@@ -187,6 +187,15 @@ class SilhouetteScorer {
     return score;
   }
 
+  // Signed distance (pixels, first order) of pixel (u, v) inside the conic's outline.
+  static double InsideDistance(const cv::Matx33d& Q, double u, double v) {
+    const double qx = Q(0, 0) * u + Q(0, 1) * v + Q(0, 2);
+    const double qy = Q(1, 0) * u + Q(1, 1) * v + Q(1, 2);
+    const double qz = Q(2, 0) * u + Q(2, 1) * v + Q(2, 2);
+    const double grad = 2 * std::sqrt(qx * qx + qy * qy);
+    return grad > 0 ? (u * qx + v * qy + qz) / grad : -1e9;
+  }
+
   // Fraction of pixel (u, v) inside the conic's silhouette (signed distance to the
   // boundary, first order).
   static double Coverage(const cv::Matx33d& Q, double u, double v) {
@@ -302,7 +311,18 @@ class EdgeFitter {
 // Reference chroma (intensity-normalised opponent colour) of each ball colour.
 struct ColourRef {
   double chroma_x, chroma_y;
+  double saturation;  // |chroma|
+  double blue_share;  // BlueShare of the colour
 };
+
+// Blue over the larger of red and green: about 0.1 for the yellow of the 1 and the 9,
+// about 0.95 for their white, and in between, in proportion, for a mix of the two.
+double BlueShare(const cv::Vec3b& bgr) {
+  return bgr[0] / std::max(1.0, static_cast<double>(std::max(bgr[1], bgr[2])));
+}
+
+// Colour is read this far (pixels) inside a ball's outline.
+constexpr double kInteriorPx = 1.0;
 
 }  // namespace
 
@@ -331,19 +351,19 @@ cv::Matx33d SphereSilhouetteConic(const PlanarPose& pose, const cv::Matx33d& K,
 std::array<double, 10> PoolNumberScores(const PoolVotes& votes, const PoolBallOptions& o) {
   std::array<double, 10> s{};
   double total = 0;
-  for (int v : votes) total += v;
+  for (double v : votes) total += v;
   if (total <= 0) return s;
   for (int k = 2; k <= 8; ++k) s[k] = votes[k] / total;
   // Seed eq. 4.3: the cue, the 1 and the 9 are the white+yellow balls; the white share
-  // tells them apart (over cue_white_share: cue, under one_white_share: 1, else 9).
+  // of their white+yellow votes tells them apart (over cue_white_share: cue, under
+  // one_white_share: 1, else 9). The cue's score keeps growing up to all white, so that a
+  // 9 showing mostly its white caps does not tie with the cue.
   const double group = (votes[0] + votes[1]) / total;
-  const double w = votes[0] / total;
+  const double w = votes[0] + votes[1] > 0 ? votes[0] / (votes[0] + votes[1]) : 0;
   const double mid = (o.cue_white_share + o.one_white_share) / 2;
   const double half = (o.cue_white_share - o.one_white_share) / 2;
-  s[0] = group * std::clamp((w - mid) / half, 0.0, 1.0);
+  s[0] = group * std::clamp((w - mid) / (1 - mid), 0.0, 1.0);
   s[1] = group * std::clamp((mid - w) / half, 0.0, 1.0);
-  // The 9 shows anything from its stripe alone to mostly white, depending on how it
-  // lies: never ruled out, preferred in the middle band.
   s[9] = group * (0.35 + 0.65 * std::clamp(1 - std::abs(w - mid) / (1.5 * half), 0.0, 1.0));
   return s;
 }
@@ -632,18 +652,26 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
       const cv::Vec3b& c = profile.ball_bgr[k];
       double h, s, i;
       HueSaturation(cv::Vec3f(c[0], c[1], c[2]), &h, &s, &i);
-      refs[k] = {s * std::cos(h * kPi / 180), s * std::sin(h * kPi / 180)};
+      refs[k] = {s * std::cos(h * kPi / 180), s * std::sin(h * kPi / 180), s, BlueShare(c)};
     }
+    // Pixels in the red group (the 3 and the maroon 7 differ in saturation, not hue): their
+    // saturation where the camera did not clip.
+    std::vector<float> red_saturation, coloured_intensity;
+    double red_votes = 0;
     for (int v = box.y; v < box.y + box.height; ++v)
       for (int u = box.x; u < box.x + box.width; ++u) {
-        if (SilhouetteScorer::Coverage(Q, u, v) < 0.99) continue;
+        // Pixels at least a pixel inside the outline: the blur of lens, demosaicing and
+        // JPEG (which halves the colour resolution) mixes the cloth into the outer ring.
+        if (SilhouetteScorer::InsideDistance(Q, u, v) < kInteriorPx) continue;
         if (claimed.at<float>(v - roi.y, u - roi.x) > 0.5) continue;
         // Only the ball's own colours vote: not the cloth seen where a cushion hides the
         // ball, nor cloth left inside the silhouette by a small misfit.
         if (ballness_in_region.at<float>(v - roi.y, u - roi.x) < 0.5) continue;
         if (scorer.NearCushion(xy) && scorer.HiddenByCushion(centre, u, v)) continue;
         if (scorer.InShadowZone(centre, u, v)) continue;
-        const cv::Vec3b& p = bgr.at<cv::Vec3b>(v, u);
+        // The colour from the unblurred image: the light blur used for the outline would
+        // mix the 9's white cap into its stripe.
+        const cv::Vec3b& p = image.at<cv::Vec3b>(v, u);
         double hue, sat, intensity;
         HueSaturation(cv::Vec3f(p[0], p[1], p[2]), &hue, &sat, &intensity);
         const double q = intensity / (profile_cloth * light);
@@ -654,8 +682,7 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
           vote = q < 0.55 ? 8 : 0;
         } else {
           // Nearest solid colour in the intensity-normalised chroma plane (seed eq. 4.1
-          // on the chromatic part, which is independent of the light's strength and
-          // tells the red 3 from the less saturated maroon 7).
+          // on the chromatic part, which is independent of the light's strength).
           const double x = sat * std::cos(hue * kPi / 180), y = sat * std::sin(hue * kPi / 180);
           vote = 1;
           double best = 1e9;
@@ -667,11 +694,47 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
             }
           }
         }
-        ++ball.votes[vote];
+        if (vote == 0 || vote == 1) {
+          // White and yellow mix at the 9's stripe edges, in the highlight and in any
+          // blur: the pixel's blue share (blue is what yellow lacks) says how much of it
+          // is white, so a thin white cap still counts for what it is.
+          const double w = std::clamp((BlueShare(p) - refs[1].blue_share) /
+                                          std::max(0.05, refs[0].blue_share - refs[1].blue_share),
+                                      0.0, 1.0);
+          ball.votes[0] += w;
+          ball.votes[1] += 1 - w;
+        } else if (vote == 3 || vote == 7) {
+          red_votes += 1;
+          if (std::max({p[0], p[1], p[2]}) < 250) red_saturation.push_back(static_cast<float>(sat));
+        } else {
+          ball.votes[vote] += 1;
+        }
+        if (vote >= 1 && vote <= 7) coloured_intensity.push_back(static_cast<float>(q));
       }
-    int total = 0;
-    for (int v : ball.votes) total += v;
-    ball.white_share = total ? static_cast<double>(ball.votes[0]) / total : 0;
+    if (!coloured_intensity.empty()) {
+      const size_t k90 = coloured_intensity.size() * 9 / 10;
+      std::nth_element(coloured_intensity.begin(), coloured_intensity.begin() + k90,
+                       coloured_intensity.end());
+      ball.lit_brightness = coloured_intensity[k90];
+    }
+    if (red_votes > 0) {
+      // The red group goes to the 3 or the 7 by the ball's saturation (upper quartile of
+      // its unclipped red pixels: shading keeps it, highlights and the cloth mixed in at
+      // the edge only lower it), between the two calibrated colours.
+      double t = 0.5;
+      if (!red_saturation.empty()) {
+        const size_t k75 = red_saturation.size() * 3 / 4;
+        std::nth_element(red_saturation.begin(), red_saturation.begin() + k75,
+                         red_saturation.end());
+        ball.colour_saturation = red_saturation[k75];
+        const double s3 = refs[3].saturation, s7 = refs[7].saturation;
+        if (std::abs(s3 - s7) > 0.05) t = std::clamp((ball.colour_saturation - s7) / (s3 - s7), 0.0, 1.0);
+      }
+      ball.votes[3] += red_votes * t;
+      ball.votes[7] += red_votes * (1 - t);
+    }
+    const double white_yellow = ball.votes[0] + ball.votes[1];
+    ball.white_share = white_yellow > 0 ? ball.votes[0] / white_yellow : 0;
     balls.push_back(ball);
   }
   std::vector<std::array<double, 10>> scores;

@@ -38,7 +38,8 @@ struct PoolBallOptions {
 };
 
 // Per-pixel colour votes of one ball: index 0 = white (cue), 1..8 the solid colours.
-using PoolVotes = std::array<int, 9>;
+// Fractional: a pixel that mixes the white and the yellow of the 9 votes for both.
+using PoolVotes = std::array<double, 9>;
 
 struct PoolDetectedBall {
   int number = -1;          // 0 = cue, 1..9; -1 = a ball whose number is unknown
@@ -48,7 +49,13 @@ struct PoolDetectedBall {
   double fit_score = 0;       // mean ball-ness under the fitted silhouette, 0..1
   double confidence = 0;      // of the number, 0..1
   PoolVotes votes{};
-  double white_share = 0;     // b_c / b_sum of eq. 4.3
+  double white_share = 0;     // b_c / b_sum of eq. 4.3: white over white + yellow votes
+  // Brightness of the lit part of the ball's colour (90th percentile of its coloured
+  // pixels) over the brightness of the cloth around it; 0 when it has no coloured pixels.
+  double lit_brightness = 0;
+  // Saturation (chroma over intensity, upper quartile) of its red pixels, which tells the
+  // red 3 from the maroon 7; 0 when it has none.
+  double colour_saturation = 0;
 };
 
 // Finds and identifies the balls. `ideal_bgr` is the undistorted image, `pose` the table

@@ -136,6 +136,13 @@ int main(int argc, char** argv) {
           std::printf("    ball %d%s at px (%.0f, %.0f): found as %d, error %.1f mm (%.1f, %.1f)\n",
                       m.truth_number, m.separated ? " (separated)" : "", m.pixel.x, m.pixel.y,
                       m.estimated_number, m.error_mm, m.dx_mm, m.dy_mm);
+      for (const auto& m : score.matches) {
+        if (m.estimated_index < 0) continue;
+        const PoolDetectedBall& b = analyzer->last_detected_balls()[m.estimated_index];
+        std::printf("      votes of %d as %d:", m.truth_number, b.number);
+        for (int v : b.votes) std::printf(" %d", v);
+        std::printf("  white %.2f  lit %.2f  radius %.1f px sat %.2f\n", b.white_share, b.lit_brightness, b.radius_px, b.colour_saturation);
+      }
     }
     if (verbose) {
       const cv::Vec3d c = -(view.rotation.t() * view.translation);
