@@ -40,6 +40,14 @@ cv::Mat BallnessMap(const cv::Mat& bgr, const cv::Rect& roi, const cv::Vec3f& cl
   const float cloth_sum = cloth[0] + cloth[1] + cloth[2];
   const float dark_hi = static_cast<float>((o.dark_fraction + 0.1) * cloth_sum);
   const float dark_lo = static_cast<float>((o.dark_fraction - 0.05) * cloth_sum);
+  const float cloth_inv_i = 3.f / std::max(1.f, cloth_sum);
+  const float cloth_cx = (cloth[2] - 0.5f * (cloth[1] + cloth[0])) * cloth_inv_i;
+  const float cloth_cy = 0.8660254f * (cloth[1] - cloth[0]) * cloth_inv_i;
+  constexpr double kChromaSoft = 0.08;
+  const float chroma_lo2 = static_cast<float>(std::pow(o.ball_chroma_distance - kChromaSoft, 2));
+  const float chroma_hi2 = static_cast<float>(std::pow(o.ball_chroma_distance + kChromaSoft, 2));
+  // Below this brightness, chromaticity is mostly noise (the dark test takes over).
+  const float chroma_min_sum = static_cast<float>(0.45 * cloth_sum);
   for (int y = 0; y < roi.height; ++y) {
     const cv::Vec3b* p = bgr.ptr<cv::Vec3b>(y + roi.y) + roi.x;
     float* q = out.ptr<float>(y);
@@ -56,6 +64,23 @@ cv::Mat BallnessMap(const cv::Mat& bgr, const cv::Rect& roi, const cv::Vec3f& cl
         colour = static_cast<float>(SmoothStep((std::acos(c) - lo) / (hi - lo)));
       }
       const float sum = b + g + r;
+      // Chromaticity (opponent chroma over intensity) far from the cloth's: a ball of
+      // nearly the cloth's hue (the green 6 on green cloth) is more saturated and darker,
+      // which the angle in RGB barely sees; the light's strength and the shadows on the
+      // cloth leave chromaticity alone.
+      if (colour < 1 && sum > chroma_min_sum) {
+        const float inv_i = 3.f / sum;
+        const float cx = (r - 0.5f * (g + b)) * inv_i - cloth_cx;
+        const float cy = 0.8660254f * (g - b) * inv_i - cloth_cy;
+        const float d2 = cx * cx + cy * cy;
+        if (d2 >= chroma_hi2) {
+          colour = 1;
+        } else if (d2 > chroma_lo2) {
+          colour = std::max(colour, static_cast<float>(SmoothStep(
+                                        (std::sqrt(d2) - o.ball_chroma_distance +
+                                         kChromaSoft) / (2 * kChromaSoft))));
+        }
+      }
       const float dark =
           sum >= dark_hi ? 0.f
                          : (sum <= dark_lo ? 1.f
@@ -331,6 +356,8 @@ absl::Status PoolBallOptions::Validate() const {
     return absl::InvalidArgumentError("ball_angle_deg must be in (0, 45)");
   if (!(ball_angle_soft_deg > 0 && ball_angle_soft_deg < ball_angle_deg))
     return absl::InvalidArgumentError("ball_angle_soft_deg must be in (0, ball_angle_deg)");
+  if (!(ball_chroma_distance > 0.1 && ball_chroma_distance < 2))
+    return absl::InvalidArgumentError("ball_chroma_distance must be in (0.1, 2)");
   if (!(dark_fraction > 0.05 && dark_fraction < 0.9))
     return absl::InvalidArgumentError("dark_fraction must be in (0.05, 0.9)");
   if (!(min_area_fraction > 0 && min_area_fraction <= 1))
@@ -465,6 +492,7 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
     const double r_px = K(0, 0) * r / cv::norm(cam);
     const double expected = kPi * r_px * r_px;
     const int area = stats.at<int>(i, cv::CC_STAT_AREA);
+    if (getenv("POOLDBG") && area > 8) fprintf(stderr, "blob at %.0f %.0f area %d expected %.1f\n", c.x, c.y, area, expected);
     if (area < options.min_area_fraction * expected) continue;
     const int count = std::max(1, static_cast<int>(std::floor(area / expected + 0.35)));
     if (count == 1) {
@@ -515,7 +543,28 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
   // First pass: nearest first, each ball ignoring the nearer ones already fitted; second
   // pass: each ball ignoring all the others.
   const double isolated_mm = 6 * r;  // farther apart than this, balls never share pixels
-  for (int pass = 0; pass < 2; ++pass)
+  for (int pass = 0; pass < 2; ++pass) {
+    if (pass == 1) {
+      // A blob lengthened by a ball's dark underside and its shadow can be split into two
+      // seeds that both go to the same ball; balls are at least 2r apart, so of two seeds
+      // closer than 1.5r only the one that fits better is a ball. Left in, the other would
+      // hide half of the real ball from its fit.
+      for (bool merged = true; merged;) {
+        merged = false;
+        for (size_t i = 0; i < seeds.size() && !merged; ++i)
+          for (size_t j = i + 1; j < seeds.size() && !merged; ++j) {
+            if (cv::norm(seeds[i] - seeds[j]) >= 1.5 * r) continue;
+            std::vector<cv::Point2d> others;
+            for (size_t k = 0; k < seeds.size(); ++k)
+              if (k != i && k != j) others.push_back(seeds[k]);
+            claim(others, others.size(), others.size());
+            SilhouetteScorer scorer(ballness_in_region, roi, claimed, K, pose, profile);
+            const size_t drop = scorer.Score(seeds[i]) >= scorer.Score(seeds[j]) ? j : i;
+            seeds.erase(seeds.begin() + static_cast<std::ptrdiff_t>(drop));
+            merged = true;
+          }
+      }
+    }
     for (size_t i = 0; i < seeds.size(); ++i) {
       if (pass == 1) {
         bool alone = true;
@@ -525,8 +574,11 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
       }
       claim(seeds, i, pass == 0 ? i : seeds.size());
       SilhouetteScorer scorer(ballness_in_region, roi, claimed, K, pose, profile);
+      if (getenv("POOLDBG")) fprintf(stderr, "pass %d seed %.1f %.1f", pass, seeds[i].x, seeds[i].y);
       seeds[i] = scorer.Fit(seeds[i], 0.35 * r);
+      if (getenv("POOLDBG")) fprintf(stderr, " -> %.1f %.1f\n", seeds[i].x, seeds[i].y);
     }
+  }
   // Sub-pixel pass on the edge: the ball's outline is where its colour distance from the
   // cloth around it falls fastest (for any symmetric blur, JPEG smear or shading of the
   // ball), so the silhouette's outline is moved to where that fall is steepest, on the
@@ -558,7 +610,7 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
         if (cov > 0 || b >= 0.5) continue;
         cloth_pixels.emplace_back(p[0], p[1], p[2]);
       }
-    if (cloth_pixels.size() < 5) continue;
+    if (cloth_pixels.size() < 5) { if (getenv("POOLDBG")) fprintf(stderr, "no cloth %.1f %.1f\n", seeds[i].x, seeds[i].y); continue; }
     cv::Vec3f local_cloth;
     for (int k = 0; k < 3; ++k) {
       std::vector<float> c;
@@ -596,7 +648,9 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
     cv::Sobel(distance, gx, CV_32F, 1, 0, 3, 1.0 / 8);
     cv::Sobel(distance, gy, CV_32F, 0, 1, 3, 1.0 / 8);
     EdgeFitter edge(gx, gy, grown, claimed, roi, scorer, K, pose, r);
+    if (getenv("POOLDBG")) fprintf(stderr, "edge %.1f %.1f dark %d", seeds[i].x, seeds[i].y, (int)dark_ball);
     seeds[i] = edge.Fit(seeds[i]);
+    if (getenv("POOLDBG")) fprintf(stderr, " -> %.1f %.1f\n", seeds[i].x, seeds[i].y);
   }
 
   // Keep distinct, well-supported balls on the table.
@@ -612,6 +666,7 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
     SilhouetteScorer scorer(ballness_in_region, roi, claimed, K, pose, profile);
     double mean_ballness = 0;
     scorer.Score(xy, &mean_ballness);
+    if (getenv("POOLDBG")) fprintf(stderr, "fit %.1f %.1f -> px %.1f %.1f mean ballness %.2f\n", xy.x, xy.y, ProjectIdeal(pose, K, cv::Vec3d(xy.x, xy.y, r)).x, ProjectIdeal(pose, K, cv::Vec3d(xy.x, xy.y, r)).y, mean_ballness);
     if (mean_ballness < 0.5) continue;
     // Votes: pixels not covered by a nearer ball.
     claim(seeds, i, i);

@@ -23,6 +23,10 @@ struct PoolBallOptions {
   double ball_angle_deg = 10;
   // Width of the soft transition around ball_angle_deg, degrees.
   double ball_angle_soft_deg = 4;
+  // A pixel also counts as ball when its chromaticity (opponent chroma over intensity;
+  // a saturated primary is about 1.5-3) is this far from the cloth's: a ball of nearly the
+  // cloth's hue but of another saturation, like the green 6 on green cloth.
+  double ball_chroma_distance = 0.35;
   // Pixels darker than this fraction of the cloth brightness are ball (the 8 ball).
   double dark_fraction = 0.3;
   // A blob is kept when its area is at least this fraction of one ball's silhouette.

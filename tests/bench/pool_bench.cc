@@ -6,6 +6,7 @@
 // Shot search is timed separately on the found arrangements.
 //
 //   texfree-bench-pool [--frames 60] [--seed 7] [--nine-foot] [--save DIR] [--verbose]
+//                      [--clean] [--only FRAME]
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <cstdio>
@@ -53,6 +54,8 @@ int main(int argc, char** argv) {
   app.add_flag("--nine-foot", nine_foot, "A 9-ft table instead of the 1330x700 mm bench table");
   app.add_option("--save", save, "Write each image and its ground truth to this folder");
   app.add_flag("--verbose", verbose, "One line per frame");
+  int only = -1;
+  app.add_option("--only", only, "Analyse only this frame of the set (to look into one case)");
   bool clean = false;
   app.add_flag("--clean", clean, "No blur, noise, JPEG or lens distortion (the method's floor)");
   CLI11_PARSE(app, argc, argv);
@@ -79,6 +82,7 @@ int main(int argc, char** argv) {
       scene.jpeg_quality = 0;
       scene.camera.k1 = scene.camera.k2 = 0;
     }
+    if (only >= 0 && f != only) continue;
     const PoolView view = RenderPoolView(scene, seed * 100003 + f);
     if (!save.empty()) {
       char name[64];
