@@ -256,7 +256,11 @@ class EdgeFitter {
              const cv::Rect& roi, const SilhouetteScorer& scorer, const cv::Matx33d& K,
              const PlanarPose& pose, double radius)
       : gx_(gx), gy_(gy), area_(area), claimed_(claimed), roi_(roi), scorer_(scorer), K_(K),
-        pose_(pose), radius_(radius) {}
+        pose_(pose), radius_(radius), camera_(CameraCentre(pose)) {}
+
+  // For a ball darker than the cloth, the outline next to its own shadow on the cloth has
+  // no edge to speak of (dark against dark): those outline points are left out.
+  void SkipShadowedOutline(bool skip) { skip_shadowed_ = skip; }
 
   // Mean outward fall of the distance across the outline of a ball at `xy`.
   double Score(const cv::Point2d& xy, int* used = nullptr) const {
@@ -282,6 +286,16 @@ class EdgeFitter {
       // Height of the tangent point on the table: skip the dark lower part.
       const cv::Vec3d on_table = to_table * (point - pose_.t);
       if (on_table[2] < radius_ - 0.4 * radius_) continue;
+      if (skip_shadowed_) {
+        // Where the ray grazing the ball here meets the cloth: in the ball's shadow (lamps
+        // above the table: within about a radius of the contact point)?
+        const cv::Vec3d d = on_table - camera_;
+        if (d[2] < 0) {
+          const double t = -camera_[2] / d[2];
+          const double sx = camera_[0] + t * d[0] - xy.x, sy = camera_[1] + t * d[1] - xy.y;
+          if (sx * sx + sy * sy < kShadowReach * kShadowReach * radius_ * radius_) continue;
+        }
+      }
       const cv::Vec3d m = K_ * point;
       const double u = m[0] / m[2], v = m[1] / m[2];
       if (u < area_.x + 1 || v < area_.y + 1 || u > area_.x + area_.width - 2 ||
@@ -305,10 +319,32 @@ class EdgeFitter {
     return n >= 6 ? sum / n : -1e9;
   }
 
-  cv::Point2d Fit(cv::Point2d xy) const {
+  // The silhouette fit leans along the line of sight (JPEG's smeared colour grows a
+  // bright ball's blob upwards; a dark ball's shadow joins its blob below), so the outline
+  // is first scanned along the line of sight, then refined in both directions.
+  cv::Point2d Fit(cv::Point2d xy, const cv::Vec3d& camera) const {
     int used = 0;
     Score(xy, &used);
     if (used < 6) return xy;
+    cv::Point2d sight(xy.x - camera[0], xy.y - camera[1]);
+    const double length = cv::norm(sight);
+    if (length > 1e-6) {
+      sight *= 1.0 / length;
+      cv::Point2d best = xy;
+      double best_score = Score(xy);
+      for (int k = -8; k <= 8; ++k) {
+        if (k == 0) continue;
+        const cv::Point2d p = xy + sight * (0.1 * k * radius_);
+        int used_here = 0;
+        const double s = Score(p, &used_here);
+        if (getenv("POOLDBG")) fprintf(stderr, "  scan %+.1f mm: %.2f (%d)\n", 0.1 * k * radius_, s, used_here);
+        if (s > best_score) {
+          best_score = s;
+          best = p;
+        }
+      }
+      xy = best;
+    }
     return CompassSearch(xy, 0.1 * radius_, 0.5 * radius_,
                          [this](const cv::Point2d& p) { return Score(p); });
   }
@@ -331,6 +367,9 @@ class EdgeFitter {
   cv::Matx33d K_;
   PlanarPose pose_;
   double radius_;
+  cv::Vec3d camera_;
+  bool skip_shadowed_ = false;
+  static constexpr double kShadowReach = 1.3;  // radii
 };
 
 // Reference chroma (intensity-normalised opponent colour) of each ball colour.
@@ -345,6 +384,9 @@ struct ColourRef {
 double BlueShare(const cv::Vec3b& bgr) {
   return bgr[0] / std::max(1.0, static_cast<double>(std::max(bgr[1], bgr[2])));
 }
+
+// Fewest of the 48 outline points an edge fit needs after leaving out the shadowed ones.
+constexpr int kMinOutlinePoints = 16;
 
 // Colour is read this far (pixels) inside a ball's outline.
 constexpr double kInteriorPx = 1.0;
@@ -591,8 +633,7 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
     const cv::Matx33d Q = SphereSilhouetteConic(pose, K, centre, r);
     const cv::Rect box = scorer.Box(centre);
     std::vector<cv::Vec3f> cloth_pixels;
-    double ball_intensity = 0, ball_saturation = 0;
-    int ball_pixels = 0;
+    std::vector<float> ball_intensities, ball_chromatic;
     for (int v = box.y; v < box.y + box.height; ++v)
       for (int u = box.x; u < box.x + box.width; ++u) {
         if (claimed.at<float>(v - roi.y, u - roi.x) > 0.01) continue;
@@ -601,11 +642,10 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
         const float b = ballness_in_region.at<float>(v - roi.y, u - roi.x);
         const double cov = SilhouetteScorer::Coverage(Q, u, v);
         if (cov >= 0.99 && b > 0.5) {
-          double hue, sat, intensity;
-          HueSaturation(cv::Vec3f(p[0], p[1], p[2]), &hue, &sat, &intensity);
-          ball_intensity += intensity;
-          ball_saturation += sat;
-          ++ball_pixels;
+          const float intensity = (p[0] + p[1] + p[2]) / 3.f;
+          ball_intensities.push_back(intensity);
+          const float cx = p[2] - 0.5f * (p[1] + p[0]), cy = 0.8660254f * (p[1] - p[0]);
+          if (std::hypot(cx, cy) > 0.25f * std::max(1.f, intensity)) ball_chromatic.push_back(intensity);
         }
         if (cov > 0 || b >= 0.5) continue;
         cloth_pixels.emplace_back(p[0], p[1], p[2]);
@@ -627,8 +667,21 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
     // chromaticity to speak of and is told by its darkness.
     const float cloth_i = std::max(15.f, (local_cloth[0] + local_cloth[1] + local_cloth[2]) / 3);
     const cv::Vec3f cloth_chroma = local_cloth / cloth_i;
-    const bool dark_ball = ball_pixels > 0 && ball_intensity / ball_pixels < 0.5 * cloth_i &&
-                           ball_saturation / ball_pixels < 0.5;
+    // (By its median brightness alone: the chromaticity of near-black pixels is noise and
+    // JPEG's colour smear, and the highlight of a small ball is a good part of it.)
+    float ball_median = cloth_i;
+    if (!ball_intensities.empty()) {
+      std::nth_element(ball_intensities.begin(),
+                       ball_intensities.begin() + ball_intensities.size() / 2,
+                       ball_intensities.end());
+      ball_median = ball_intensities[ball_intensities.size() / 2];
+    }
+    // A dark ball with lit, coloured pixels (the green 6) is told by its colour after all.
+    int lit_chromatic = 0;
+    for (float v : ball_chromatic) lit_chromatic += v > 0.4f * cloth_i;
+    const bool dark_ball = ball_median < 0.5f * cloth_i &&
+                           lit_chromatic < 0.15 * ball_intensities.size();
+    const bool darker_than_cloth = ball_median < 0.9f * cloth_i;
     cv::Mat distance(grown.size(), CV_32FC1);
     for (int v = 0; v < grown.height; ++v) {
       const cv::Vec3b* p = bgr.ptr<cv::Vec3b>(v + grown.y) + grown.x;
@@ -640,7 +693,7 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
           continue;
         }
         const float i = std::max(15.f, (q[0] + q[1] + q[2]) / 3);
-        d[u] = static_cast<float>(cv::norm(q / i - cloth_chroma) * cloth_i +
+        d[u] = static_cast<float>(cv::norm(q / i - cloth_chroma) * (darker_than_cloth ? std::min(i, cloth_i) : cloth_i) +
                                   0.3 * std::abs(i - cloth_i));
       }
     }
@@ -648,8 +701,16 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
     cv::Sobel(distance, gx, CV_32F, 1, 0, 3, 1.0 / 8);
     cv::Sobel(distance, gy, CV_32F, 0, 1, 3, 1.0 / 8);
     EdgeFitter edge(gx, gy, grown, claimed, roi, scorer, K, pose, r);
+    if (ball_median < 0.9f * cloth_i) {
+      // Unless that leaves too little of the outline (a camera looking steeply down sees
+      // the cloth beside the whole outline in the shadow's penumbra).
+      edge.SkipShadowedOutline(true);
+      int used = 0;
+      edge.Score(seeds[i], &used);
+      if (used < kMinOutlinePoints) edge.SkipShadowedOutline(false);
+    }
     if (getenv("POOLDBG")) fprintf(stderr, "edge %.1f %.1f dark %d", seeds[i].x, seeds[i].y, (int)dark_ball);
-    seeds[i] = edge.Fit(seeds[i]);
+    if (!getenv("NOEDGE")) seeds[i] = edge.Fit(seeds[i], camera);
     if (getenv("POOLDBG")) fprintf(stderr, " -> %.1f %.1f\n", seeds[i].x, seeds[i].y);
   }
 

@@ -78,9 +78,10 @@ int main(int argc, char** argv) {
   for (int f = 0; f < frames; ++f) {
     PoolScene scene = RandomPoolScene(rng, spec);
     if (clean) {
-      scene.blur_sigma = scene.noise_sigma = 0;
-      scene.jpeg_quality = 0;
-      scene.camera.k1 = scene.camera.k2 = 0;
+      if (!getenv("KEEPBLUR")) scene.blur_sigma = 0;
+      if (!getenv("KEEPNOISE")) scene.noise_sigma = 0;
+      if (!getenv("KEEPJPEG")) scene.jpeg_quality = 0;
+      if (!getenv("KEEPDIST")) scene.camera.k1 = scene.camera.k2 = 0;
     }
     if (only >= 0 && f != only) continue;
     const PoolView view = RenderPoolView(scene, seed * 100003 + f);
@@ -136,10 +137,20 @@ int main(int argc, char** argv) {
     }
     if (verbose) {
       for (const auto& m : score.matches)
-        if (m.estimated_number != m.truth_number || m.error_mm > 8 || m.error_mm < 0)
-          std::printf("    ball %d%s at px (%.0f, %.0f): found as %d, error %.1f mm (%.1f, %.1f)\n",
+        if (m.estimated_number != m.truth_number || m.error_mm > 8 || m.error_mm < 0) {
+          // The error along the camera's line of sight on the table (+ = farther away).
+          const cv::Vec3d c = -(view.rotation.t() * view.translation);
+          const PoolBallTruth* truth = nullptr;
+          for (const auto& b : view.balls)
+            if (b.pixel == m.pixel) truth = &b;
+          cv::Point2d away(truth->x_mm - c[0], truth->y_mm - c[1]);
+          away *= 1.0 / cv::norm(away);
+          std::printf("    ball %d%s at px (%.0f, %.0f): found as %d, error %.1f mm (%.1f, %.1f), "
+                      "%.1f mm away from the camera\n",
                       m.truth_number, m.separated ? " (separated)" : "", m.pixel.x, m.pixel.y,
-                      m.estimated_number, m.error_mm, m.dx_mm, m.dy_mm);
+                      m.estimated_number, m.error_mm, m.dx_mm, m.dy_mm,
+                      m.dx_mm * away.x + m.dy_mm * away.y);
+        }
       for (const auto& m : score.matches) {
         if (m.estimated_index < 0) continue;
         const PoolDetectedBall& b = analyzer->last_detected_balls()[m.estimated_index];
