@@ -423,6 +423,12 @@ std::array<double, 10> PoolNumberScores(const PoolVotes& votes, const PoolBallOp
   for (double v : votes) total += v;
   if (total <= 0) return s;
   for (int k = 2; k <= 8; ++k) s[k] = votes[k] / total;
+  // The 3 and the 7 share the red votes (split by saturation in DetectPoolBalls): a red
+  // ball is never ruled out as either, so that when two red balls both look like one of
+  // them, the less likely number still goes to one of them rather than to neither.
+  const double red = votes[3] + votes[7];
+  s[3] = (0.3 * red + 0.7 * votes[3]) / total;
+  s[7] = (0.3 * red + 0.7 * votes[7]) / total;
   // Seed eq. 4.3: the cue, the 1 and the 9 are the white+yellow balls; the white share
   // of their white+yellow votes tells them apart (over cue_white_share: cue, under
   // one_white_share: 1, else 9). The cue's score keeps growing up to all white, so that a
@@ -844,7 +850,10 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
                          red_saturation.end());
         ball.colour_saturation = red_saturation[k75];
         const double s3 = refs[3].saturation, s7 = refs[7].saturation;
-        if (std::abs(s3 - s7) > 0.05) t = std::clamp((ball.colour_saturation - s7) / (s3 - s7), 0.0, 1.0);
+        // Soft around the middle: a measured saturation a little under both (small balls
+        // lose some to the cloth mixed in) still ranks two red balls.
+        if (std::abs(s3 - s7) > 0.05)
+          t = 1 / (1 + std::exp(-(ball.colour_saturation - (s3 + s7) / 2) / ((s3 - s7) / 4)));
       }
       ball.votes[3] += red_votes * t;
       ball.votes[7] += red_votes * (1 - t);
