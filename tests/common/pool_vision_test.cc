@@ -237,7 +237,7 @@ TEST(PoolNumbers, NineShowingMostlyWhiteDoesNotTakeTheCueNumber) {
   PoolBallOptions o;
   PoolVotes cue{}, nine{};
   cue[0] = 97, cue[1] = 2, cue[8] = 1;
-  nine[0] = 80, nine[1] = 18, nine[8] = 2;
+  nine[0] = 85, nine[1] = 12, nine[8] = 3;
   for (bool cue_first : {true, false}) {
     const std::vector<std::array<double, 10>> scores =
         cue_first ? std::vector<std::array<double, 10>>{PoolNumberScores(cue, o),
@@ -255,8 +255,8 @@ TEST(PoolNumbers, TwoRedBallsAreBothNumbered) {
   // the more saturated one is the 3, and neither is left unknown.
   PoolBallOptions o;
   PoolVotes brighter{}, darker{};
-  brighter[3] = 0.35 * 44, brighter[7] = 0.65 * 44, brighter[8] = 3;
-  darker[3] = 0.1 * 80, darker[7] = 0.9 * 80, darker[8] = 9;
+  brighter[3] = 0.12 * 44, brighter[7] = 0.88 * 44, brighter[8] = 3;
+  darker[3] = 0.05 * 80, darker[7] = 0.95 * 80, darker[8] = 9;
   const std::vector<int> numbers =
       AssignPoolNumbers({PoolNumberScores(darker, o), PoolNumberScores(brighter, o)});
   EXPECT_EQ(numbers[0], 7);
