@@ -76,9 +76,10 @@ cv::Mat BallnessMap(const cv::Mat& bgr, const cv::Rect& roi, const cv::Vec3f& cl
         if (d2 >= chroma_hi2) {
           colour = 1;
         } else if (d2 > chroma_lo2) {
-          colour = std::max(colour, static_cast<float>(SmoothStep(
-                                        (std::sqrt(d2) - o.ball_chroma_distance +
-                                         kChromaSoft) / (2 * kChromaSoft))));
+          colour = std::max(
+              colour,
+              static_cast<float>(SmoothStep((std::sqrt(d2) - o.ball_chroma_distance + kChromaSoft) /
+                                            (2 * kChromaSoft))));
         }
       }
       const float dark =
@@ -255,8 +256,16 @@ class EdgeFitter {
   EdgeFitter(const cv::Mat& gx, const cv::Mat& gy, const cv::Rect& area, const cv::Mat& claimed,
              const cv::Rect& roi, const SilhouetteScorer& scorer, const cv::Matx33d& K,
              const PlanarPose& pose, double radius)
-      : gx_(gx), gy_(gy), area_(area), claimed_(claimed), roi_(roi), scorer_(scorer), K_(K),
-        pose_(pose), radius_(radius), camera_(CameraCentre(pose)) {}
+      : gx_(gx),
+        gy_(gy),
+        area_(area),
+        claimed_(claimed),
+        roi_(roi),
+        scorer_(scorer),
+        K_(K),
+        pose_(pose),
+        radius_(radius),
+        camera_(CameraCentre(pose)) {}
 
   // For a ball darker than the cloth, the outline next to its own shadow on the cloth has
   // no edge to speak of (dark against dark): those outline points are left out.
@@ -335,9 +344,7 @@ class EdgeFitter {
       for (int k = -8; k <= 8; ++k) {
         if (k == 0) continue;
         const cv::Point2d p = xy + sight * (0.1 * k * radius_);
-        int used_here = 0;
-        const double s = Score(p, &used_here);
-        if (getenv("POOLDBG")) fprintf(stderr, "  scan %+.1f mm: %.2f (%d)\n", 0.1 * k * radius_, s, used_here);
+        const double s = Score(p);
         if (s > best_score) {
           best_score = s;
           best = p;
@@ -439,6 +446,8 @@ std::array<double, 10> PoolNumberScores(const PoolVotes& votes, const PoolBallOp
   const double half = (o.cue_white_share - o.one_white_share) / 2;
   s[0] = group * std::clamp((w - mid) / (1 - mid), 0.0, 1.0);
   s[1] = group * std::clamp((mid - w) / half, 0.0, 1.0);
+  // The 9 shows anything from its stripe alone to mostly white, depending on how it
+  // lies: never ruled out, preferred in the middle band.
   s[9] = group * (0.35 + 0.65 * std::clamp(1 - std::abs(w - mid) / (1.5 * half), 0.0, 1.0));
   return s;
 }
@@ -540,7 +549,6 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
     const double r_px = K(0, 0) * r / cv::norm(cam);
     const double expected = kPi * r_px * r_px;
     const int area = stats.at<int>(i, cv::CC_STAT_AREA);
-    if (getenv("POOLDBG") && area > 8) fprintf(stderr, "blob at %.0f %.0f area %d expected %.1f\n", c.x, c.y, area, expected);
     if (area < options.min_area_fraction * expected) continue;
     const int count = std::max(1, static_cast<int>(std::floor(area / expected + 0.35)));
     if (count == 1) {
@@ -622,9 +630,7 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
       }
       claim(seeds, i, pass == 0 ? i : seeds.size());
       SilhouetteScorer scorer(ballness_in_region, roi, claimed, K, pose, profile);
-      if (getenv("POOLDBG")) fprintf(stderr, "pass %d seed %.1f %.1f", pass, seeds[i].x, seeds[i].y);
       seeds[i] = scorer.Fit(seeds[i], 0.35 * r);
-      if (getenv("POOLDBG")) fprintf(stderr, " -> %.1f %.1f\n", seeds[i].x, seeds[i].y);
     }
   }
   // Sub-pixel pass on the edge: the ball's outline is where its colour distance from the
@@ -651,12 +657,13 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
           const float intensity = (p[0] + p[1] + p[2]) / 3.f;
           ball_intensities.push_back(intensity);
           const float cx = p[2] - 0.5f * (p[1] + p[0]), cy = 0.8660254f * (p[1] - p[0]);
-          if (std::hypot(cx, cy) > 0.25f * std::max(1.f, intensity)) ball_chromatic.push_back(intensity);
+          if (std::hypot(cx, cy) > 0.25f * std::max(1.f, intensity))
+            ball_chromatic.push_back(intensity);
         }
         if (cov > 0 || b >= 0.5) continue;
         cloth_pixels.emplace_back(p[0], p[1], p[2]);
       }
-    if (cloth_pixels.size() < 5) { if (getenv("POOLDBG")) fprintf(stderr, "no cloth %.1f %.1f\n", seeds[i].x, seeds[i].y); continue; }
+    if (cloth_pixels.size() < 5) continue;
     cv::Vec3f local_cloth;
     for (int k = 0; k < 3; ++k) {
       std::vector<float> c;
@@ -673,8 +680,11 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
     // chromaticity to speak of and is told by its darkness.
     const float cloth_i = std::max(15.f, (local_cloth[0] + local_cloth[1] + local_cloth[2]) / 3);
     const cv::Vec3f cloth_chroma = local_cloth / cloth_i;
-    // (By its median brightness alone: the chromaticity of near-black pixels is noise and
-    // JPEG's colour smear, and the highlight of a small ball is a good part of it.)
+    // A dark ball is told by its median brightness (the chromaticity of near-black pixels
+    // is noise and JPEG's colour smear, and the highlight of a small ball is a good part
+    // of its mean), unless it has lit, coloured pixels like the green 6: for such a ball,
+    // and any ball darker than the cloth, chromaticity counts only as much as the pixel's
+    // brightness can carry.
     float ball_median = cloth_i;
     if (!ball_intensities.empty()) {
       std::nth_element(ball_intensities.begin(),
@@ -682,11 +692,10 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
                        ball_intensities.end());
       ball_median = ball_intensities[ball_intensities.size() / 2];
     }
-    // A dark ball with lit, coloured pixels (the green 6) is told by its colour after all.
     int lit_chromatic = 0;
     for (float v : ball_chromatic) lit_chromatic += v > 0.4f * cloth_i;
-    const bool dark_ball = ball_median < 0.5f * cloth_i &&
-                           lit_chromatic < 0.15 * ball_intensities.size();
+    const bool dark_ball =
+        ball_median < 0.5f * cloth_i && lit_chromatic < 0.15 * ball_intensities.size();
     const bool darker_than_cloth = ball_median < 0.9f * cloth_i;
     cv::Mat distance(grown.size(), CV_32FC1);
     for (int v = 0; v < grown.height; ++v) {
@@ -699,7 +708,8 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
           continue;
         }
         const float i = std::max(15.f, (q[0] + q[1] + q[2]) / 3);
-        d[u] = static_cast<float>(cv::norm(q / i - cloth_chroma) * (darker_than_cloth ? std::min(i, cloth_i) : cloth_i) +
+        d[u] = static_cast<float>(cv::norm(q / i - cloth_chroma) *
+                                      (darker_than_cloth ? std::min(i, cloth_i) : cloth_i) +
                                   0.3 * std::abs(i - cloth_i));
       }
     }
@@ -707,17 +717,16 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
     cv::Sobel(distance, gx, CV_32F, 1, 0, 3, 1.0 / 8);
     cv::Sobel(distance, gy, CV_32F, 0, 1, 3, 1.0 / 8);
     EdgeFitter edge(gx, gy, grown, claimed, roi, scorer, K, pose, r);
-    if (ball_median < 0.9f * cloth_i) {
-      // Unless that leaves too little of the outline (a camera looking steeply down sees
-      // the cloth beside the whole outline in the shadow's penumbra).
+    if (darker_than_cloth) {
+      // The outline beside the ball's own shadow is left out, unless that leaves too little
+      // of it (a camera looking steeply down sees the cloth beside the whole outline in
+      // the shadow's penumbra).
       edge.SkipShadowedOutline(true);
       int used = 0;
       edge.Score(seeds[i], &used);
       if (used < kMinOutlinePoints) edge.SkipShadowedOutline(false);
     }
-    if (getenv("POOLDBG")) fprintf(stderr, "edge %.1f %.1f dark %d", seeds[i].x, seeds[i].y, (int)dark_ball);
-    if (!getenv("NOEDGE")) seeds[i] = edge.Fit(seeds[i], camera);
-    if (getenv("POOLDBG")) fprintf(stderr, " -> %.1f %.1f\n", seeds[i].x, seeds[i].y);
+    seeds[i] = edge.Fit(seeds[i], camera);
   }
 
   // Keep distinct, well-supported balls on the table.
@@ -733,7 +742,6 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
     SilhouetteScorer scorer(ballness_in_region, roi, claimed, K, pose, profile);
     double mean_ballness = 0;
     scorer.Score(xy, &mean_ballness);
-    if (getenv("POOLDBG")) fprintf(stderr, "fit %.1f %.1f -> px %.1f %.1f mean ballness %.2f\n", xy.x, xy.y, ProjectIdeal(pose, K, cv::Vec3d(xy.x, xy.y, r)).x, ProjectIdeal(pose, K, cv::Vec3d(xy.x, xy.y, r)).y, mean_ballness);
     if (mean_ballness < 0.5) continue;
     // Votes: pixels not covered by a nearer ball.
     claim(seeds, i, i);
@@ -778,7 +786,7 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
     }
     // Pixels in the red group (the 3 and the maroon 7 differ in saturation, not hue): their
     // saturation where the camera did not clip.
-    std::vector<float> red_saturation, coloured_intensity;
+    std::vector<float> red_saturation;
     double red_votes = 0;
     for (int v = box.y; v < box.y + box.height; ++v)
       for (int u = box.x; u < box.x + box.width; ++u) {
@@ -831,14 +839,7 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
         } else {
           ball.votes[vote] += 1;
         }
-        if (vote >= 1 && vote <= 7) coloured_intensity.push_back(static_cast<float>(q));
       }
-    if (!coloured_intensity.empty()) {
-      const size_t k90 = coloured_intensity.size() * 9 / 10;
-      std::nth_element(coloured_intensity.begin(), coloured_intensity.begin() + k90,
-                       coloured_intensity.end());
-      ball.lit_brightness = coloured_intensity[k90];
-    }
     if (red_votes > 0) {
       // The red group goes to the 3 or the 7 by the ball's saturation (upper quartile of
       // its unclipped red pixels: shading keeps it, highlights and the cloth mixed in at

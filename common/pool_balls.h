@@ -3,8 +3,10 @@
 // position fitted as a sphere of the ball radius resting on the cloth (the silhouette of
 // a sphere is an ellipse whose centre is not the projection of the ball's centre, and the
 // shaded underside and the shadow must not pull the estimate: the whole silhouette is
-// fitted), ball numbers by per-pixel colour votes (seed eq. 4.3 for the cue, 1 and 9) with
-// each number used once, and the empty-table background.
+// fitted, then its outline refined on the colour edge), ball numbers by per-pixel colour
+// votes (seed eq. 4.3 for the cue, 1 and 9, with white and yellow unmixed per pixel; the
+// red 3 and maroon 7 told by the ball's saturation) with each number used once, and the
+// empty-table background.
 #pragma once
 
 #include <array>
@@ -53,10 +55,7 @@ struct PoolDetectedBall {
   double fit_score = 0;       // mean ball-ness under the fitted silhouette, 0..1
   double confidence = 0;      // of the number, 0..1
   PoolVotes votes{};
-  double white_share = 0;     // b_c / b_sum of eq. 4.3: white over white + yellow votes
-  // Brightness of the lit part of the ball's colour (90th percentile of its coloured
-  // pixels) over the brightness of the cloth around it; 0 when it has no coloured pixels.
-  double lit_brightness = 0;
+  double white_share = 0;  // b_c / b_sum of eq. 4.3: white over white + yellow votes
   // Saturation (chroma over intensity, upper quartile) of its red pixels, which tells the
   // red 3 from the maroon 7; 0 when it has none.
   double colour_saturation = 0;

@@ -78,10 +78,9 @@ int main(int argc, char** argv) {
   for (int f = 0; f < frames; ++f) {
     PoolScene scene = RandomPoolScene(rng, spec);
     if (clean) {
-      if (!getenv("KEEPBLUR")) scene.blur_sigma = 0;
-      if (!getenv("KEEPNOISE")) scene.noise_sigma = 0;
-      if (!getenv("KEEPJPEG")) scene.jpeg_quality = 0;
-      if (!getenv("KEEPDIST")) scene.camera.k1 = scene.camera.k2 = 0;
+      scene.blur_sigma = scene.noise_sigma = 0;
+      scene.jpeg_quality = 0;
+      scene.camera.k1 = scene.camera.k2 = 0;
     }
     if (only >= 0 && f != only) continue;
     const PoolView view = RenderPoolView(scene, seed * 100003 + f);
@@ -145,18 +144,20 @@ int main(int argc, char** argv) {
             if (b.pixel == m.pixel) truth = &b;
           cv::Point2d away(truth->x_mm - c[0], truth->y_mm - c[1]);
           away *= 1.0 / cv::norm(away);
-          std::printf("    ball %d%s at px (%.0f, %.0f): found as %d, error %.1f mm (%.1f, %.1f), "
-                      "%.1f mm away from the camera\n",
-                      m.truth_number, m.separated ? " (separated)" : "", m.pixel.x, m.pixel.y,
-                      m.estimated_number, m.error_mm, m.dx_mm, m.dy_mm,
-                      m.dx_mm * away.x + m.dy_mm * away.y);
+          std::printf(
+              "    ball %d%s at px (%.0f, %.0f): found as %d, error %.1f mm (%.1f, %.1f), "
+              "%.1f mm away from the camera\n",
+              m.truth_number, m.separated ? " (separated)" : "", m.pixel.x, m.pixel.y,
+              m.estimated_number, m.error_mm, m.dx_mm, m.dy_mm,
+              m.dx_mm * away.x + m.dy_mm * away.y);
         }
       for (const auto& m : score.matches) {
         if (m.estimated_index < 0) continue;
         const PoolDetectedBall& b = analyzer->last_detected_balls()[m.estimated_index];
         std::printf("      votes of %d as %d:", m.truth_number, b.number);
         for (int v : b.votes) std::printf(" %d", v);
-        std::printf("  white %.2f  lit %.2f  radius %.1f px sat %.2f\n", b.white_share, b.lit_brightness, b.radius_px, b.colour_saturation);
+        std::printf("  white share %.2f  red saturation %.2f  radius %.1f px\n", b.white_share,
+                    b.colour_saturation, b.radius_px);
       }
     }
     if (verbose) {

@@ -241,9 +241,9 @@ TEST(PoolNumbers, NineShowingMostlyWhiteDoesNotTakeTheCueNumber) {
   for (bool cue_first : {true, false}) {
     const std::vector<std::array<double, 10>> scores =
         cue_first ? std::vector<std::array<double, 10>>{PoolNumberScores(cue, o),
-                                                         PoolNumberScores(nine, o)}
+                                                        PoolNumberScores(nine, o)}
                   : std::vector<std::array<double, 10>>{PoolNumberScores(nine, o),
-                                                         PoolNumberScores(cue, o)};
+                                                        PoolNumberScores(cue, o)};
     const std::vector<int> numbers = AssignPoolNumbers(scores);
     EXPECT_EQ(numbers[cue_first ? 0 : 1], 0);
     EXPECT_EQ(numbers[cue_first ? 1 : 0], 9);
@@ -268,8 +268,8 @@ TEST(PoolNumbers, TwoRedBallsAreBothNumbered) {
 // 9 against the 1 and the cue; near and far, from a long and a short side.
 TEST(PoolHardBalls, DarkGreenRedAndStripedBallsAreFoundAndNumbered) {
   const std::vector<testdata::PoolBallPlacement> layout = {
-      {0, 250, 200}, {1, 420, 520}, {3, 640, 250}, {6, 860, 480}, {7, 1080, 230},
-      {8, 330, 420}, {9, 1000, 560}, {2, 1200, 400}};
+      {0, 250, 200},  {1, 420, 520}, {3, 640, 250},  {6, 860, 480},
+      {7, 1080, 230}, {8, 330, 420}, {9, 1000, 560}, {2, 1200, 400}};
   int view_index = 0;
   for (const auto& [side, elevation] : std::vector<std::pair<PoolViewSide, double>>{
            {PoolViewSide::kLongNear, 36}, {PoolViewSide::kShortRight, 42}}) {
