@@ -68,6 +68,9 @@ class PoolAnalyzer {
   cv::Mat EmptyTable() const;
 
   const PoolTableProfile& profile() const { return profile_; }
+  // The balls of the last analysis with their colour evidence (votes, white share, lit
+  // brightness), in the order of PoolAnalysis::balls.
+  const std::vector<PoolDetectedBall>& last_detected_balls() const { return last_balls_; }
 
  private:
   PoolAnalyzer(PoolTableProfile profile, CameraModel camera, PoolAnalyzerOptions options)

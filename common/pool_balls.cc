@@ -40,6 +40,14 @@ cv::Mat BallnessMap(const cv::Mat& bgr, const cv::Rect& roi, const cv::Vec3f& cl
   const float cloth_sum = cloth[0] + cloth[1] + cloth[2];
   const float dark_hi = static_cast<float>((o.dark_fraction + 0.1) * cloth_sum);
   const float dark_lo = static_cast<float>((o.dark_fraction - 0.05) * cloth_sum);
+  const float cloth_inv_i = 3.f / std::max(1.f, cloth_sum);
+  const float cloth_cx = (cloth[2] - 0.5f * (cloth[1] + cloth[0])) * cloth_inv_i;
+  const float cloth_cy = 0.8660254f * (cloth[1] - cloth[0]) * cloth_inv_i;
+  constexpr double kChromaSoft = 0.08;
+  const float chroma_lo2 = static_cast<float>(std::pow(o.ball_chroma_distance - kChromaSoft, 2));
+  const float chroma_hi2 = static_cast<float>(std::pow(o.ball_chroma_distance + kChromaSoft, 2));
+  // Below this brightness, chromaticity is mostly noise (the dark test takes over).
+  const float chroma_min_sum = static_cast<float>(0.45 * cloth_sum);
   for (int y = 0; y < roi.height; ++y) {
     const cv::Vec3b* p = bgr.ptr<cv::Vec3b>(y + roi.y) + roi.x;
     float* q = out.ptr<float>(y);
@@ -56,6 +64,24 @@ cv::Mat BallnessMap(const cv::Mat& bgr, const cv::Rect& roi, const cv::Vec3f& cl
         colour = static_cast<float>(SmoothStep((std::acos(c) - lo) / (hi - lo)));
       }
       const float sum = b + g + r;
+      // Chromaticity (opponent chroma over intensity) far from the cloth's: a ball of
+      // nearly the cloth's hue (the green 6 on green cloth) is more saturated and darker,
+      // which the angle in RGB barely sees; the light's strength and the shadows on the
+      // cloth leave chromaticity alone.
+      if (colour < 1 && sum > chroma_min_sum) {
+        const float inv_i = 3.f / sum;
+        const float cx = (r - 0.5f * (g + b)) * inv_i - cloth_cx;
+        const float cy = 0.8660254f * (g - b) * inv_i - cloth_cy;
+        const float d2 = cx * cx + cy * cy;
+        if (d2 >= chroma_hi2) {
+          colour = 1;
+        } else if (d2 > chroma_lo2) {
+          colour = std::max(
+              colour,
+              static_cast<float>(SmoothStep((std::sqrt(d2) - o.ball_chroma_distance + kChromaSoft) /
+                                            (2 * kChromaSoft))));
+        }
+      }
       const float dark =
           sum >= dark_hi ? 0.f
                          : (sum <= dark_lo ? 1.f
@@ -187,6 +213,15 @@ class SilhouetteScorer {
     return score;
   }
 
+  // Signed distance (pixels, first order) of pixel (u, v) inside the conic's outline.
+  static double InsideDistance(const cv::Matx33d& Q, double u, double v) {
+    const double qx = Q(0, 0) * u + Q(0, 1) * v + Q(0, 2);
+    const double qy = Q(1, 0) * u + Q(1, 1) * v + Q(1, 2);
+    const double qz = Q(2, 0) * u + Q(2, 1) * v + Q(2, 2);
+    const double grad = 2 * std::sqrt(qx * qx + qy * qy);
+    return grad > 0 ? (u * qx + v * qy + qz) / grad : -1e9;
+  }
+
   // Fraction of pixel (u, v) inside the conic's silhouette (signed distance to the
   // boundary, first order).
   static double Coverage(const cv::Matx33d& Q, double u, double v) {
@@ -221,8 +256,20 @@ class EdgeFitter {
   EdgeFitter(const cv::Mat& gx, const cv::Mat& gy, const cv::Rect& area, const cv::Mat& claimed,
              const cv::Rect& roi, const SilhouetteScorer& scorer, const cv::Matx33d& K,
              const PlanarPose& pose, double radius)
-      : gx_(gx), gy_(gy), area_(area), claimed_(claimed), roi_(roi), scorer_(scorer), K_(K),
-        pose_(pose), radius_(radius) {}
+      : gx_(gx),
+        gy_(gy),
+        area_(area),
+        claimed_(claimed),
+        roi_(roi),
+        scorer_(scorer),
+        K_(K),
+        pose_(pose),
+        radius_(radius),
+        camera_(CameraCentre(pose)) {}
+
+  // For a ball darker than the cloth, the outline next to its own shadow on the cloth has
+  // no edge to speak of (dark against dark): those outline points are left out.
+  void SkipShadowedOutline(bool skip) { skip_shadowed_ = skip; }
 
   // Mean outward fall of the distance across the outline of a ball at `xy`.
   double Score(const cv::Point2d& xy, int* used = nullptr) const {
@@ -248,6 +295,16 @@ class EdgeFitter {
       // Height of the tangent point on the table: skip the dark lower part.
       const cv::Vec3d on_table = to_table * (point - pose_.t);
       if (on_table[2] < radius_ - 0.4 * radius_) continue;
+      if (skip_shadowed_) {
+        // Where the ray grazing the ball here meets the cloth: in the ball's shadow (lamps
+        // above the table: within about a radius of the contact point)?
+        const cv::Vec3d d = on_table - camera_;
+        if (d[2] < 0) {
+          const double t = -camera_[2] / d[2];
+          const double sx = camera_[0] + t * d[0] - xy.x, sy = camera_[1] + t * d[1] - xy.y;
+          if (sx * sx + sy * sy < kShadowReach * kShadowReach * radius_ * radius_) continue;
+        }
+      }
       const cv::Vec3d m = K_ * point;
       const double u = m[0] / m[2], v = m[1] / m[2];
       if (u < area_.x + 1 || v < area_.y + 1 || u > area_.x + area_.width - 2 ||
@@ -271,10 +328,30 @@ class EdgeFitter {
     return n >= 6 ? sum / n : -1e9;
   }
 
-  cv::Point2d Fit(cv::Point2d xy) const {
+  // The silhouette fit leans along the line of sight (JPEG's smeared colour grows a
+  // bright ball's blob upwards; a dark ball's shadow joins its blob below), so the outline
+  // is first scanned along the line of sight, then refined in both directions.
+  cv::Point2d Fit(cv::Point2d xy, const cv::Vec3d& camera) const {
     int used = 0;
     Score(xy, &used);
     if (used < 6) return xy;
+    cv::Point2d sight(xy.x - camera[0], xy.y - camera[1]);
+    const double length = cv::norm(sight);
+    if (length > 1e-6) {
+      sight *= 1.0 / length;
+      cv::Point2d best = xy;
+      double best_score = Score(xy);
+      for (int k = -8; k <= 8; ++k) {
+        if (k == 0) continue;
+        const cv::Point2d p = xy + sight * (0.1 * k * radius_);
+        const double s = Score(p);
+        if (s > best_score) {
+          best_score = s;
+          best = p;
+        }
+      }
+      xy = best;
+    }
     return CompassSearch(xy, 0.1 * radius_, 0.5 * radius_,
                          [this](const cv::Point2d& p) { return Score(p); });
   }
@@ -297,12 +374,29 @@ class EdgeFitter {
   cv::Matx33d K_;
   PlanarPose pose_;
   double radius_;
+  cv::Vec3d camera_;
+  bool skip_shadowed_ = false;
+  static constexpr double kShadowReach = 1.3;  // radii
 };
 
 // Reference chroma (intensity-normalised opponent colour) of each ball colour.
 struct ColourRef {
   double chroma_x, chroma_y;
+  double saturation;  // |chroma|
+  double blue_share;  // BlueShare of the colour
 };
+
+// Blue over the larger of red and green: about 0.1 for the yellow of the 1 and the 9,
+// about 0.95 for their white, and in between, in proportion, for a mix of the two.
+double BlueShare(const cv::Vec3b& bgr) {
+  return bgr[0] / std::max(1.0, static_cast<double>(std::max(bgr[1], bgr[2])));
+}
+
+// Fewest of the 48 outline points an edge fit needs after leaving out the shadowed ones.
+constexpr int kMinOutlinePoints = 16;
+
+// Colour is read this far (pixels) inside a ball's outline.
+constexpr double kInteriorPx = 1.0;
 
 }  // namespace
 
@@ -311,6 +405,8 @@ absl::Status PoolBallOptions::Validate() const {
     return absl::InvalidArgumentError("ball_angle_deg must be in (0, 45)");
   if (!(ball_angle_soft_deg > 0 && ball_angle_soft_deg < ball_angle_deg))
     return absl::InvalidArgumentError("ball_angle_soft_deg must be in (0, ball_angle_deg)");
+  if (!(ball_chroma_distance > 0.1 && ball_chroma_distance < 2))
+    return absl::InvalidArgumentError("ball_chroma_distance must be in (0.1, 2)");
   if (!(dark_fraction > 0.05 && dark_fraction < 0.9))
     return absl::InvalidArgumentError("dark_fraction must be in (0.05, 0.9)");
   if (!(min_area_fraction > 0 && min_area_fraction <= 1))
@@ -331,16 +427,24 @@ cv::Matx33d SphereSilhouetteConic(const PlanarPose& pose, const cv::Matx33d& K,
 std::array<double, 10> PoolNumberScores(const PoolVotes& votes, const PoolBallOptions& o) {
   std::array<double, 10> s{};
   double total = 0;
-  for (int v : votes) total += v;
+  for (double v : votes) total += v;
   if (total <= 0) return s;
   for (int k = 2; k <= 8; ++k) s[k] = votes[k] / total;
+  // The 3 and the 7 share the red votes (split by saturation in DetectPoolBalls): a red
+  // ball is never ruled out as either, so that when two red balls both look like one of
+  // them, the less likely number still goes to one of them rather than to neither.
+  const double red = votes[3] + votes[7];
+  s[3] = (0.3 * red + 0.7 * votes[3]) / total;
+  s[7] = (0.3 * red + 0.7 * votes[7]) / total;
   // Seed eq. 4.3: the cue, the 1 and the 9 are the white+yellow balls; the white share
-  // tells them apart (over cue_white_share: cue, under one_white_share: 1, else 9).
+  // of their white+yellow votes tells them apart (over cue_white_share: cue, under
+  // one_white_share: 1, else 9). The cue's score keeps growing up to all white, so that a
+  // 9 showing mostly its white caps does not tie with the cue.
   const double group = (votes[0] + votes[1]) / total;
-  const double w = votes[0] / total;
+  const double w = votes[0] + votes[1] > 0 ? votes[0] / (votes[0] + votes[1]) : 0;
   const double mid = (o.cue_white_share + o.one_white_share) / 2;
   const double half = (o.cue_white_share - o.one_white_share) / 2;
-  s[0] = group * std::clamp((w - mid) / half, 0.0, 1.0);
+  s[0] = group * std::clamp((w - mid) / (1 - mid), 0.0, 1.0);
   s[1] = group * std::clamp((mid - w) / half, 0.0, 1.0);
   // The 9 shows anything from its stripe alone to mostly white, depending on how it
   // lies: never ruled out, preferred in the middle band.
@@ -495,7 +599,28 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
   // First pass: nearest first, each ball ignoring the nearer ones already fitted; second
   // pass: each ball ignoring all the others.
   const double isolated_mm = 6 * r;  // farther apart than this, balls never share pixels
-  for (int pass = 0; pass < 2; ++pass)
+  for (int pass = 0; pass < 2; ++pass) {
+    if (pass == 1) {
+      // A blob lengthened by a ball's dark underside and its shadow can be split into two
+      // seeds that both go to the same ball; balls are at least 2r apart, so of two seeds
+      // closer than 1.5r only the one that fits better is a ball. Left in, the other would
+      // hide half of the real ball from its fit.
+      for (bool merged = true; merged;) {
+        merged = false;
+        for (size_t i = 0; i < seeds.size() && !merged; ++i)
+          for (size_t j = i + 1; j < seeds.size() && !merged; ++j) {
+            if (cv::norm(seeds[i] - seeds[j]) >= 1.5 * r) continue;
+            std::vector<cv::Point2d> others;
+            for (size_t k = 0; k < seeds.size(); ++k)
+              if (k != i && k != j) others.push_back(seeds[k]);
+            claim(others, others.size(), others.size());
+            SilhouetteScorer scorer(ballness_in_region, roi, claimed, K, pose, profile);
+            const size_t drop = scorer.Score(seeds[i]) >= scorer.Score(seeds[j]) ? j : i;
+            seeds.erase(seeds.begin() + static_cast<std::ptrdiff_t>(drop));
+            merged = true;
+          }
+      }
+    }
     for (size_t i = 0; i < seeds.size(); ++i) {
       if (pass == 1) {
         bool alone = true;
@@ -507,6 +632,7 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
       SilhouetteScorer scorer(ballness_in_region, roi, claimed, K, pose, profile);
       seeds[i] = scorer.Fit(seeds[i], 0.35 * r);
     }
+  }
   // Sub-pixel pass on the edge: the ball's outline is where its colour distance from the
   // cloth around it falls fastest (for any symmetric blur, JPEG smear or shading of the
   // ball), so the silhouette's outline is moved to where that fall is steepest, on the
@@ -519,8 +645,7 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
     const cv::Matx33d Q = SphereSilhouetteConic(pose, K, centre, r);
     const cv::Rect box = scorer.Box(centre);
     std::vector<cv::Vec3f> cloth_pixels;
-    double ball_intensity = 0, ball_saturation = 0;
-    int ball_pixels = 0;
+    std::vector<float> ball_intensities, ball_chromatic;
     for (int v = box.y; v < box.y + box.height; ++v)
       for (int u = box.x; u < box.x + box.width; ++u) {
         if (claimed.at<float>(v - roi.y, u - roi.x) > 0.01) continue;
@@ -529,11 +654,11 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
         const float b = ballness_in_region.at<float>(v - roi.y, u - roi.x);
         const double cov = SilhouetteScorer::Coverage(Q, u, v);
         if (cov >= 0.99 && b > 0.5) {
-          double hue, sat, intensity;
-          HueSaturation(cv::Vec3f(p[0], p[1], p[2]), &hue, &sat, &intensity);
-          ball_intensity += intensity;
-          ball_saturation += sat;
-          ++ball_pixels;
+          const float intensity = (p[0] + p[1] + p[2]) / 3.f;
+          ball_intensities.push_back(intensity);
+          const float cx = p[2] - 0.5f * (p[1] + p[0]), cy = 0.8660254f * (p[1] - p[0]);
+          if (std::hypot(cx, cy) > 0.25f * std::max(1.f, intensity))
+            ball_chromatic.push_back(intensity);
         }
         if (cov > 0 || b >= 0.5) continue;
         cloth_pixels.emplace_back(p[0], p[1], p[2]);
@@ -555,8 +680,23 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
     // chromaticity to speak of and is told by its darkness.
     const float cloth_i = std::max(15.f, (local_cloth[0] + local_cloth[1] + local_cloth[2]) / 3);
     const cv::Vec3f cloth_chroma = local_cloth / cloth_i;
-    const bool dark_ball = ball_pixels > 0 && ball_intensity / ball_pixels < 0.5 * cloth_i &&
-                           ball_saturation / ball_pixels < 0.5;
+    // A dark ball is told by its median brightness (the chromaticity of near-black pixels
+    // is noise and JPEG's colour smear, and the highlight of a small ball is a good part
+    // of its mean), unless it has lit, coloured pixels like the green 6: for such a ball,
+    // and any ball darker than the cloth, chromaticity counts only as much as the pixel's
+    // brightness can carry.
+    float ball_median = cloth_i;
+    if (!ball_intensities.empty()) {
+      std::nth_element(ball_intensities.begin(),
+                       ball_intensities.begin() + ball_intensities.size() / 2,
+                       ball_intensities.end());
+      ball_median = ball_intensities[ball_intensities.size() / 2];
+    }
+    int lit_chromatic = 0;
+    for (float v : ball_chromatic) lit_chromatic += v > 0.4f * cloth_i;
+    const bool dark_ball =
+        ball_median < 0.5f * cloth_i && lit_chromatic < 0.15 * ball_intensities.size();
+    const bool darker_than_cloth = ball_median < 0.9f * cloth_i;
     cv::Mat distance(grown.size(), CV_32FC1);
     for (int v = 0; v < grown.height; ++v) {
       const cv::Vec3b* p = bgr.ptr<cv::Vec3b>(v + grown.y) + grown.x;
@@ -568,7 +708,8 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
           continue;
         }
         const float i = std::max(15.f, (q[0] + q[1] + q[2]) / 3);
-        d[u] = static_cast<float>(cv::norm(q / i - cloth_chroma) * cloth_i +
+        d[u] = static_cast<float>(cv::norm(q / i - cloth_chroma) *
+                                      (darker_than_cloth ? std::min(i, cloth_i) : cloth_i) +
                                   0.3 * std::abs(i - cloth_i));
       }
     }
@@ -576,7 +717,16 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
     cv::Sobel(distance, gx, CV_32F, 1, 0, 3, 1.0 / 8);
     cv::Sobel(distance, gy, CV_32F, 0, 1, 3, 1.0 / 8);
     EdgeFitter edge(gx, gy, grown, claimed, roi, scorer, K, pose, r);
-    seeds[i] = edge.Fit(seeds[i]);
+    if (darker_than_cloth) {
+      // The outline beside the ball's own shadow is left out, unless that leaves too little
+      // of it (a camera looking steeply down sees the cloth beside the whole outline in
+      // the shadow's penumbra).
+      edge.SkipShadowedOutline(true);
+      int used = 0;
+      edge.Score(seeds[i], &used);
+      if (used < kMinOutlinePoints) edge.SkipShadowedOutline(false);
+    }
+    seeds[i] = edge.Fit(seeds[i], camera);
   }
 
   // Keep distinct, well-supported balls on the table.
@@ -632,18 +782,26 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
       const cv::Vec3b& c = profile.ball_bgr[k];
       double h, s, i;
       HueSaturation(cv::Vec3f(c[0], c[1], c[2]), &h, &s, &i);
-      refs[k] = {s * std::cos(h * kPi / 180), s * std::sin(h * kPi / 180)};
+      refs[k] = {s * std::cos(h * kPi / 180), s * std::sin(h * kPi / 180), s, BlueShare(c)};
     }
+    // Pixels in the red group (the 3 and the maroon 7 differ in saturation, not hue): their
+    // saturation where the camera did not clip.
+    std::vector<float> red_saturation;
+    double red_votes = 0;
     for (int v = box.y; v < box.y + box.height; ++v)
       for (int u = box.x; u < box.x + box.width; ++u) {
-        if (SilhouetteScorer::Coverage(Q, u, v) < 0.99) continue;
+        // Pixels at least a pixel inside the outline: the blur of lens, demosaicing and
+        // JPEG (which halves the colour resolution) mixes the cloth into the outer ring.
+        if (SilhouetteScorer::InsideDistance(Q, u, v) < kInteriorPx) continue;
         if (claimed.at<float>(v - roi.y, u - roi.x) > 0.5) continue;
         // Only the ball's own colours vote: not the cloth seen where a cushion hides the
         // ball, nor cloth left inside the silhouette by a small misfit.
         if (ballness_in_region.at<float>(v - roi.y, u - roi.x) < 0.5) continue;
         if (scorer.NearCushion(xy) && scorer.HiddenByCushion(centre, u, v)) continue;
         if (scorer.InShadowZone(centre, u, v)) continue;
-        const cv::Vec3b& p = bgr.at<cv::Vec3b>(v, u);
+        // The colour from the unblurred image: the light blur used for the outline would
+        // mix the 9's white cap into its stripe.
+        const cv::Vec3b& p = image.at<cv::Vec3b>(v, u);
         double hue, sat, intensity;
         HueSaturation(cv::Vec3f(p[0], p[1], p[2]), &hue, &sat, &intensity);
         const double q = intensity / (profile_cloth * light);
@@ -654,8 +812,7 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
           vote = q < 0.55 ? 8 : 0;
         } else {
           // Nearest solid colour in the intensity-normalised chroma plane (seed eq. 4.1
-          // on the chromatic part, which is independent of the light's strength and
-          // tells the red 3 from the less saturated maroon 7).
+          // on the chromatic part, which is independent of the light's strength).
           const double x = sat * std::cos(hue * kPi / 180), y = sat * std::sin(hue * kPi / 180);
           vote = 1;
           double best = 1e9;
@@ -667,11 +824,43 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
             }
           }
         }
-        ++ball.votes[vote];
+        if (vote == 0 || vote == 1) {
+          // White and yellow mix at the 9's stripe edges, in the highlight and in any
+          // blur: the pixel's blue share (blue is what yellow lacks) says how much of it
+          // is white, so a thin white cap still counts for what it is.
+          const double w = std::clamp((BlueShare(p) - refs[1].blue_share) /
+                                          std::max(0.05, refs[0].blue_share - refs[1].blue_share),
+                                      0.0, 1.0);
+          ball.votes[0] += w;
+          ball.votes[1] += 1 - w;
+        } else if (vote == 3 || vote == 7) {
+          red_votes += 1;
+          if (std::max({p[0], p[1], p[2]}) < 250) red_saturation.push_back(static_cast<float>(sat));
+        } else {
+          ball.votes[vote] += 1;
+        }
       }
-    int total = 0;
-    for (int v : ball.votes) total += v;
-    ball.white_share = total ? static_cast<double>(ball.votes[0]) / total : 0;
+    if (red_votes > 0) {
+      // The red group goes to the 3 or the 7 by the ball's saturation (upper quartile of
+      // its unclipped red pixels: shading keeps it, highlights and the cloth mixed in at
+      // the edge only lower it), between the two calibrated colours.
+      double t = 0.5;
+      if (!red_saturation.empty()) {
+        const size_t k75 = red_saturation.size() * 3 / 4;
+        std::nth_element(red_saturation.begin(), red_saturation.begin() + k75,
+                         red_saturation.end());
+        ball.colour_saturation = red_saturation[k75];
+        const double s3 = refs[3].saturation, s7 = refs[7].saturation;
+        // Soft around the middle: a measured saturation a little under both (small balls
+        // lose some to the cloth mixed in) still ranks two red balls.
+        if (std::abs(s3 - s7) > 0.05)
+          t = 1 / (1 + std::exp(-(ball.colour_saturation - (s3 + s7) / 2) / ((s3 - s7) / 4)));
+      }
+      ball.votes[3] += red_votes * t;
+      ball.votes[7] += red_votes * (1 - t);
+    }
+    const double white_yellow = ball.votes[0] + ball.votes[1];
+    ball.white_share = white_yellow > 0 ? ball.votes[0] / white_yellow : 0;
     balls.push_back(ball);
   }
   std::vector<std::array<double, 10>> scores;

@@ -3,8 +3,10 @@
 // position fitted as a sphere of the ball radius resting on the cloth (the silhouette of
 // a sphere is an ellipse whose centre is not the projection of the ball's centre, and the
 // shaded underside and the shadow must not pull the estimate: the whole silhouette is
-// fitted), ball numbers by per-pixel colour votes (seed eq. 4.3 for the cue, 1 and 9) with
-// each number used once, and the empty-table background.
+// fitted, then its outline refined on the colour edge), ball numbers by per-pixel colour
+// votes (seed eq. 4.3 for the cue, 1 and 9, with white and yellow unmixed per pixel; the
+// red 3 and maroon 7 told by the ball's saturation) with each number used once, and the
+// empty-table background.
 #pragma once
 
 #include <array>
@@ -23,6 +25,10 @@ struct PoolBallOptions {
   double ball_angle_deg = 10;
   // Width of the soft transition around ball_angle_deg, degrees.
   double ball_angle_soft_deg = 4;
+  // A pixel also counts as ball when its chromaticity (opponent chroma over intensity;
+  // a saturated primary is about 1.5-3) is this far from the cloth's: a ball of nearly the
+  // cloth's hue but of another saturation, like the green 6 on green cloth.
+  double ball_chroma_distance = 0.35;
   // Pixels darker than this fraction of the cloth brightness are ball (the 8 ball).
   double dark_fraction = 0.3;
   // A blob is kept when its area is at least this fraction of one ball's silhouette.
@@ -38,7 +44,8 @@ struct PoolBallOptions {
 };
 
 // Per-pixel colour votes of one ball: index 0 = white (cue), 1..8 the solid colours.
-using PoolVotes = std::array<int, 9>;
+// Fractional: a pixel that mixes the white and the yellow of the 9 votes for both.
+using PoolVotes = std::array<double, 9>;
 
 struct PoolDetectedBall {
   int number = -1;          // 0 = cue, 1..9; -1 = a ball whose number is unknown
@@ -48,7 +55,10 @@ struct PoolDetectedBall {
   double fit_score = 0;       // mean ball-ness under the fitted silhouette, 0..1
   double confidence = 0;      // of the number, 0..1
   PoolVotes votes{};
-  double white_share = 0;     // b_c / b_sum of eq. 4.3
+  double white_share = 0;  // b_c / b_sum of eq. 4.3: white over white + yellow votes
+  // Saturation (chroma over intensity, upper quartile) of its red pixels, which tells the
+  // red 3 from the maroon 7; 0 when it has none.
+  double colour_saturation = 0;
 };
 
 // Finds and identifies the balls. `ideal_bgr` is the undistorted image, `pose` the table

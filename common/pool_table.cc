@@ -210,6 +210,10 @@ PlanarPose ShiftPlaneToTable(const PlanarPose& plane_pose, double plane_z) {
   return pose;
 }
 
+// An edge point farther than this from every side of the table (in the table plane) is
+// not on the outline.
+constexpr double kMaxSideGapMm = 40;
+
 }  // namespace
 
 absl::Status PoolTableOptions::Validate() const {
@@ -438,6 +442,8 @@ absl::StatusOr<PoolTableDetection> DetectPoolTable(const cv::Mat& bgr, const cv:
   const cv::Point2d centroid_full = centroid * 2;
   // 6. Sub-pixel sides on the colour edge; corners between consecutive sides. Side i runs
   // from corner i-1 to corner i. Twice: the second pass starts from the refined lines.
+  // The edge points of the last pass that lie on their side's line, for the pose.
+  std::vector<cv::Point2f> side_points;
   for (int pass = 0; pass < 2; ++pass) {
     for (int i = 0; i < 4; ++i) {
       const cv::Point2d a = corners[(i + 3) % 4], b = corners[i];
@@ -446,7 +452,13 @@ absl::StatusOr<PoolTableDetection> DetectPoolTable(const cv::Mat& bgr, const cv:
       outward /= cv::norm(outward);
       if (outward.dot(mid - centroid_full) < 0) outward = -outward;
       Line refined;
-      if (FitLine(EdgePoints(bgr, a, b, outward, cloth), &refined)) sides[i] = refined;
+      const std::vector<cv::Point2d> points = EdgePoints(bgr, a, b, outward, cloth);
+      if (FitLine(points, &refined)) {
+        sides[i] = refined;
+        if (pass == 1)
+          for (const auto& p : points)
+            if (std::abs(refined.n.dot(p) - refined.rho) < 1.0) side_points.emplace_back(p);
+      }
     }
     for (int i = 0; i < 4; ++i) {
       if (!Intersect(sides[i], sides[(i + 1) % 4], &corners[i]))
@@ -496,7 +508,36 @@ absl::StatusOr<PoolTableDetection> DetectPoolTable(const cv::Mat& bgr, const cv:
   for (const auto& p : best_order) pixels.emplace_back(p);
   CameraModel ideal;
   ideal.K = K;
-  ASSIGN_OR_RETURN(const PlanarPose plane_pose, EstimatePlanarPose(plane_points, pixels, ideal));
+  ASSIGN_OR_RETURN(PlanarPose plane_pose, EstimatePlanarPose(plane_points, pixels, ideal));
+  // The four corners come from four lines fitted one by one; a side seen end-on, or cut
+  // short by balls and pockets, can tilt its line and move two corners. All the edge
+  // points together with the known rectangle pin the pose better: each point is slid
+  // onto the nearest side of the rectangle in the table plane and the pose re-estimated
+  // from those pairs (point-to-line alignment, three rounds).
+  for (int round = 0; round < 3 && side_points.size() >= 16; ++round) {
+    const cv::Matx33d to_plane = HomographyFromPose(plane_pose, K).inv();
+    std::vector<cv::Point2f> on_side, seen;
+    for (const auto& p : side_points) {
+      const cv::Point2d q = ApplyHomography(to_plane, p);
+      const double x = std::clamp(q.x, -cw, L + cw), y = std::clamp(q.y, -cw, W + cw);
+      const double to_side[4] = {std::abs(q.y + cw), std::abs(q.x - L - cw), std::abs(q.y - W - cw),
+                                 std::abs(q.x + cw)};
+      const int k = static_cast<int>(std::min_element(to_side, to_side + 4) - to_side);
+      if (to_side[k] > kMaxSideGapMm) continue;
+      const cv::Point2d snapped = k == 0   ? cv::Point2d(x, -cw)
+                                  : k == 1 ? cv::Point2d(L + cw, y)
+                                  : k == 2 ? cv::Point2d(x, W + cw)
+                                           : cv::Point2d(-cw, y);
+      on_side.emplace_back(snapped);
+      seen.push_back(p);
+    }
+    if (on_side.size() < 16) break;
+    auto refined = EstimatePlanarPose(on_side, seen, ideal);
+    if (!refined.ok()) break;
+    plane_pose = *refined;
+  }
+  for (int i = 0; i < 4; ++i)
+    best_order[i] = ProjectIdeal(plane_pose, K, {plane[i].x, plane[i].y, 0});
   PlanarPose pose = ShiftPlaneToTable(plane_pose, profile.cushion_height_mm);
   PlanarPose rotated = RotateTableFrame(pose, L, W);
   // Convention for a single image: the origin is the corner nearer the camera's side

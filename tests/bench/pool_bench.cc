@@ -6,6 +6,7 @@
 // Shot search is timed separately on the found arrangements.
 //
 //   texfree-bench-pool [--frames 60] [--seed 7] [--nine-foot] [--save DIR] [--verbose]
+//                      [--clean] [--only FRAME]
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <cstdio>
@@ -13,6 +14,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <random>
+#include <ctime>
 #include <string>
 #include <vector>
 
@@ -34,6 +36,14 @@ double Percentile(std::vector<double> v, double q) {
   return v[std::min(v.size() - 1, static_cast<size_t>(q * (v.size() - 1) + 0.5))];
 }
 
+// CPU time of this thread, ms: the one-core cost of the analysis, whatever else the
+// machine is running (wall-clock time is reported beside it).
+double ThreadCpuMs() {
+  timespec ts{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+  return ts.tv_sec * 1e3 + ts.tv_nsec / 1e6;
+}
+
 double Mean(const std::vector<double>& v) {
   double s = 0;
   for (double x : v) s += x;
@@ -53,6 +63,8 @@ int main(int argc, char** argv) {
   app.add_flag("--nine-foot", nine_foot, "A 9-ft table instead of the 1330x700 mm bench table");
   app.add_option("--save", save, "Write each image and its ground truth to this folder");
   app.add_flag("--verbose", verbose, "One line per frame");
+  int only = -1;
+  app.add_option("--only", only, "Analyse only this frame of the set (to look into one case)");
   bool clean = false;
   app.add_flag("--clean", clean, "No blur, noise, JPEG or lens distortion (the method's floor)");
   CLI11_PARSE(app, argc, argv);
@@ -70,7 +82,8 @@ int main(int argc, char** argv) {
   std::mt19937_64 rng(seed);
   int found = 0, separated = 0, separated_found = 0, identified = 0, false_balls = 0;
   int balls_total = 0, balls_matched = 0;
-  std::vector<double> errors, separated_errors, corner_errors, times, per_frame_max, shot_times;
+  std::vector<double> errors, separated_errors, corner_errors, times, cpu_times, per_frame_max,
+      shot_times;
   std::string failures;
   for (int f = 0; f < frames; ++f) {
     PoolScene scene = RandomPoolScene(rng, spec);
@@ -79,6 +92,7 @@ int main(int argc, char** argv) {
       scene.jpeg_quality = 0;
       scene.camera.k1 = scene.camera.k2 = 0;
     }
+    if (only >= 0 && f != only) continue;
     const PoolView view = RenderPoolView(scene, seed * 100003 + f);
     if (!save.empty()) {
       char name[64];
@@ -97,7 +111,9 @@ int main(int argc, char** argv) {
     // Warm the undistortion tables (built once per camera in a live view).
     (void)analyzer->Analyze(view.image);
     const auto t0 = SteadyClock::now();
+    const double cpu0 = ThreadCpuMs();
     auto analysis = analyzer->Analyze(view.image);
+    cpu_times.push_back(ThreadCpuMs() - cpu0);
     times.push_back(MillisecondsSince(t0));
     balls_total += static_cast<int>(view.balls.size());
     for (const auto& b : view.balls) separated += b.separated;
@@ -132,10 +148,29 @@ int main(int argc, char** argv) {
     }
     if (verbose) {
       for (const auto& m : score.matches)
-        if (m.estimated_number != m.truth_number || m.error_mm > 8 || m.error_mm < 0)
-          std::printf("    ball %d%s at px (%.0f, %.0f): found as %d, error %.1f mm (%.1f, %.1f)\n",
-                      m.truth_number, m.separated ? " (separated)" : "", m.pixel.x, m.pixel.y,
-                      m.estimated_number, m.error_mm, m.dx_mm, m.dy_mm);
+        if (m.estimated_number != m.truth_number || m.error_mm > 8 || m.error_mm < 0) {
+          // The error along the camera's line of sight on the table (+ = farther away).
+          const cv::Vec3d c = -(view.rotation.t() * view.translation);
+          const PoolBallTruth* truth = nullptr;
+          for (const auto& b : view.balls)
+            if (b.pixel == m.pixel) truth = &b;
+          cv::Point2d away(truth->x_mm - c[0], truth->y_mm - c[1]);
+          away *= 1.0 / cv::norm(away);
+          std::printf(
+              "    ball %d%s at px (%.0f, %.0f): found as %d, error %.1f mm (%.1f, %.1f), "
+              "%.1f mm away from the camera\n",
+              m.truth_number, m.separated ? " (separated)" : "", m.pixel.x, m.pixel.y,
+              m.estimated_number, m.error_mm, m.dx_mm, m.dy_mm,
+              m.dx_mm * away.x + m.dy_mm * away.y);
+        }
+      for (const auto& m : score.matches) {
+        if (m.estimated_index < 0) continue;
+        const PoolDetectedBall& b = analyzer->last_detected_balls()[m.estimated_index];
+        std::printf("      votes of %d as %d:", m.truth_number, b.number);
+        for (int v : b.votes) std::printf(" %d", v);
+        std::printf("  white share %.2f  red saturation %.2f  radius %.1f px\n", b.white_share,
+                    b.colour_saturation, b.radius_px);
+      }
     }
     if (verbose) {
       const cv::Vec3d c = -(view.rotation.t() * view.translation);
@@ -172,6 +207,8 @@ int main(int argc, char** argv) {
   std::printf("| false balls | %d |\n", false_balls);
   std::printf("| analysis time per frame mean / p95 | %.1f / %.1f ms |\n", Mean(times),
               Percentile(times, 0.95));
+  std::printf("| analysis CPU time per frame mean / p95 | %.1f / %.1f ms |\n", Mean(cpu_times),
+              Percentile(cpu_times, 0.95));
   std::printf("| shot search per arrangement mean / p95 | %.1f / %.1f ms |\n", Mean(shot_times),
               Percentile(shot_times, 0.95));
   if (!failures.empty()) std::printf("\nFailures:\n%s", failures.c_str());

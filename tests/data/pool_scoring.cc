@@ -43,6 +43,7 @@ PoolScore ScorePoolAnalysis(const PoolScene& scene, const PoolView& view,
     match.pixel = truth.pixel;
     if (best >= 0) {
       match.estimated_number = est[best].number;
+      match.estimated_index = best;
       match.error_mm = best_d;
       match.dx_mm = est[best].x_mm - truth.x_mm;
       match.dy_mm = est[best].y_mm - truth.y_mm;

@@ -22,6 +22,7 @@ struct PoolBallMatch {
   int truth_number = 0;
   bool separated = false;
   int estimated_number = -2;  // -2: not found
+  int estimated_index = -1;   // index into the estimates, -1: not found
   double error_mm = -1;
   double dx_mm = 0, dy_mm = 0;  // estimate - truth
   cv::Point2d pixel;  // true centre in the image
