@@ -400,9 +400,9 @@ std::vector<DocumentHit> LlahRetriever::Retrieve(const std::vector<cv::Point2f> 
 
     // Guided refinement: every reference keypoint projected by H takes the
     // nearest free query keypoint within the threshold; the homography is
-    // refitted on those matches. (The decision above rests on LLAH
-    // correspondences only: projected text lands near some word by chance too
-    // often to count as evidence.)
+    // refitted on those matches. (Their number alone is no evidence: projected text
+    // lands near some word by chance too often. Only the layout check below uses them,
+    // as a share of the page in view, which chance alignments do not reach.)
     std::vector<std::pair<int, int>> guided;
     // The gate starts at the RANSAC threshold and then shrinks to a few times the median
     // residual, so that extra keypoints a few pixels from a projected word stop pulling the
