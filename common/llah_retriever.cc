@@ -12,7 +12,6 @@
 #include <thread>
 #include <unordered_set>
 
-#include "absl/container/flat_hash_map.h"
 #include "absl/strings/str_cat.h"
 #include "common/neighbor_grid.h"
 #include "common/planar_pose.h"
@@ -244,21 +243,32 @@ std::vector<Correspondence> BestCorrespondences(const std::vector<Hit> &hits) {
 
 // Keeps only the hits of the `keep` documents with most hits: a large database gives
 // common descriptors many entries, and sorting every hit would cost more than the rest of
-// the query. Counting per document is linear.
+// the query. Counting per document is linear: one counter per document id (the registry's
+// ids are dense), kept per thread and reset after use, so no hashing and no allocation
+// per query. Ids from 2^24 up are too sparse for that; such databases skip the prefilter.
 void PrefilterHits(int keep, std::vector<Hit> *hits) {
   if (keep <= 0 || hits->size() < 4096) return;
-  absl::flat_hash_map<uint32_t, int> per_document;
-  per_document.reserve(hits->size() / 8);
-  for (const Hit &h : *hits) ++per_document[h.document];
-  if (static_cast<int>(per_document.size()) <= keep) return;
-  std::vector<int> counts;
-  counts.reserve(per_document.size());
-  for (const auto &[doc, n] : per_document) counts.push_back(n);
-  std::nth_element(counts.begin(), counts.begin() + (keep - 1), counts.end(), std::greater<int>());
-  const int floor = counts[static_cast<size_t>(keep - 1)];
-  hits->erase(std::remove_if(hits->begin(), hits->end(),
-                             [&](const Hit &h) { return per_document[h.document] < floor; }),
-              hits->end());
+  uint32_t max_document = 0;
+  for (const Hit &h : *hits) max_document = std::max(max_document, h.document);
+  if (max_document >= (1u << 24)) return;
+  thread_local std::vector<uint32_t> count;
+  thread_local std::vector<uint32_t> touched;
+  if (count.size() <= max_document) count.resize(max_document + 1, 0);
+  touched.clear();
+  for (const Hit &h : *hits)
+    if (count[h.document]++ == 0) touched.push_back(h.document);
+  if (touched.size() > static_cast<size_t>(keep)) {
+    std::vector<uint32_t> counts;
+    counts.reserve(touched.size());
+    for (uint32_t d : touched) counts.push_back(count[d]);
+    std::nth_element(counts.begin(), counts.begin() + (keep - 1), counts.end(),
+                     std::greater<uint32_t>());
+    const uint32_t floor = counts[static_cast<size_t>(keep - 1)];
+    hits->erase(std::remove_if(hits->begin(), hits->end(),
+                               [&](const Hit &h) { return count[h.document] < floor; }),
+                hits->end());
+  }
+  for (uint32_t d : touched) count[d] = 0;
 }
 
 // The layout check for documents with few LLAH inliers: the share of the reference
