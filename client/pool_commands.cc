@@ -1,6 +1,8 @@
 // `texfree pool ...` commands on PoolService: analyze, track, profile, calibrate.
 #include "client/pool_commands.h"
 
+#include <unistd.h>
+
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <filesystem>
@@ -12,7 +14,6 @@
 #include <optional>
 #include <sstream>
 #include <string>
-#include <unistd.h>
 #include <vector>
 
 #include "client/camera_file.h"
@@ -59,7 +60,7 @@ struct CalibrateOptions {
   std::vector<std::string> balls;
 };
 
-std::unique_ptr<v1::PoolService::Stub> Stub(CommandContext& ctx) {
+std::unique_ptr<v1::PoolService::Stub> PoolStub(CommandContext& ctx) {
   return v1::PoolService::NewStub(ctx.Channel());
 }
 
@@ -169,7 +170,8 @@ json ResponseToJson(const v1::AnalyzeTableResponse& r) {
     json paths = json::array();
     json cue_path = json::array();
     for (const auto& p : s.paths()) {
-      paths.push_back({{"number", p.number()}, {"path", PathToJson(p.path_mm())},
+      paths.push_back({{"number", p.number()},
+                       {"path", PathToJson(p.path_mm())},
                        {"path_px", PathToJson(p.path_px())}});
       if (p.number() == 0) cue_path = PathToJson(p.path_mm());
     }
@@ -191,9 +193,10 @@ json ResponseToJson(const v1::AnalyzeTableResponse& r) {
   }
   json timings = json::object();
   for (const auto& t : r.timings()) timings[t.stage()] = t.ms();
-  json out = {{"corners", corners}, {"balls", balls},         {"shots", shots},
-              {"server_ms", r.server_ms()}, {"timings", timings},
-              {"long_side_view", r.long_side_view()}, {"pose", PoseToJson(r.pose())}};
+  json out = {
+      {"corners", corners},          {"balls", balls},     {"shots", shots},
+      {"server_ms", r.server_ms()},  {"timings", timings}, {"long_side_view", r.long_side_view()},
+      {"pose", PoseToJson(r.pose())}};
   if (!r.shots_note().empty()) out["shots_note"] = r.shots_note();
   return out;
 }
@@ -237,7 +240,7 @@ int RunAnalyze(CommandContext& ctx, const AnalyzeOptions& options) {
       throw UsageError("cannot decode image '" + options.image + "' (JPEG, PNG, BMP, TIFF)");
   }
   request.mutable_image()->set_encoded(std::move(bytes));
-  auto stub = Stub(ctx);
+  auto stub = PoolStub(ctx);
   grpc::ClientContext context;
   ctx.Prepare(&context);
   v1::AnalyzeTableResponse response;
@@ -268,8 +271,10 @@ int RunAnalyze(CommandContext& ctx, const AnalyzeOptions& options) {
     out << " (" << std::fixed << std::setprecision(1) << c.x() << ", " << c.y() << ")";
   out << "\n" << response.balls_size() << " balls:\n";
   for (const auto& b : response.balls())
-    out << "  " << (b.number() < 0 ? std::string("?") : b.number() == 0 ? std::string("cue")
-                                                                          : std::to_string(b.number()))
+    out << "  "
+        << (b.number() < 0    ? std::string("?")
+            : b.number() == 0 ? std::string("cue")
+                              : std::to_string(b.number()))
         << "  x " << std::setprecision(0) << b.x_mm() << " mm, y " << b.y_mm() << " mm\n";
   if (response.shots_size() == 0) out << "no shots: " << response.shots_note() << "\n";
   for (const auto& s : response.shots()) out << "  shot: " << s.description() << "\n";
@@ -329,7 +334,7 @@ int RunTrack(CommandContext& ctx, const TrackOptions& options) {
   v1::TrackTableRequest config;
   SetProfile(options.table, options.profile, config.mutable_config());
   *config.mutable_config()->mutable_intrinsics() = IntrinsicsToProto(camera);
-  auto stub = Stub(ctx);
+  auto stub = PoolStub(ctx);
   grpc::ClientContext context;
   auto stream = stub->TrackTable(&context);
   if (!stream->Write(config)) ctx.Check(stream->Finish());
@@ -374,8 +379,8 @@ int RunTrack(CommandContext& ctx, const TrackOptions& options) {
   ctx.Check(stream->Finish());
   if (progress) ctx.err() << "\n";
   if (!ctx.json)
-    ctx.out() << index << " frames" << (options.output.empty() ? "" : " written to " + options.output)
-              << "\n";
+    ctx.out() << index << " frames"
+              << (options.output.empty() ? "" : " written to " + options.output) << "\n";
   return kExitOk;
 }
 
@@ -385,21 +390,22 @@ int RunProfileSet(CommandContext& ctx, const ProfileOptions& options) {
   if (!options.name.empty()) request.mutable_profile()->set_name(options.name);
   if (request.profile().name().empty())
     throw UsageError("give the profile a name: --name NAME or \"name\" in " + options.table);
-  auto stub = Stub(ctx);
+  auto stub = PoolStub(ctx);
   grpc::ClientContext context;
   ctx.Prepare(&context);
   v1::TableProfile response;
   ctx.Check(stub->SetTableProfile(&context, request, &response));
   if (ctx.json) {
-    ctx.PrintJson({{"name", response.name()}, {"length_mm", response.length_mm()},
-                   {"width_mm", response.width_mm()}, {"ball_radius_mm", response.ball_radius_mm()},
+    ctx.PrintJson({{"name", response.name()},
+                   {"length_mm", response.length_mm()},
+                   {"width_mm", response.width_mm()},
+                   {"ball_radius_mm", response.ball_radius_mm()},
                    {"cushion_height_mm", response.cushion_height_mm()},
                    {"cushion_width_mm", response.cushion_width_mm()},
                    {"cloth_color", ColorToJson(response.cloth_color())}});
   } else {
     ctx.out() << "profile '" << response.name() << "': " << response.length_mm() << " x "
-              << response.width_mm() << " mm, ball radius " << response.ball_radius_mm()
-              << " mm\n";
+              << response.width_mm() << " mm, ball radius " << response.ball_radius_mm() << " mm\n";
   }
   return kExitOk;
 }
@@ -407,7 +413,8 @@ int RunProfileSet(CommandContext& ctx, const ProfileOptions& options) {
 v1::Rect ParseRect(const std::string& text, const std::string& what) {
   double x, y, w, h;
   char extra;
-  if (std::sscanf(text.c_str(), "%lf,%lf,%lf,%lf%c", &x, &y, &w, &h, &extra) != 4 || w <= 0 || h <= 0)
+  if (std::sscanf(text.c_str(), "%lf,%lf,%lf,%lf%c", &x, &y, &w, &h, &extra) != 4 || w <= 0 ||
+      h <= 0)
     throw UsageError(what + ": expected X,Y,WIDTH,HEIGHT in pixels, got '" + text + "'");
   v1::Rect r;
   r.set_x(x);
@@ -425,15 +432,15 @@ int RunCalibrate(CommandContext& ctx, const CalibrateOptions& options) {
   for (const auto& ball : options.balls) {
     const size_t colon = ball.find(':');
     int number = -1;
-    if (colon == std::string::npos || std::sscanf(ball.c_str(), "%d", &number) != 1 ||
-        number < 0 || number > 9)
+    if (colon == std::string::npos || std::sscanf(ball.c_str(), "%d", &number) != 1 || number < 0 ||
+        number > 9)
       throw UsageError("--ball: expected N:X,Y,WIDTH,HEIGHT with N = 0 (cue) .. 9, got '" + ball +
                        "'");
     auto* region = request.add_balls();
     region->set_number(static_cast<uint32_t>(number));
     *region->mutable_region() = ParseRect(ball.substr(colon + 1), "--ball " + ball);
   }
-  auto stub = Stub(ctx);
+  auto stub = PoolStub(ctx);
   grpc::ClientContext context;
   ctx.Prepare(&context);
   v1::TableProfile response;
@@ -455,8 +462,8 @@ int RunCalibrate(CommandContext& ctx, const CalibrateOptions& options) {
 }  // namespace
 
 void AddPoolCommands(CLI::App& app, CommandContext& ctx) {
-  CLI::App* pool = app.add_subcommand(
-      "pool", "Pool assistant: find the table and the balls, suggest shots");
+  CLI::App* pool =
+      app.add_subcommand("pool", "Pool assistant: find the table and the balls, suggest shots");
   pool->require_subcommand(1);
   {
     auto options = std::make_shared<AnalyzeOptions>();
@@ -474,14 +481,13 @@ void AddPoolCommands(CLI::App& app, CommandContext& ctx) {
     cmd->add_option("--topview", options->topview, "Write a top view of the table and the shot");
     cmd->add_option("--max-shots", options->max_shots, "Shots to suggest (default 3)")
         ->check(CLI::Range(1, 20));
-    cmd->callback([&ctx, options] {
-      ctx.action = [&ctx, options] { return RunAnalyze(ctx, *options); };
-    });
+    cmd->callback(
+        [&ctx, options] { ctx.action = [&ctx, options] { return RunAnalyze(ctx, *options); }; });
   }
   {
     auto options = std::make_shared<TrackOptions>();
-    CLI::App* cmd = pool->add_subcommand(
-        "track", "Live view: the suggested shot drawn onto every frame");
+    CLI::App* cmd =
+        pool->add_subcommand("track", "Live view: the suggested shot drawn onto every frame");
     cmd->add_option("INPUT", options->input, "Video file, folder of images or cam:N")->required();
     cmd->add_option("--intrinsics", options->intrinsics, "CAMERA.yml (OpenCV calibration file)")
         ->required();
@@ -489,18 +495,16 @@ void AddPoolCommands(CLI::App& app, CommandContext& ctx) {
     cmd->add_option("--profile", options->profile, "A table profile stored on the server");
     cmd->add_option("--output", options->output, "Write the frames with the overlays (MP4)");
     cmd->add_option("--fps", options->fps, "Frame rate of --output")->check(CLI::PositiveNumber);
-    cmd->callback([&ctx, options] {
-      ctx.action = [&ctx, options] { return RunTrack(ctx, *options); };
-    });
+    cmd->callback(
+        [&ctx, options] { ctx.action = [&ctx, options] { return RunTrack(ctx, *options); }; });
   }
   {
     auto options = std::make_shared<ProfileOptions>();
     CLI::App* cmd = pool->add_subcommand("profile", "Store a table profile on the server");
     cmd->add_option("TABLE", options->table, "TABLE.json")->required();
     cmd->add_option("--name", options->name, "Profile name (default: \"name\" in the file)");
-    cmd->callback([&ctx, options] {
-      ctx.action = [&ctx, options] { return RunProfileSet(ctx, *options); };
-    });
+    cmd->callback(
+        [&ctx, options] { ctx.action = [&ctx, options] { return RunProfileSet(ctx, *options); }; });
   }
   {
     auto options = std::make_shared<CalibrateOptions>();
@@ -511,9 +515,8 @@ void AddPoolCommands(CLI::App& app, CommandContext& ctx) {
     cmd->add_option("--cloth", options->cloth, "X,Y,WIDTH,HEIGHT of a cloth region (pixels)")
         ->required();
     cmd->add_option("--ball", options->balls, "N:X,Y,WIDTH,HEIGHT around ball N (0 = cue)");
-    cmd->callback([&ctx, options] {
-      ctx.action = [&ctx, options] { return RunCalibrate(ctx, *options); };
-    });
+    cmd->callback(
+        [&ctx, options] { ctx.action = [&ctx, options] { return RunCalibrate(ctx, *options); }; });
   }
 }
 

@@ -54,7 +54,7 @@ struct EncodeOptions {
   unsigned idle = 0;
 };
 
-std::unique_ptr<v1::SurveyService::Stub> Stub(CommandContext& ctx) {
+std::unique_ptr<v1::SurveyService::Stub> SurveyStub(CommandContext& ctx) {
   return v1::SurveyService::NewStub(ctx.Channel());
 }
 
@@ -153,7 +153,7 @@ int RunCreate(CommandContext& ctx, const CreateOptions& options) {
   grpc::ClientContext context;
   ctx.Prepare(&context);
   v1::Survey response;
-  ctx.Check(Stub(ctx)->CreateSurvey(&context, request, &response));
+  ctx.Check(SurveyStub(ctx)->CreateSurvey(&context, request, &response));
   if (ctx.json) {
     ctx.PrintJson(json{{"survey_id", response.survey_id()},
                        {"name", response.name()},
@@ -193,7 +193,7 @@ int RunUpload(CommandContext& ctx, const UploadOptions& options) {
                      " frames; a view needs at least " + std::to_string(lights::kPacketSamples) +
                      " (100 recommended)");
   }
-  auto stub = Stub(ctx);
+  auto stub = SurveyStub(ctx);
   grpc::ClientContext context;
   ctx.Prepare(&context);
   v1::UploadViewResponse response;
@@ -233,8 +233,8 @@ int RunUpload(CommandContext& ctx, const UploadOptions& options) {
     for (const auto& l : view.lights()) {
       ctx.out() << "  light " << std::setw(2) << l.id() << "  (" << Fixed(l.u(), 2) << ", "
                 << Fixed(l.v(), 2) << ")  " << l.pixels() << " px  quality "
-                << Fixed(l.quality(), 3) << (l.conflict() ? "  CONFLICT: decoded in two places" : "")
-                << "\n";
+                << Fixed(l.quality(), 3)
+                << (l.conflict() ? "  CONFLICT: decoded in two places" : "") << "\n";
     }
     if (view.posed()) {
       ctx.out() << "posed from " << view.references_used() << " reference lights, rms "
@@ -252,14 +252,14 @@ int RunSolve(CommandContext& ctx, const SolveOptions& options) {
   grpc::ClientContext context;
   ctx.Prepare(&context);
   v1::SolveResponse response;
-  ctx.Check(Stub(ctx)->Solve(&context, request, &response));
+  ctx.Check(SurveyStub(ctx)->Solve(&context, request, &response));
   if (!options.out.empty()) {
     std::ofstream out(options.out);
     out << "id,x,y,z,views,rms_px,sigma_x,sigma_y,sigma_z\n" << std::fixed << std::setprecision(6);
     for (const auto& p : response.points()) {
       out << p.id() << "," << p.position_m().x() << "," << p.position_m().y() << ","
-          << p.position_m().z() << "," << p.views() << "," << p.rms_px() << ","
-          << p.sigma_m().x() << "," << p.sigma_m().y() << "," << p.sigma_m().z() << "\n";
+          << p.position_m().z() << "," << p.views() << "," << p.rms_px() << "," << p.sigma_m().x()
+          << "," << p.sigma_m().y() << "," << p.sigma_m().z() << "\n";
     }
     if (!out) throw CliError(kExitFailure, "cannot write '" + options.out + "'");
   }
@@ -267,7 +267,8 @@ int RunSolve(CommandContext& ctx, const SolveOptions& options) {
     json points = json::array(), views = json::array();
     for (const auto& p : response.points()) points.push_back(PointToJson(p));
     for (const auto& v : response.views()) {
-      json view{{"view", v.view()}, {"reprojection_rms_px", v.reprojection_rms_px()},
+      json view{{"view", v.view()},
+                {"reprojection_rms_px", v.reprojection_rms_px()},
                 {"posed", v.posed()}};
       if (!v.pose_error().empty()) view["pose_error"] = v.pose_error();
       views.push_back(view);
@@ -300,7 +301,7 @@ int RunList(CommandContext& ctx) {
   grpc::ClientContext context;
   ctx.Prepare(&context);
   v1::ListSurveysResponse response;
-  ctx.Check(Stub(ctx)->ListSurveys(&context, v1::ListSurveysRequest(), &response));
+  ctx.Check(SurveyStub(ctx)->ListSurveys(&context, v1::ListSurveysRequest(), &response));
   if (ctx.json) {
     json list = json::array();
     for (const auto& s : response.surveys()) {
@@ -328,7 +329,7 @@ int RunShow(CommandContext& ctx, const std::string& survey_id) {
   grpc::ClientContext context;
   ctx.Prepare(&context);
   v1::Survey s;
-  ctx.Check(Stub(ctx)->GetSurvey(&context, request, &s));
+  ctx.Check(SurveyStub(ctx)->GetSurvey(&context, request, &s));
   if (ctx.json) {
     json references = json::array(), views = json::array(), points = json::array();
     for (const auto& r : s.references()) {
@@ -344,9 +345,13 @@ int RunShow(CommandContext& ctx, const std::string& survey_id) {
     for (double d : in.distortion()) distortion.push_back(d);
     ctx.PrintJson(json{{"survey_id", s.survey_id()},
                        {"name", s.name()},
-                       {"intrinsics", json{{"fx", in.fx()}, {"fy", in.fy()}, {"cx", in.cx()},
-                                           {"cy", in.cy()}, {"distortion", distortion},
-                                           {"width", in.width()}, {"height", in.height()}}},
+                       {"intrinsics", json{{"fx", in.fx()},
+                                           {"fy", in.fy()},
+                                           {"cx", in.cx()},
+                                           {"cy", in.cy()},
+                                           {"distortion", distortion},
+                                           {"width", in.width()},
+                                           {"height", in.height()}}},
                        {"references", references},
                        {"views", views},
                        {"points", points},
@@ -374,7 +379,7 @@ int RunDelete(CommandContext& ctx, const std::string& survey_id) {
   grpc::ClientContext context;
   ctx.Prepare(&context);
   v1::DeleteSurveyResponse response;
-  ctx.Check(Stub(ctx)->DeleteSurvey(&context, request, &response));
+  ctx.Check(SurveyStub(ctx)->DeleteSurvey(&context, request, &response));
   if (ctx.json) {
     ctx.PrintJson(json{{"deleted", survey_id}});
   } else {
@@ -398,7 +403,7 @@ int RunExport(CommandContext& ctx, const ExportOptions& options) {
   grpc::ClientContext context;
   ctx.Prepare(&context);
   v1::ExportPointsResponse response;
-  ctx.Check(Stub(ctx)->ExportPoints(&context, request, &response));
+  ctx.Check(SurveyStub(ctx)->ExportPoints(&context, request, &response));
   if (!options.out.empty()) {
     std::ofstream out(options.out, std::ios::binary);
     out << response.data();
@@ -530,9 +535,8 @@ void AddSurveyCommands(CLI::App& app, CommandContext& ctx) {
                     "REFS.csv with header id,x,y,z: reference lights in metres")
         ->required();
     cmd->add_option("--name", options->name, "Name (default: the references file's stem)");
-    cmd->callback([&ctx, options] {
-      ctx.action = [&ctx, options] { return RunCreate(ctx, *options); };
-    });
+    cmd->callback(
+        [&ctx, options] { ctx.action = [&ctx, options] { return RunCreate(ctx, *options); }; });
   }
   {
     auto options = std::make_shared<UploadOptions>();
@@ -542,9 +546,8 @@ void AddSurveyCommands(CLI::App& app, CommandContext& ctx) {
         ->required();
     cmd->add_option("FOLDER", options->folder, "Folder of frames, in capture order by name")
         ->required();
-    cmd->callback([&ctx, options] {
-      ctx.action = [&ctx, options] { return RunUpload(ctx, *options); };
-    });
+    cmd->callback(
+        [&ctx, options] { ctx.action = [&ctx, options] { return RunUpload(ctx, *options); }; });
   }
   {
     auto options = std::make_shared<SolveOptions>();
@@ -553,9 +556,8 @@ void AddSurveyCommands(CLI::App& app, CommandContext& ctx) {
     cmd->add_option("--out", options->out, "Also write the points to this CSV file");
     cmd->add_flag("--bundle-adjustment", options->bundle_adjustment,
                   "Refine view poses and points together (references held fixed)");
-    cmd->callback([&ctx, options] {
-      ctx.action = [&ctx, options] { return RunSolve(ctx, *options); };
-    });
+    cmd->callback(
+        [&ctx, options] { ctx.action = [&ctx, options] { return RunSolve(ctx, *options); }; });
   }
   {
     CLI::App* cmd = survey->add_subcommand("list", "List surveys");
@@ -579,9 +581,8 @@ void AddSurveyCommands(CLI::App& app, CommandContext& ctx) {
     cmd->add_option("SURVEY_ID", options->survey_id, "Survey id")->required();
     cmd->add_option("--format", options->format, "csv, json or ply")->capture_default_str();
     cmd->add_option("--out", options->out, "Write to this file (default: stdout)");
-    cmd->callback([&ctx, options] {
-      ctx.action = [&ctx, options] { return RunExport(ctx, *options); };
-    });
+    cmd->callback(
+        [&ctx, options] { ctx.action = [&ctx, options] { return RunExport(ctx, *options); }; });
   }
   CLI::App* lights_group = app.add_subcommand("lights", "Blinking-light markers");
   lights_group->require_subcommand(1);
@@ -592,9 +593,8 @@ void AddSurveyCommands(CLI::App& app, CommandContext& ctx) {
     cmd->add_option("ID", options->id, "Light id 0..63")->required();
     cmd->add_option("--idle", options->idle, "Idle (off) samples after each packet, 0..4")
         ->check(CLI::Range(0, 4));
-    cmd->callback([&ctx, options] {
-      ctx.action = [&ctx, options] { return RunEncode(ctx, *options); };
-    });
+    cmd->callback(
+        [&ctx, options] { ctx.action = [&ctx, options] { return RunEncode(ctx, *options); }; });
   }
 }
 

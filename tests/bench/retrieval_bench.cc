@@ -197,8 +197,6 @@ int main(int argc, char **argv) {
   app.add_option("--llah-n", registry_options.llah.n, "LLAH neighbours (new database only)");
   app.add_option("--llah-m", registry_options.llah.m, "LLAH neighbours per descriptor");
   app.add_option("--llah-k", registry_options.llah.k, "LLAH quantisation levels");
-  app.add_option("--gap-factor", registry_options.keypoints.gap_factor,
-                 "closing gap / text height");
   bool line_closing = false;
   app.add_flag("--line-closing", line_closing,
                "register and query first with the line closing (new database only)");

@@ -19,6 +19,7 @@
 #include "common/timing.h"
 #include "tests/data/light_scene.h"
 #include "tests/server/server_process.h"
+#include "tests/server/survey_requests.h"
 #include "texfree/v1/survey.grpc.pb.h"
 
 namespace fs = std::filesystem;
@@ -42,7 +43,8 @@ struct LightAccuracy {
 };
 
 template <typename Light>
-LightAccuracy Compare(const std::vector<Light>& found, const std::vector<texfree::testdata::LightTruth>& truth,
+LightAccuracy Compare(const std::vector<Light>& found,
+                      const std::vector<texfree::testdata::LightTruth>& truth,
                       double (*u)(const Light&), double (*v)(const Light&),
                       uint32_t (*id)(const Light&)) {
   LightAccuracy a;
@@ -81,7 +83,8 @@ int main(int argc, char** argv) {
   double drift = 0.01;
   std::string server_binary = TEXFREE_SERVER_BINARY;
   app.add_option("--frames", frames, "Frames per view")->capture_default_str();
-  app.add_option("--scale", scale, "Image scale of the D300 (1 = 4288x2848)")->capture_default_str();
+  app.add_option("--scale", scale, "Image scale of the D300 (1 = 4288x2848)")
+      ->capture_default_str();
   app.add_option("--seed", seed, "Scene seed")->capture_default_str();
   app.add_option("--jpeg-quality", quality, "JPEG quality of the frames")->capture_default_str();
   app.add_option("--drift", drift, "Largest LED clock drift")->capture_default_str();
@@ -132,7 +135,8 @@ int main(int argc, char** argv) {
       [](const texfree::lights::LightSpot& l) { return l.id; });
 
   // 2) Through the server.
-  const fs::path dir = fs::temp_directory_path() / ("texfree-bench-survey-" + std::to_string(::getpid()));
+  const fs::path dir =
+      fs::temp_directory_path() / ("texfree-bench-survey-" + std::to_string(::getpid()));
   fs::create_directories(dir);
   texfree::testing::ServerProcess server(server_binary, dir.string());
   if (server.address().empty()) {
@@ -141,22 +145,8 @@ int main(int argc, char** argv) {
   }
   const long idle_kib = ProcStatusKiB(server.pid(), "VmRSS");
   auto stub = texfree::v1::SurveyService::NewStub(server.Channel());
-  texfree::v1::CreateSurveyRequest create;
-  auto* in = create.mutable_intrinsics();
-  in->set_fx(scene.camera.K(0, 0));
-  in->set_fy(scene.camera.K(1, 1));
-  in->set_cx(scene.camera.K(0, 2));
-  in->set_cy(scene.camera.K(1, 2));
-  for (double d : scene.camera.distortion) in->add_distortion(d);
-  in->set_width(scene.camera.size.width);
-  in->set_height(scene.camera.size.height);
-  for (const auto& [id, X] : scene.references) {
-    auto* r = create.add_references();
-    r->set_id(id);
-    r->mutable_position_m()->set_x(X.x);
-    r->mutable_position_m()->set_y(X.y);
-    r->mutable_position_m()->set_z(X.z);
-  }
+  const texfree::v1::CreateSurveyRequest create =
+      texfree::testing::SurveyRequestFor(scene, scene.references, "");
   texfree::v1::Survey survey;
   {
     grpc::ClientContext ctx;
@@ -189,7 +179,8 @@ int main(int argc, char** argv) {
   using ProtoLight = texfree::v1::DecodedLight;
   LightAccuracy served[2];
   for (int v = 0; v < 2; ++v) {
-    std::vector<ProtoLight> lights(uploads[v].view().lights().begin(), uploads[v].view().lights().end());
+    std::vector<ProtoLight> lights(uploads[v].view().lights().begin(),
+                                   uploads[v].view().lights().end());
     served[v] = Compare<ProtoLight>(
         lights, truth[v], [](const ProtoLight& l) { return l.u(); },
         [](const ProtoLight& l) { return l.v(); }, [](const ProtoLight& l) { return l.id(); });
@@ -219,20 +210,26 @@ int main(int argc, char** argv) {
   server.Stop();
   fs::remove_all(dir);
 
-  std::printf("\nLight photogrammetry benchmark: tunnel, %dx%d, %d JPEG frames per view (q%d), "
-              "LED drift up to %.1f%%, 4 distractor lamps, seed %llu\n\n",
-              scene.camera.size.width, scene.camera.size.height, frames, quality, drift * 100,
-              static_cast<unsigned long long>(seed));
+  std::printf(
+      "\nLight photogrammetry benchmark: tunnel, %dx%d, %d JPEG frames per view (q%d), "
+      "LED drift up to %.1f%%, 4 distractor lamps, seed %llu\n\n",
+      scene.camera.size.width, scene.camera.size.height, frames, quality, drift * 100,
+      static_cast<unsigned long long>(seed));
   std::printf("| measure | result | target |\n|---|---|---|\n");
-  std::printf("| decode alone, one view (JPEG decode + lights, 2 threads) | %.2f s (JPEG decode cpu %.2f s, light decode %.2f s) | <= 5 s |\n",
-              decode_ms / 1000, image_decode_cpu_ms / 1000, decoded->stats.decode_ms / 1000);
-  std::printf("| upload + decode end to end through the server, view 1 / view 2 | %.2f s / %.2f s | <= 10 s |\n",
-              upload_ms[0] / 1000, upload_ms[1] / 1000);
-  std::printf("| server peak memory (VmHWM; idle RSS %.0f MB) | %.0f MB | <= 1500 MB |\n", idle_kib / 1024.0,
-              peak_kib / 1024.0);
+  std::printf(
+      "| decode alone, one view (JPEG decode + lights, 2 threads) | %.2f s (JPEG decode cpu %.2f "
+      "s, light decode %.2f s) | <= 5 s |\n",
+      decode_ms / 1000, image_decode_cpu_ms / 1000, decoded->stats.decode_ms / 1000);
+  std::printf(
+      "| upload + decode end to end through the server, view 1 / view 2 | %.2f s / %.2f s | <= 10 "
+      "s |\n",
+      upload_ms[0] / 1000, upload_ms[1] / 1000);
+  std::printf("| server peak memory (VmHWM; idle RSS %.0f MB) | %.0f MB | <= 1500 MB |\n",
+              idle_kib / 1024.0, peak_kib / 1024.0);
   for (int v = 0; v < 2; ++v) {
-    std::printf("| view %d: lights with correct ID / missed / false | %d of %d / %d / %d | all, 0, 0 |\n",
-                v + 1, served[v].correct, served[v].expected, served[v].missed, served[v].false_lights);
+    std::printf(
+        "| view %d: lights with correct ID / missed / false | %d of %d / %d / %d | all, 0, 0 |\n",
+        v + 1, served[v].correct, served[v].expected, served[v].missed, served[v].false_lights);
     std::printf("| view %d: centroid error mean / max | %.3f / %.3f px | <= 0.3 px |\n", v + 1,
                 served[v].mean_error_px, served[v].max_error_px);
   }
@@ -241,8 +238,10 @@ int main(int argc, char** argv) {
   std::printf("| candidate pixels / decoded pixels (view 1) | %lld / %lld | |\n",
               static_cast<long long>(decoded->stats.candidate_pixels),
               static_cast<long long>(decoded->stats.decoded_pixels));
-  std::printf("| triangulation, lights 8-14 (2 views), mean / max error | %.1f / %.1f mm (%d points) | mean <= 5 mm (seed 7 mm) |\n",
-              mean_mm[0], max_mm[0], points[0]);
+  std::printf(
+      "| triangulation, lights 8-14 (2 views), mean / max error | %.1f / %.1f mm (%d points) | "
+      "mean <= 5 mm (seed 7 mm) |\n",
+      mean_mm[0], max_mm[0], points[0]);
   std::printf("| same with bundle adjustment | %.1f / %.1f mm | |\n", mean_mm[1], max_mm[1]);
   return 0;
 }

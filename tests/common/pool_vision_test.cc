@@ -44,7 +44,7 @@ CameraModel CameraOf(const PoolView& view) {
 
 // A fixed, well-spread layout of all ten balls (none touching).
 std::vector<testdata::PoolBallPlacement> SpreadLayout() {
-  return {{0, 300, 350}, {1, 520, 200}, {2, 700, 520}, {3, 900, 180}, {4, 1050, 450},
+  return {{0, 300, 350}, {1, 520, 200}, {2, 700, 520}, {3, 900, 180},  {4, 1050, 450},
           {5, 200, 560}, {6, 450, 470}, {7, 800, 330}, {8, 1150, 250}, {9, 620, 110}};
 }
 
@@ -138,26 +138,30 @@ TEST(PoolOrigin, OppositeShortSideKeepsTheOriginByTheBallArrangement) {
   // degrees. With the reference, the balls land where the reference has them.
   const double cap = 1000;
   EXPECT_GT(ArrangementDistance(alone->balls, reference->balls, cap) / alone->balls.size(), 100);
-  EXPECT_LT(ArrangementDistance(matched->balls, reference->balls, cap) / matched->balls.size(),
-            8);
+  EXPECT_LT(ArrangementDistance(matched->balls, reference->balls, cap) / matched->balls.size(), 8);
   // The corners follow: corner i of the matched view is the same table corner as corner i
   // of the reference, i.e. of the truth in the left view's frame.
   for (int i = 0; i < 4; ++i)
     EXPECT_LT(cv::norm(matched->cloth_corners[i] - right_view.cloth_corners[i]), 2.0) << i;
 }
 
-TEST(PoolErrors, NoTableInView) {
-  PoolScene scene = Scene(PoolViewSide::kLongNear, 40);
-  // Look at the floor beside the table.
-  scene.camera.look_at_mm = {-2500, -1500, -760};
-  const PoolView view = testdata::RenderPoolView(scene, 5);
+// Analysing the rendered view fails with FAILED_PRECONDITION and a message containing
+// `message`.
+void ExpectAnalysisRefused(const PoolScene& scene, uint64_t seed, const std::string& message) {
+  const PoolView view = testdata::RenderPoolView(scene, seed);
   auto analyzer = PoolAnalyzer::Create(ProfileFor(scene.table), CameraOf(view));
   ASSERT_TRUE(analyzer.ok());
   auto analysis = analyzer->Analyze(view.image);
   ASSERT_FALSE(analysis.ok());
   EXPECT_EQ(analysis.status().code(), absl::StatusCode::kFailedPrecondition);
-  EXPECT_NE(analysis.status().message().find("no pool table in view"), std::string::npos)
-      << analysis.status();
+  EXPECT_NE(analysis.status().message().find(message), std::string::npos) << analysis.status();
+}
+
+TEST(PoolErrors, NoTableInView) {
+  PoolScene scene = Scene(PoolViewSide::kLongNear, 40);
+  // Look at the floor beside the table.
+  scene.camera.look_at_mm = {-2500, -1500, -760};
+  ExpectAnalysisRefused(scene, 5, "no pool table in view");
 }
 
 TEST(PoolErrors, OnlyPartOfTheTable) {
@@ -165,14 +169,7 @@ TEST(PoolErrors, OnlyPartOfTheTable) {
   // Zoom in on one end: the far cushion and one side leave the frame.
   scene.camera.horizontal_fov_deg = 30;
   scene.camera.look_at_mm = {250, 350, 0};
-  const PoolView view = testdata::RenderPoolView(scene, 6);
-  auto analyzer = PoolAnalyzer::Create(ProfileFor(scene.table), CameraOf(view));
-  ASSERT_TRUE(analyzer.ok());
-  auto analysis = analyzer->Analyze(view.image);
-  ASSERT_FALSE(analysis.ok());
-  EXPECT_EQ(analysis.status().code(), absl::StatusCode::kFailedPrecondition);
-  EXPECT_NE(analysis.status().message().find("only part of the table"), std::string::npos)
-      << analysis.status();
+  ExpectAnalysisRefused(scene, 6, "only part of the table");
 }
 
 TEST(PoolBackground, BallsAreReplacedByTheCloth) {
@@ -190,15 +187,16 @@ TEST(PoolBackground, BallsAreReplacedByTheCloth) {
     // project again without it).
     const cv::Point2d p = ProjectIdeal(analysis->pose, view.camera_matrix,
                                        {truth.x_mm, truth.y_mm, scene.table.ball_radius_mm});
-    const cv::Vec3b& before = view.image.at<cv::Vec3b>(cvRound(truth.pixel.y), cvRound(truth.pixel.x));
+    const cv::Vec3b& before =
+        view.image.at<cv::Vec3b>(cvRound(truth.pixel.y), cvRound(truth.pixel.x));
     const cv::Vec3b& after = empty.at<cv::Vec3b>(cvRound(p.y), cvRound(p.x));
     EXPECT_LT(ColorAngleDeg(cv::Vec3f(after[0], after[1], after[2]), cloth), 6)
         << "ball " << truth.number;
     if (truth.number == 6) continue;  // the green 6 is close to the cloth to begin with
-      EXPECT_GT(ColorAngleDeg(cv::Vec3f(before[0], before[1], before[2]), cloth) +
-                    std::abs(before[0] + before[1] + before[2] - cloth[0] - cloth[1] - cloth[2]) / 10,
-                6)
-          << "ball " << truth.number;
+    EXPECT_GT(ColorAngleDeg(cv::Vec3f(before[0], before[1], before[2]), cloth) +
+                  std::abs(before[0] + before[1] + before[2] - cloth[0] - cloth[1] - cloth[2]) / 10,
+              6)
+        << "ball " << truth.number;
   }
 }
 
@@ -326,8 +324,8 @@ TEST(PoolProfile, CalibrationLearnsClothAndBallColours) {
   const auto& two = view.balls[2];
   ASSERT_EQ(two.number, 2);
   const cv::Rect ball_region(cvRound(two.pixel.x) - 8, cvRound(two.pixel.y) - 8, 16, 16);
-  auto calibrated = CalibratePoolColors(view.image, cloth_region, {{2, ball_region}},
-                                        BenchPoolProfile());
+  auto calibrated =
+      CalibratePoolColors(view.image, cloth_region, {{2, ball_region}}, BenchPoolProfile());
   ASSERT_TRUE(calibrated.ok()) << calibrated.status();
   // The cloth's hue is the rendered cloth's; the 2 comes out blue.
   const cv::Vec3f cloth_bgr(scene.table.cloth_rgb[2], scene.table.cloth_rgb[1],
@@ -338,8 +336,8 @@ TEST(PoolProfile, CalibrationLearnsClothAndBallColours) {
   EXPECT_GT(b[0], b[1] + 30);
   EXPECT_GT(b[0], b[2] + 30);
   // Bad regions are clear errors.
-  auto outside = CalibratePoolColors(view.image, cv::Rect(600, 400, 100, 100), {},
-                                     BenchPoolProfile());
+  auto outside =
+      CalibratePoolColors(view.image, cv::Rect(600, 400, 100, 100), {}, BenchPoolProfile());
   EXPECT_EQ(outside.status().code(), absl::StatusCode::kInvalidArgument);
 }
 

@@ -7,13 +7,13 @@
 
 #include <filesystem>
 #include <map>
+#include <opencv2/imgcodecs.hpp>
 #include <string>
 #include <vector>
 
-#include <opencv2/imgcodecs.hpp>
-
 #include "tests/data/light_scene.h"
 #include "tests/server/server_process.h"
+#include "tests/server/survey_requests.h"
 #include "texfree/v1/survey.grpc.pb.h"
 
 namespace texfree {
@@ -53,24 +53,7 @@ const Bursts& TunnelBursts() {
 
 v1::CreateSurveyRequest CreateRequest(const testdata::LightScene& scene,
                                       const std::map<uint32_t, cv::Point3d>& references) {
-  v1::CreateSurveyRequest request;
-  request.set_name("tunnel");
-  auto* in = request.mutable_intrinsics();
-  in->set_fx(scene.camera.K(0, 0));
-  in->set_fy(scene.camera.K(1, 1));
-  in->set_cx(scene.camera.K(0, 2));
-  in->set_cy(scene.camera.K(1, 2));
-  for (double d : scene.camera.distortion) in->add_distortion(d);
-  in->set_width(scene.camera.size.width);
-  in->set_height(scene.camera.size.height);
-  for (const auto& [id, X] : references) {
-    auto* r = request.add_references();
-    r->set_id(id);
-    r->mutable_position_m()->set_x(X.x);
-    r->mutable_position_m()->set_y(X.y);
-    r->mutable_position_m()->set_z(X.z);
-  }
-  return request;
+  return testing::SurveyRequestFor(scene, references, "tunnel");
 }
 
 grpc::Status Upload(v1::SurveyService::Stub& stub, const std::string& survey_id,
@@ -118,8 +101,9 @@ TEST_F(SurveyServiceIntegrationTest, TwoViewsSolvedAgainstGroundTruthAndSurviveR
     auto stub = v1::SurveyService::NewStub(server->Channel());
     grpc::ClientContext ctx;
     v1::Survey survey;
-    ASSERT_TRUE(stub->CreateSurvey(&ctx, CreateRequest(bursts.scene, bursts.scene.references), &survey)
-                    .ok());
+    ASSERT_TRUE(
+        stub->CreateSurvey(&ctx, CreateRequest(bursts.scene, bursts.scene.references), &survey)
+            .ok());
     survey_id = survey.survey_id();
 
     for (int v = 0; v < 2; ++v) {
