@@ -29,6 +29,11 @@ absl::Status RetrievalOptions::Validate() const {
     return absl::InvalidArgumentError(absl::StrCat(
         "query_probes must be in [0, ", LlahDescriber::kMaxProbes, "], got ", query_probes));
   if (min_votes < 4) return absl::InvalidArgumentError("min_votes must be >= 4");
+  if (min_coherent_votes < 0) return absl::InvalidArgumentError("min_coherent_votes must be >= 0");
+  if (!(coherence_radius > 0))
+    return absl::InvalidArgumentError(
+        absl::StrCat("coherence_radius must be > 0 (times a page's neighbour distance), got ",
+                     coherence_radius));
   if (candidate_vote_ratio < 0 || candidate_vote_ratio > 1)
     return absl::InvalidArgumentError("candidate_vote_ratio must be in [0, 1]");
   if (max_candidates < 1) return absl::InvalidArgumentError("max_candidates must be >= 1");
@@ -53,6 +58,28 @@ absl::Status RetrievalOptions::Validate() const {
   return absl::OkStatus();
 }
 
+namespace {
+
+// Typical distance from a keypoint to its k-th nearest neighbour on a page (the median over
+// up to 64 keypoints spread over it): what "near" means on this page for the coherence check.
+float NeighbourRadius(const std::vector<cv::Point2f> &points, int k) {
+  if (points.size() <= static_cast<size_t>(k)) return 0.f;
+  NeighborGrid grid(points);
+  std::vector<float> d;
+  std::vector<int> nearest;
+  const size_t step = std::max<size_t>(1, points.size() / 64);
+  for (size_t i = 0; i < points.size(); i += step) {
+    grid.Nearest(static_cast<int>(i), k, &nearest);
+    if (nearest.size() < static_cast<size_t>(k)) continue;
+    d.push_back(static_cast<float>(cv::norm(points[i] - points[nearest.back()])));
+  }
+  if (d.empty()) return 0.f;
+  std::nth_element(d.begin(), d.begin() + d.size() / 2, d.end());
+  return d[d.size() / 2];
+}
+
+}  // namespace
+
 LlahRetriever::LlahRetriever(LlahOptions options, InvariantQuantizer quantizer, int log2_buckets)
     : describer_(options, std::move(quantizer)), index_(log2_buckets) {}
 
@@ -63,11 +90,13 @@ absl::Status LlahRetriever::AddDocument(DocumentKeypoints document) {
   std::vector<uint64_t> hashes = std::move(document.hashes);
   if (hashes.size() != document.keypoints.size() * describer_.descriptors_per_point())
     describer_.Describe(document.keypoints, &hashes);
-  auto model = std::make_shared<Model>(Model{std::move(document.keypoints), document.size});
+  const float radius = NeighbourRadius(document.keypoints, describer_.options().n);
+  auto model = std::make_shared<Model>(Model{std::move(document.keypoints), document.size, radius});
   std::unique_lock lock(mutex_);
   if (models_.count(document.id))
     return absl::AlreadyExistsError(absl::StrCat("document ", document.id, " is already indexed"));
   index_.Add(document.id, hashes, describer_.descriptors_per_point());
+  SetDenseModel(document.id, model.get());
   models_.emplace(document.id, std::move(model));
   return absl::OkStatus();
 }
@@ -89,6 +118,7 @@ absl::Status LlahRetriever::AddDocuments(
   }
   // Workers compute the descriptors that are not stored; then one bucket-ordered load.
   std::atomic<size_t> next{0}, done{0};
+  std::vector<float> radius(total, 0.f);
   std::mutex callback_mutex;
   const size_t per = static_cast<size_t>(describer_.descriptors_per_point());
   auto work = [&]() {
@@ -96,6 +126,7 @@ absl::Status LlahRetriever::AddDocuments(
       const size_t i = next.fetch_add(1);
       if (i >= total) return;
       DocumentKeypoints &d = documents[i];
+      radius[i] = NeighbourRadius(d.keypoints, describer_.options().n);
       if (d.hashes.size() != d.keypoints.size() * per) {
         describer_.Describe(d.keypoints, &d.hashes);
         if (computed) {
@@ -135,7 +166,9 @@ absl::Status LlahRetriever::AddDocuments(
   for (size_t i = 0; i < documents.size(); ++i) {
     if (!added[i]) continue;
     DocumentKeypoints &d = documents[i];
-    models_.emplace(d.id, std::make_shared<Model>(Model{std::move(d.keypoints), d.size}));
+    auto model = std::make_shared<Model>(Model{std::move(d.keypoints), d.size, radius[i]});
+    SetDenseModel(d.id, model.get());
+    models_.emplace(d.id, std::move(model));
   }
   return status;
 }
@@ -152,8 +185,24 @@ bool LlahRetriever::RemoveDocument(uint32_t id) {
   describer_.Describe(model->keypoints, &hashes);
   std::unique_lock lock(mutex_);
   if (!models_.erase(id)) return false;
+  SetDenseModel(id, nullptr);
   index_.Remove(id, hashes, describer_.descriptors_per_point());
   return true;
+}
+
+void LlahRetriever::SetDenseModel(uint32_t id, const Model *model) {
+  if (id >= kDenseIds) return;
+  if (dense_models_.size() <= id) {
+    if (model == nullptr) return;
+    dense_models_.resize(id + 1, nullptr);
+  }
+  dense_models_[id] = model;
+}
+
+const LlahRetriever::Model *LlahRetriever::FindModel(uint32_t id) const {
+  if (id < kDenseIds) return id < dense_models_.size() ? dense_models_[id] : nullptr;
+  auto it = models_.find(id);
+  return it == models_.end() ? nullptr : it->second.get();
 }
 
 bool LlahRetriever::Contains(uint32_t id) const {
@@ -187,17 +236,6 @@ size_t LlahRetriever::MemoryBytes() const {
 
 namespace {
 
-struct Hit {
-  uint32_t document;
-  int query;
-  uint16_t reference;
-  bool operator<(const Hit &o) const {
-    if (document != o.document) return document < o.document;
-    if (query != o.query) return query < o.query;
-    return reference < o.reference;
-  }
-};
-
 struct Correspondence {
   uint32_t document;
   int query;
@@ -206,70 +244,79 @@ struct Correspondence {
               // keypoint
 };
 
-// A document to verify: its slice [begin, end) of the correspondences and its
-// votes.
+// A document to verify: its correspondences and its votes.
 struct Candidate {
   uint32_t document;
-  size_t begin, end;
-  int votes;   // query keypoints with any hit in the document
-  int strong;  // ...of which two or more descriptors agree on one reference
-               // keypoint
-  int Score() const { return strong * 1024 + std::min(votes, 1023); }
+  int votes;         // query keypoints with any hit in the document
+  int strong;        // ...of which two or more descriptors agree on one reference
+                     // keypoint
+  int coherent = 0;  // ...whose neighbourhood a neighbouring correspondence confirms
+  int Score() const { return coherent * (1 << 20) + strong * 1024 + std::min(votes, 1023); }
+  std::vector<Correspondence> correspondences;
 };
 
-// Collapses sorted hits to one correspondence per (document, query keypoint):
-// the first reference keypoint with the most hits.
-std::vector<Correspondence> BestCorrespondences(const std::vector<Hit> &hits) {
-  std::vector<Correspondence> out;
-  for (size_t i = 0; i < hits.size();) {
-    Correspondence c{hits[i].document, hits[i].query, 0, 0};
-    size_t j = i;
-    while (j < hits.size() && hits[j].document == c.document && hits[j].query == c.query) {
-      size_t run = j;
-      while (run < hits.size() && hits[run].document == c.document && hits[run].query == c.query &&
-             hits[run].reference == hits[j].reference)
-        ++run;
-      if (static_cast<int>(run - j) > c.count) {
-        c.count = static_cast<int>(run - j);
-        c.reference = hits[j].reference;
-      }
-      j = run;
+// Hits, votes, strong and coherent votes per document for one query. The registry's ids
+// are dense, so the counters are a per-thread array indexed by id, reset after use (no
+// hashing and no allocation per hit); ids from 2^24 up, too sparse for that, go to a hash
+// map. Find() on a document never touched reads zeros.
+class VoteTally {
+ public:
+  struct Count {
+    int hits = 0, votes = 0, strong = 0, coherent = 0;
+  };
+  VoteTally() { touched().clear(); }
+  ~VoteTally() {
+    for (uint32_t d : touched()) counts()[d] = Count{};
+  }
+  void AddHit(uint32_t document) { ++Touch(document)->hits; }
+  void AddVote(uint32_t document, bool strong) {
+    Count *c = Touch(document);
+    ++c->votes;
+    if (strong) ++c->strong;
+  }
+  void AddCoherent(uint32_t document) { ++Touch(document)->coherent; }
+  Count Get(uint32_t document) const {
+    if (document >= kDense) {
+      auto it = sparse_.find(document);
+      return it == sparse_.end() ? Count{} : it->second;
     }
-    out.push_back(c);
-    i = j;
+    return document < counts().size() ? counts()[document] : Count{};
   }
-  return out;
-}
+  // The hit count a document needs to be among the `keep` with most hits (0: all pass).
+  int HitFloor(int keep) const {
+    std::vector<int> hits;
+    ForEach([&](uint32_t, const Count &c) { hits.push_back(c.hits); });
+    if (keep <= 0 || hits.size() <= static_cast<size_t>(keep)) return 0;
+    std::nth_element(hits.begin(), hits.begin() + (keep - 1), hits.end(), std::greater<int>());
+    return hits[static_cast<size_t>(keep - 1)];
+  }
+  // f(document, count) for every document touched.
+  template <typename F>
+  void ForEach(F f) const {
+    for (uint32_t d : touched()) f(d, counts()[d]);
+    for (const auto &[d, c] : sparse_) f(d, c);
+  }
 
-// Keeps only the hits of the `keep` documents with most hits: a large database gives
-// common descriptors many entries, and sorting every hit would cost more than the rest of
-// the query. Counting per document is linear: one counter per document id (the registry's
-// ids are dense), kept per thread and reset after use, so no hashing and no allocation
-// per query. Ids from 2^24 up are too sparse for that; such databases skip the prefilter.
-void PrefilterHits(int keep, std::vector<Hit> *hits) {
-  if (keep <= 0 || hits->size() < 4096) return;
-  uint32_t max_document = 0;
-  for (const Hit &h : *hits) max_document = std::max(max_document, h.document);
-  if (max_document >= (1u << 24)) return;
-  thread_local std::vector<uint32_t> count;
-  thread_local std::vector<uint32_t> touched;
-  if (count.size() <= max_document) count.resize(max_document + 1, 0);
-  touched.clear();
-  for (const Hit &h : *hits)
-    if (count[h.document]++ == 0) touched.push_back(h.document);
-  if (touched.size() > static_cast<size_t>(keep)) {
-    std::vector<uint32_t> counts;
-    counts.reserve(touched.size());
-    for (uint32_t d : touched) counts.push_back(count[d]);
-    std::nth_element(counts.begin(), counts.begin() + (keep - 1), counts.end(),
-                     std::greater<uint32_t>());
-    const uint32_t floor = counts[static_cast<size_t>(keep - 1)];
-    hits->erase(std::remove_if(hits->begin(), hits->end(),
-                               [&](const Hit &h) { return count[h.document] < floor; }),
-                hits->end());
+ private:
+  static constexpr uint32_t kDense = 1u << 24;
+  Count *Touch(uint32_t document) {
+    if (document >= kDense) return &sparse_[document];
+    auto &dense = counts();
+    if (dense.size() <= document) dense.resize(document + 1);
+    Count *c = &dense[document];
+    if (c->hits == 0 && c->votes == 0 && c->coherent == 0) touched().push_back(document);
+    return c;
   }
-  for (uint32_t d : touched) count[d] = 0;
-}
+  static std::vector<Count> &counts() {
+    thread_local std::vector<Count> dense;
+    return dense;
+  }
+  static std::vector<uint32_t> &touched() {
+    thread_local std::vector<uint32_t> list;
+    return list;
+  }
+  std::unordered_map<uint32_t, Count> sparse_;
+};
 
 // The layout check for documents with few LLAH inliers: the share of the reference
 // keypoints that H puts inside the query keypoints' hull which found a query keypoint
@@ -293,52 +340,161 @@ bool LayoutConfirms(const std::vector<cv::Point2f> &reference, const cv::Matx33d
 
 std::vector<DocumentHit> LlahRetriever::Retrieve(const std::vector<cv::Point2f> &query,
                                                  double query_char_height,
-                                                 const RetrievalOptions &o) const {
+                                                 const RetrievalOptions &o,
+                                                 RetrievalTrace *trace) const {
   std::vector<DocumentHit> results;
+  if (trace) trace->query_keypoints = static_cast<int>(query.size());
   if (query.size() < 8) return results;
   std::vector<uint64_t> hashes;
   describer_.DescribeWithProbes(query, o.query_probes, &hashes);
   const int per = static_cast<int>(hashes.size() / query.size());
 
-  std::vector<Hit> hits;
-  hits.reserve(query.size() * per * 2);
   std::unordered_map<uint32_t, std::shared_ptr<const Model>> candidates_models;
-  // Per (document, query keypoint): the reference keypoint it hit most often,
-  // and how often.
-  std::vector<Correspondence> best;
+  // Per (document, query keypoint): the reference keypoint it hit most often, and how often.
+  thread_local std::vector<Correspondence> best;
+  best.clear();
+  NeighborGrid query_grid(query);
   std::vector<Candidate> ranked;
   {
     std::shared_lock lock(mutex_);
     const int max_hits =
         std::max<int>(o.max_hits_per_descriptor,
                       static_cast<int>(o.max_hits_per_1000_documents * models_.size() / 1000));
+    // Voting, one query keypoint at a time. Its descriptors' hits are few (at most
+    // per * max_hits), so sorting them locally finds, per document, the reference keypoint
+    // most of them agree on. Every document then gets one vote per query keypoint, and a
+    // strong vote when two or more descriptors agree on one reference keypoint: a single
+    // hit is often chance (text is regular, so some arrangements recur on every page),
+    // agreement rarely is. Ranking all documents by these votes, rather than pre-selecting
+    // by raw hit counts, keeps the right page of a large database in the running: raw
+    // hits favour long pages, which collect chance hits by the hundred.
+    // All hits, grouped by query keypoint (hit_begin[q] is where keypoint q's start).
+    struct LocalHit {
+      uint32_t document;
+      uint16_t reference;
+      bool operator<(const LocalHit &o) const {
+        return document != o.document ? document < o.document : reference < o.reference;
+      }
+    };
+    // Scratch kept per thread: a query's hits run to hundreds of thousands at 10,000 pages.
+    thread_local std::vector<LocalHit> hits;
+    hits.clear();
+    std::vector<size_t> hit_begin(query.size() + 1, 0);
     for (size_t q = 0; q < query.size(); ++q) {
+      hit_begin[q] = hits.size();
       for (int j = 0; j < per; ++j) {
         const uint64_t h = hashes[q * per + j];
         if (h == 0) continue;
         // Descriptors under more than max_hits entries are stop words: their hits are dropped.
         const size_t before = hits.size();
         if (index_.ForEachUpTo(h, max_hits, [&](uint32_t doc, uint16_t kp) {
-              hits.push_back({doc, static_cast<int>(q), kp});
-            }) > max_hits)
+              hits.push_back({doc, kp});
+            }) > max_hits) {
           hits.resize(before);
+          if (trace) ++trace->stop_word_lookups;
+        }
       }
     }
-    PrefilterHits(o.prefilter_documents, &hits);
-    std::sort(hits.begin(), hits.end());
-    best = BestCorrespondences(hits);
-    // Votes per document. A query keypoint whose descriptors agree on one
-    // reference keypoint (two or more hits on it) is strong evidence; a single
-    // hit is often chance (text is regular, so some arrangements recur on every
-    // page). Rank by strong votes, then by all votes.
-    for (size_t i = 0; i < best.size();) {
-      Candidate c{best[i].document, i, i, 0, 0};
-      for (; c.end < best.size() && best[c.end].document == c.document; ++c.end) {
-        ++c.votes;
-        if (best[c.end].count >= 2) ++c.strong;
+    hit_begin[query.size()] = hits.size();
+    if (trace) trace->total_hits = static_cast<int>(hits.size());
+    // Only the documents with most hits go on (bounds the query time of large databases).
+    VoteTally tally;
+    for (const LocalHit &h : hits) tally.AddHit(h.document);
+    const int floor = tally.HitFloor(o.prefilter_documents);
+    if (trace) trace->hits = tally.Get(trace->watch).hits;
+
+    // Voting, one query keypoint at a time: sorting its hits finds, per document, the
+    // reference keypoint most of its descriptors agree on. Every document gets one vote per
+    // query keypoint, and a strong vote when two or more descriptors agree on one reference
+    // keypoint: a single hit is often chance (text is regular, so some arrangements recur on
+    // every page), agreement rarely is.
+    thread_local std::vector<LocalHit> local;
+    std::vector<size_t> best_begin(query.size() + 1, 0);
+    for (size_t q = 0; q < query.size(); ++q) {
+      best_begin[q] = best.size();
+      local.clear();
+      for (size_t i = hit_begin[q]; i < hit_begin[q + 1]; ++i)
+        if (tally.Get(hits[i].document).hits >= floor) local.push_back(hits[i]);
+      std::sort(local.begin(), local.end());
+      for (size_t i = 0; i < local.size();) {
+        Correspondence c{local[i].document, static_cast<int>(q), 0, 0};
+        size_t j = i;
+        for (; j < local.size() && local[j].document == c.document;) {
+          size_t run = j;
+          while (run < local.size() && local[run].document == local[j].document &&
+                 local[run].reference == local[j].reference)
+            ++run;
+          if (static_cast<int>(run - j) > c.count) {
+            c.count = static_cast<int>(run - j);
+            c.reference = local[j].reference;
+          }
+          j = run;
+        }
+        tally.AddVote(c.document, c.count >= 2);
+        best.push_back(c);
+        i = j;
       }
-      if (c.votes >= o.min_votes && c.strong >= o.min_strong_votes) ranked.push_back(c);
-      i = c.end;
+    }
+    best_begin[query.size()] = best.size();
+    // Coherence: a correspondence (q, r) of a page is confirmed when a neighbouring query
+    // keypoint q' corresponds to a reference keypoint r' near r on the same page. The right
+    // page's correspondences come in such pairs wherever a patch of text repeats; chance
+    // hits, scattered over a page, rarely do. Each keypoint's correspondences are sorted by
+    // document, so one merge per neighbouring pair finds the pages both hit.
+    const int k = describer_.options().n;
+    std::vector<char> confirmed(best.size(), 0);
+    std::vector<int> nearest;
+    for (size_t q = 0; q < query.size(); ++q) {
+      query_grid.Nearest(static_cast<int>(q), k, &nearest);
+      for (int q2 : nearest) {
+        if (static_cast<size_t>(q2) < q) continue;  // each pair once
+        size_t a = best_begin[q], b = best_begin[q2];
+        const size_t a_end = best_begin[q + 1], b_end = best_begin[q2 + 1];
+        while (a < a_end && b < b_end) {
+          if (best[a].document < best[b].document) {
+            ++a;
+          } else if (best[b].document < best[a].document) {
+            ++b;
+          } else {
+            if ((!confirmed[a] || !confirmed[b]) &&
+                tally.Get(best[a].document).votes >= o.min_votes) {
+              const Model *model = FindModel(best[a].document);
+              if (model != nullptr && best[a].reference != best[b].reference) {
+                const cv::Point2f d =
+                    model->keypoints[best[a].reference] - model->keypoints[best[b].reference];
+                const float radius =
+                    static_cast<float>(o.coherence_radius) * model->neighbour_radius;
+                if (d.dot(d) <= radius * radius) confirmed[a] = confirmed[b] = 1;
+              }
+            }
+            ++a;
+            ++b;
+          }
+        }
+      }
+    }
+    for (size_t i = 0; i < best.size(); ++i)
+      if (confirmed[i]) tally.AddCoherent(best[i].document);
+    std::vector<int> scores;  // for the trace only
+    tally.ForEach([&](uint32_t doc, const VoteTally::Count &n) {
+      if (n.votes == 0) return;
+      Candidate c{doc, n.votes, n.strong, n.coherent, {}};
+      if (trace) {
+        scores.push_back(c.Score());
+        if (doc == trace->watch) {
+          trace->votes = n.votes;
+          trace->strong = n.strong;
+          trace->coherent = n.coherent;
+        }
+      }
+      if (n.votes >= o.min_votes && n.strong >= o.min_strong_votes &&
+          n.coherent >= o.min_coherent_votes)
+        ranked.push_back(std::move(c));
+    });
+    if (trace) {
+      const Candidate mine{trace->watch, trace->votes, trace->strong, trace->coherent, {}};
+      trace->rank_by_votes = static_cast<int>(
+          std::count_if(scores.begin(), scores.end(), [&](int s) { return s > mine.Score(); }));
     }
     std::sort(ranked.begin(), ranked.end(), [](const Candidate &a, const Candidate &b) {
       if (a.Score() != b.Score()) return a.Score() > b.Score();
@@ -348,18 +504,29 @@ std::vector<DocumentHit> LlahRetriever::Retrieve(const std::vector<cv::Point2f> 
       const double floor = o.candidate_vote_ratio * ranked.front().Score();
       while (!ranked.empty() && ranked.back().Score() < floor) ranked.pop_back();
     }
+    if (trace) {
+      trace->candidates = static_cast<int>(ranked.size());
+      for (size_t r = 0; r < ranked.size(); ++r)
+        if (ranked[r].document == trace->watch) trace->rank = static_cast<int>(r);
+    }
     if (static_cast<int>(ranked.size()) > o.max_candidates) ranked.resize(o.max_candidates);
     for (const Candidate &c : ranked) {
       auto it = models_.find(c.document);
       if (it != models_.end()) candidates_models[c.document] = it->second;
     }
   }
+  // The candidates' correspondences, in query keypoint order.
+  for (const Correspondence &c : best)
+    for (Candidate &candidate : ranked)
+      if (candidate.document == c.document) {
+        candidate.correspondences.push_back(c);
+        break;
+      }
 
   const double threshold = o.ransac_threshold_px > 0
                                ? o.ransac_threshold_px
                                : std::clamp(0.45 * query_char_height, 2.5, 12.0);
   std::vector<char> used(query.size(), 0);
-  NeighborGrid query_grid(query);
   std::vector<cv::Point2f> query_hull;  // computed when a layout check needs it
   std::vector<int> nearest;
   for (const Candidate &candidate : ranked) {
@@ -370,8 +537,7 @@ std::vector<DocumentHit> LlahRetriever::Retrieve(const std::vector<cv::Point2f> 
     std::vector<cv::Point2f> ref_pts, query_pts;
     std::vector<std::pair<int, int>> pairs;
     std::vector<int> strength;
-    for (size_t i = candidate.begin; i < candidate.end; ++i) {
-      const Correspondence &c = best[i];
+    for (const Correspondence &c : candidate.correspondences) {
       if (used[c.query] || c.reference >= model.keypoints.size()) continue;
       ref_pts.push_back(model.keypoints[c.reference]);
       query_pts.push_back(query[c.query]);
@@ -405,6 +571,8 @@ std::vector<DocumentHit> LlahRetriever::Retrieve(const std::vector<cv::Point2f> 
         inlier_pairs.push_back(pairs[i]);
       }
     }
+    const bool traced = trace && doc == trace->watch;
+    if (traced) trace->ransac_inliers = static_cast<int>(inlier_pairs.size());
     if (static_cast<int>(inlier_pairs.size()) < o.min_weak_inliers) continue;
     if (!MakePlausibleHomography(&H, inlier_ref)) continue;
 
@@ -464,12 +632,17 @@ std::vector<DocumentHit> LlahRetriever::Retrieve(const std::vector<cv::Point2f> 
       const cv::Point2d p = ApplyHomography(H, ref_pts[i]);
       if (cv::norm(p - cv::Point2d(query_pts[i])) <= threshold) ++inliers;
     }
+    if (traced) {
+      trace->final_inliers = inliers;
+      trace->guided = static_cast<int>(guided.size());
+    }
     if (inliers < o.min_weak_inliers) continue;
     if (inliers < o.min_inliers) {
       if (query_hull.empty()) cv::convexHull(query, query_hull);
       if (!LayoutConfirms(model.keypoints, H, query_hull, static_cast<int>(guided.size()), o))
         continue;
     }
+    if (traced) trace->accepted = true;
     DocumentHit hit;
     hit.document = doc;
     // h22 = +-1, keeping the sign that puts the matched points in front of the camera.

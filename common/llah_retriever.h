@@ -26,9 +26,9 @@ struct RetrievalOptions {
   // recur on many pages of a large one (at 10,000 pages a fixed limit of 24 loses most).
   int max_hits_per_descriptor = 12;
   int max_hits_per_1000_documents = 30;
-  // Only the hits of this many documents (those with most hits) are grouped and ranked;
-  // 0 keeps all. Bounds the query time of large databases.
-  int prefilter_documents = 64;
+  // Only the documents with most hits (this many) are voted for; 0 keeps all. Bounds the
+  // query time of large databases.
+  int prefilter_documents = 256;
   // Query-side multi-probe (LlahDescriber::DescribeWithProbes): 2^query_probes
   // lookups per descriptor, forgiving that many invariants quantised across a
   // level boundary.
@@ -38,7 +38,13 @@ struct RetrievalOptions {
   // ...of which this many agree on one reference keypoint with two or more
   // descriptors.
   int min_strong_votes = 2;
-  // ...and at least this share of the best document's votes.
+  // ...and this many of them coherent: a neighbouring query keypoint corresponds to a
+  // reference keypoint within coherence_radius times the page's typical distance to the
+  // n-th nearest keypoint. Candidates are ranked by coherent votes first: at 10,000 pages,
+  // chance hits give many pages as many votes, even strong ones, as the right page gets.
+  int min_coherent_votes = 3;
+  double coherence_radius = 2.0;
+  // ...and at least this share of the best document's score.
   double candidate_vote_ratio = 0.05;
   // At most this many documents are verified per query (RANSAC is the costly
   // step).
@@ -76,6 +82,25 @@ struct DocumentHit {
   std::vector<std::pair<int, int>> matches;
 };
 
+// What Retrieve() did with one document, for diagnosing a miss (benchmarks, tests): how far
+// the document got through the gates, and the numbers each gate looked at.
+struct RetrievalTrace {
+  uint32_t watch = 0;  // the document to follow (set by the caller)
+  int query_keypoints = 0;
+  int stop_word_lookups = 0;  // query descriptors dropped as too common
+  int total_hits = 0;         // index hits of every document
+  int hits = 0;               // the watched document's
+  int votes = 0, strong = 0;  // the watched document's votes and strong votes
+  int coherent = -1;          // ...and coherent votes (-1: too few votes to count them)
+  int rank_by_votes = -1;     // 0-based rank by score among all documents voted for
+  int rank = -1;              // among the candidates before the max_candidates cut
+  int candidates = 0;         // documents that passed the vote gates
+  int ransac_inliers = -1;    // -1: not verified
+  int final_inliers = -1;
+  int guided = -1;
+  bool accepted = false;
+};
+
 struct DocumentKeypoints {
   uint32_t id = 0;
   std::vector<cv::Point2f> keypoints;
@@ -107,8 +132,10 @@ class LlahRetriever {
   bool Contains(uint32_t id) const;
 
   // query_char_height: the extractor's estimate, used for the RANSAC threshold.
+  // `trace`, when given, records what happened to the document trace->watch.
   std::vector<DocumentHit> Retrieve(const std::vector<cv::Point2f> &query, double query_char_height,
-                                    const RetrievalOptions &options) const;
+                                    const RetrievalOptions &options,
+                                    RetrievalTrace *trace = nullptr) const;
 
   // Reference keypoints of a document (empty if unknown).
   std::vector<cv::Point2f> Keypoints(uint32_t id) const;
@@ -123,11 +150,18 @@ class LlahRetriever {
   struct Model {
     std::vector<cv::Point2f> keypoints;
     cv::Size size;
+    float neighbour_radius = 0;  // median distance to the n-th nearest keypoint
   };
+  // Ids below kDenseIds (the registry's are dense from 1) also find their model through
+  // dense_models_, without hashing: the coherence check looks up thousands per query.
+  static constexpr uint32_t kDenseIds = 1u << 24;
+  void SetDenseModel(uint32_t id, const Model *model);  // under the exclusive lock
+  const Model *FindModel(uint32_t id) const;            // under a lock
   LlahDescriber describer_;
   mutable std::shared_mutex mutex_;
   InvertedIndex index_;
   std::unordered_map<uint32_t, std::shared_ptr<const Model>> models_;
+  std::vector<const Model *> dense_models_;
 };
 
 }  // namespace texfree

@@ -150,6 +150,17 @@ void PrintMiss(const DocumentRegistry &registry, const Query &q, const cv::Mat &
     const auto kp = texfree::WordKeypointExtractor(o).Extract(gray);
     stats += " | " + RepeatStats(kp.points, kp.char_height, ref, q.truth, gray.size(),
                                  registry.retriever()->describer());
+    texfree::RetrievalTrace t;
+    t.watch = record->index_id;
+    registry.retriever()->Retrieve(kp.points, kp.char_height, registry.options().retrieval, &t);
+    char line[200];
+    std::snprintf(line, sizeof(line),
+                  " [stop %d, hits %d/%d, votes %d/%d/%d rank %d, candidate %d of %d, ransac %d "
+                  "final %d guided %d%s]",
+                  t.stop_word_lookups, t.hits, t.total_hits, t.coherent, t.strong, t.votes,
+                  t.rank_by_votes, t.rank, t.candidates, t.ransac_inliers, t.final_inliers,
+                  t.guided, t.accepted ? " accepted" : "");
+    stats += line;
   }
   std::fprintf(
       stderr, "miss page %d: tilt %.0f scale %.2f blur %.1f noise %.1f light %.2f%s | %s\n", q.page,
@@ -169,6 +180,10 @@ int main(int argc, char **argv) {
   bool keep = false;
   app.add_option("--pages", checkpoints, "registered page counts to measure at")->delimiter(',');
   app.add_option("--queries", queries, "camera views of registered pages per checkpoint");
+  int query_pages = 0;
+  app.add_option("--query-pages", query_pages,
+                 "draw the views from the first N pages only, with one seed for every checkpoint "
+                 "(the same views at each size; 0: from all registered pages)");
   app.add_option("--unregistered", unregistered, "camera views of never-registered pages");
   app.add_option("--dir", dir, "working directory for the database");
   app.add_flag("--keep", keep, "reuse an existing database in --dir");
@@ -182,10 +197,14 @@ int main(int argc, char **argv) {
                  "stop-word limit growth: entries per 1,000 registered pages");
   app.add_option("--max-candidates", registry_options.retrieval.max_candidates,
                  "documents verified per query");
-  app.add_option("--prefilter", registry_options.retrieval.prefilter_documents,
-                 "documents whose hits are ranked (0: all)");
   app.add_option("--min-votes", registry_options.retrieval.min_votes,
                  "query keypoints voting for a document before it is verified");
+  app.add_option("--prefilter", registry_options.retrieval.prefilter_documents,
+                 "documents (most hits) that are voted for (0: all)");
+  app.add_option("--min-coherent", registry_options.retrieval.min_coherent_votes,
+                 "...of which have a neighbouring correspondence near on the page");
+  app.add_option("--coherence-radius", registry_options.retrieval.coherence_radius,
+                 "'near': times the page's typical distance to the n-th nearest keypoint");
   app.add_option("--min-strong", registry_options.retrieval.min_strong_votes,
                  "...of which agree on one reference keypoint with 2+ descriptors");
   app.add_option("--min-weak-inliers", registry_options.retrieval.min_weak_inliers,
@@ -276,7 +295,9 @@ int main(int argc, char **argv) {
       }
     }
 
-    const auto queries_now = MakeQueries(queries, registered, 1234 + target, false);
+    const auto queries_now =
+        query_pages > 0 ? MakeQueries(queries, std::min(query_pages, registered), 1234, false)
+                        : MakeQueries(queries, registered, 1234 + target, false);
     std::vector<double> times, cpu_times, errors;
     std::map<std::string, double> stage_ms;
     int correct = 0, false_matches = 0;
