@@ -15,6 +15,7 @@
 #include "absl/strings/str_cat.h"
 #include "common/neighbor_grid.h"
 #include "common/planar_pose.h"
+#include "common/text_perspective.h"
 
 namespace texfree {
 
@@ -55,6 +56,11 @@ absl::Status RetrievalOptions::Validate() const {
         "min_layout_ratio must be in (0.25, 1] (chance alignments of text reach ~0.2), got ",
         min_layout_ratio));
   if (max_results < 0) return absl::InvalidArgumentError("max_results must be >= 0");
+  if (rectify_perspective) {
+    absl::Status status = perspective.Validate();
+    if (!status.ok())
+      return absl::InvalidArgumentError(absl::StrCat("perspective: ", status.message()));
+  }
   return absl::OkStatus();
 }
 
@@ -346,7 +352,13 @@ std::vector<DocumentHit> LlahRetriever::Retrieve(const std::vector<cv::Point2f> 
   if (trace) trace->query_keypoints = static_cast<int>(query.size());
   if (query.size() < 8) return results;
   std::vector<uint64_t> hashes;
-  describer_.DescribeWithProbes(query, o.query_probes, &hashes);
+  // Descriptors of a steep view are computed on its keypoints rectified to an affine image
+  // of the page (text_perspective.h); positions stay the query's.
+  std::optional<cv::Matx33d> rectification;
+  if (o.rectify_perspective) rectification = EstimateTextPerspective(query, o.perspective);
+  if (trace) trace->rectified = rectification.has_value();
+  describer_.DescribeWithProbes(rectification ? ApplyPerspective(*rectification, query) : query,
+                                o.query_probes, &hashes);
   const int per = static_cast<int>(hashes.size() / query.size());
 
   std::unordered_map<uint32_t, std::shared_ptr<const Model>> candidates_models;

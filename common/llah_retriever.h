@@ -16,6 +16,7 @@
 #include "absl/status/status.h"
 #include "common/inverted_index.h"
 #include "common/llah.h"
+#include "common/text_perspective.h"
 
 namespace texfree {
 
@@ -68,6 +69,10 @@ struct RetrievalOptions {
   double min_layout_ratio = 0.45;
   // 0 = every visible document.
   int max_results = 0;
+  // Query descriptors are computed on keypoints rectified to an affine image of the page
+  // when the view is steep (text_perspective.h): LLAH's invariants are only affine.
+  bool rectify_perspective = true;
+  TextPerspectiveOptions perspective;
 
   absl::Status Validate() const;
 };
@@ -87,6 +92,7 @@ struct DocumentHit {
 struct RetrievalTrace {
   uint32_t watch = 0;  // the document to follow (set by the caller)
   int query_keypoints = 0;
+  bool rectified = false;     // the query's descriptors were computed on rectified keypoints
   int stop_word_lookups = 0;  // query descriptors dropped as too common
   int total_hits = 0;         // index hits of every document
   int hits = 0;               // the watched document's

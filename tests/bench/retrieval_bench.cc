@@ -155,11 +155,11 @@ void PrintMiss(const DocumentRegistry &registry, const Query &q, const cv::Mat &
     registry.retriever()->Retrieve(kp.points, kp.char_height, registry.options().retrieval, &t);
     char line[200];
     std::snprintf(line, sizeof(line),
-                  " [stop %d, hits %d/%d, votes %d/%d/%d rank %d, candidate %d of %d, ransac %d "
+                  " [%sstop %d, hits %d/%d, votes %d/%d/%d rank %d, candidate %d of %d, ransac %d "
                   "final %d guided %d%s]",
-                  t.stop_word_lookups, t.hits, t.total_hits, t.coherent, t.strong, t.votes,
-                  t.rank_by_votes, t.rank, t.candidates, t.ransac_inliers, t.final_inliers,
-                  t.guided, t.accepted ? " accepted" : "");
+                  t.rectified ? "rectified, " : "", t.stop_word_lookups, t.hits, t.total_hits,
+                  t.coherent, t.strong, t.votes, t.rank_by_votes, t.rank, t.candidates,
+                  t.ransac_inliers, t.final_inliers, t.guided, t.accepted ? " accepted" : "");
     stats += line;
   }
   std::fprintf(
@@ -201,6 +201,11 @@ int main(int argc, char **argv) {
                  "query keypoints voting for a document before it is verified");
   app.add_option("--prefilter", registry_options.retrieval.prefilter_documents,
                  "documents (most hits) that are voted for (0: all)");
+  bool no_rectify = false;
+  app.add_flag("--no-rectify", no_rectify,
+               "describe steep views' keypoints as seen (no perspective rectification)");
+  app.add_option("--depth-ratio", registry_options.retrieval.perspective.min_depth_ratio,
+                 "rectify when the fitted depth varies over the keypoints by at least this ratio");
   app.add_option("--min-coherent", registry_options.retrieval.min_coherent_votes,
                  "...of which have a neighbouring correspondence near on the page");
   app.add_option("--coherence-radius", registry_options.retrieval.coherence_radius,
@@ -226,6 +231,7 @@ int main(int argc, char **argv) {
   app.add_flag("--misses", misses, "print why each missed query failed (keypoint repeatability)");
   app.add_flag("--no-fallback", no_fallback, "query with the registration extractor only");
   CLI11_PARSE(app, argc, argv);
+  if (no_rectify) registry_options.retrieval.rectify_perspective = false;
   if (line_closing) std::swap(registry_options.keypoints, registry_options.fallback_keypoints[0]);
   if (no_fallback) registry_options.fallback_keypoints.clear();
   spdlog::set_level(spdlog::level::warn);

@@ -1,0 +1,114 @@
+// EstimateTextPerspective: a robust linear fit of keypoint spacing^(2/3) over the image.
+#include "common/text_perspective.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "absl/strings/str_cat.h"
+#include "common/neighbor_grid.h"
+
+namespace texfree {
+
+absl::Status TextPerspectiveOptions::Validate() const {
+  if (neighbour < 1 || neighbour > 16)
+    return absl::InvalidArgumentError(
+        absl::StrCat("neighbour must be in [1, 16], got ", neighbour));
+  if (min_points < 10)
+    return absl::InvalidArgumentError(
+        absl::StrCat("min_points must be >= 10 (a plane fit of noisy spacings), got ", min_points));
+  if (!(min_depth_ratio >= 1.0) || !(max_depth_ratio > min_depth_ratio))
+    return absl::InvalidArgumentError(
+        absl::StrCat("need 1 <= min_depth_ratio < max_depth_ratio, got ", min_depth_ratio, " and ",
+                     max_depth_ratio));
+  if (iterations < 1) return absl::InvalidArgumentError("iterations must be >= 1");
+  return absl::OkStatus();
+}
+
+std::optional<cv::Matx33d> EstimateTextPerspective(const std::vector<cv::Point2f> &points,
+                                                   const TextPerspectiveOptions &o) {
+  const size_t n = points.size();
+  if (n < static_cast<size_t>(std::max(o.min_points, o.neighbour + 1))) return std::nullopt;
+  // Normalised coordinates around the centroid, so the fit is well conditioned.
+  double cx = 0, cy = 0;
+  for (const cv::Point2f &p : points) {
+    cx += p.x;
+    cy += p.y;
+  }
+  cx /= n;
+  cy /= n;
+  double s = 0;
+  for (const cv::Point2f &p : points) s += (p.x - cx) * (p.x - cx) + (p.y - cy) * (p.y - cy);
+  s = std::sqrt(s / n);
+  if (s < 1e-6) return std::nullopt;
+
+  NeighborGrid grid(points);
+  std::vector<double> u(n), v(n), y(n), w(n, 1.0);
+  std::vector<int> nearest;
+  for (size_t i = 0; i < n; ++i) {
+    u[i] = (points[i].x - cx) / s;
+    v[i] = (points[i].y - cy) / s;
+    grid.Nearest(static_cast<int>(i), o.neighbour, &nearest);
+    const double r = nearest.size() == static_cast<size_t>(o.neighbour)
+                         ? cv::norm(points[i] - points[nearest.back()])
+                         : 0.0;
+    y[i] = std::cbrt(r * r);  // r^(2/3)
+    if (r <= 0) w[i] = 0;
+  }
+
+  cv::Vec3d plane(0, 0, 0);  // y = a u + b v + c
+  std::vector<double> residual(n);
+  for (int it = 0; it < o.iterations; ++it) {
+    cv::Matx33d A = cv::Matx33d::zeros();
+    cv::Vec3d rhs(0, 0, 0);
+    for (size_t i = 0; i < n; ++i) {
+      if (w[i] <= 0) continue;
+      const cv::Vec3d f(u[i], v[i], 1.0);
+      A += w[i] * (f * f.t());
+      rhs += w[i] * y[i] * f;
+    }
+    if (std::abs(cv::determinant(A)) < 1e-12) return std::nullopt;
+    plane = A.inv() * rhs;
+    // Tukey's biweight on residuals scaled by their median absolute value: paragraph gaps,
+    // margins and headings give spacings far off the plane, and they are dropped.
+    for (size_t i = 0; i < n; ++i)
+      residual[i] = std::abs(y[i] - plane.dot(cv::Vec3d(u[i], v[i], 1)));
+    std::vector<double> sorted = residual;
+    std::nth_element(sorted.begin(), sorted.begin() + n / 2, sorted.end());
+    const double c = 4.685 * 1.4826 * std::max(sorted[n / 2], 1e-9);
+    for (size_t i = 0; i < n; ++i) {
+      if (y[i] <= 0) continue;
+      const double t = residual[i] / c;
+      w[i] = t < 1 ? (1 - t * t) * (1 - t * t) : 0.0;
+    }
+  }
+  if (!(plane[2] > 0)) return std::nullopt;
+  const double ga = plane[0] / plane[2], gb = plane[1] / plane[2];
+  // Depth over the keypoints that carried the fit.
+  double lo = 1e9, hi = -1e9;
+  for (size_t i = 0; i < n; ++i) {
+    if (w[i] <= 0) continue;
+    const double d = 1 + ga * u[i] + gb * v[i];
+    lo = std::min(lo, d);
+    hi = std::max(hi, d);
+  }
+  if (!(lo > 0.1) || hi / lo < o.min_depth_ratio || hi / lo > o.max_depth_ratio)
+    return std::nullopt;
+  // P = T^-1 * [I 0; ga gb 1] * T, with T the normalisation.
+  const cv::Matx33d T(1 / s, 0, -cx / s, 0, 1 / s, -cy / s, 0, 0, 1);
+  const cv::Matx33d Ti(s, 0, cx, 0, s, cy, 0, 0, 1);
+  const cv::Matx33d Pn(1, 0, 0, 0, 1, 0, ga, gb, 1);
+  return Ti * Pn * T;
+}
+
+std::vector<cv::Point2f> ApplyPerspective(const cv::Matx33d &P,
+                                          const std::vector<cv::Point2f> &points) {
+  std::vector<cv::Point2f> out;
+  out.reserve(points.size());
+  for (const cv::Point2f &p : points) {
+    const cv::Vec3d q = P * cv::Vec3d(p.x, p.y, 1.0);
+    out.emplace_back(static_cast<float>(q[0] / q[2]), static_cast<float>(q[1] / q[2]));
+  }
+  return out;
+}
+
+}  // namespace texfree

@@ -1,0 +1,53 @@
+// Perspective of a text page in a camera image, estimated from how densely its keypoints
+// lie: an affine rectification for LLAH.
+//
+// LLAH's invariants (ratios of triangle areas) are affine invariants. A camera tilted 30-40
+// degrees away from the page adds a projective part that changes those ratios across a
+// neighbourhood of seven words by 10-20%, enough to move them into other quantisation
+// levels, so the descriptors of a steep view stop matching the page's. The projective part
+// can be read from the image itself: word keypoints are spread evenly over a page, and the
+// homography G from image to page scales areas by det(G) / (g3 . p)^3 at image point p
+// (g3 = G's third row). The distance from a keypoint to its k-th nearest neighbour thus
+// grows as (g3 . p)^(3/2): a robust linear fit of that distance^(2/3) over the image gives
+// g3 up to scale. Mapping the keypoints through P = [I 0; g3 / g33] leaves an affine image
+// of the page, on which the invariants hold again.
+#pragma once
+
+#include <opencv2/core.hpp>
+#include <optional>
+#include <vector>
+
+#include "absl/status/status.h"
+
+namespace texfree {
+
+struct TextPerspectiveOptions {
+  // The local spacing is the distance to this nearest neighbour (beyond the word's own
+  // line neighbours, so it follows the line spacing too).
+  int neighbour = 4;
+  // Fewer keypoints than this give no estimate.
+  int min_points = 40;
+  // The rectification is applied only when the fitted depth varies over the keypoints by
+  // at least this ratio (max / min): below it the view is close enough to affine, and a
+  // fit of noisy spacings would only add noise.
+  double min_depth_ratio = 1.15;
+  // ...and is rejected beyond this ratio (a steeper view than the keypoints can describe,
+  // or a fit fooled by the layout).
+  double max_depth_ratio = 4.0;
+  // Iterations of the robust (Tukey-weighted) least-squares fit.
+  int iterations = 6;
+
+  absl::Status Validate() const;
+};
+
+// The projective rectification P (image pixels -> an affine image of the page, in pixels
+// around the keypoints' centre), or nothing when the view is close to affine or the fit is
+// not trustworthy.
+std::optional<cv::Matx33d> EstimateTextPerspective(const std::vector<cv::Point2f> &points,
+                                                   const TextPerspectiveOptions &options = {});
+
+// points mapped through P.
+std::vector<cv::Point2f> ApplyPerspective(const cv::Matx33d &P,
+                                          const std::vector<cv::Point2f> &points);
+
+}  // namespace texfree
