@@ -1,12 +1,36 @@
 // InvertedIndex implementation.
 #include "common/inverted_index.h"
 
+#include <algorithm>
 #include <stdexcept>
 
 namespace texfree {
 
 InvertedIndex::InvertedIndex(int log2_buckets)
-    : shift_(64 - log2_buckets), heads_(size_t{1} << log2_buckets, kNil) {}
+    : shift_(64 - log2_buckets),
+      heads_(size_t{1} << log2_buckets, kNil),
+      sketch_bits_(log2_buckets),
+      sketch_(size_t{2} << log2_buckets, 0) {}
+
+size_t InvertedIndex::SketchSlot(uint64_t hash, int row) const {
+  // Multiply-shift with two odd constants: two counters per hash, independent of the bucket
+  // (top bits) and of the check (low bits).
+  static constexpr uint64_t kMix[2] = {0x9E3779B97F4A7C15ull, 0xC2B2AE3D27D4EB4Full};
+  return (static_cast<size_t>(row) << sketch_bits_) +
+         static_cast<size_t>((hash * kMix[row]) >> (64 - sketch_bits_));
+}
+
+int InvertedIndex::SketchCount(uint64_t hash) const {
+  return std::min(sketch_[SketchSlot(hash, 0)], sketch_[SketchSlot(hash, 1)]);
+}
+
+void InvertedIndex::SketchAdd(uint64_t hash, int delta) {
+  for (int row = 0; row < 2; ++row) {
+    uint16_t& c = sketch_[SketchSlot(hash, row)];
+    if (c == 0xFFFF) continue;  // saturated: stays an upper bound
+    c = static_cast<uint16_t>(c + delta);
+  }
+}
 
 uint32_t InvertedIndex::Allocate() {
   if (free_ != kNil) {
@@ -27,6 +51,7 @@ void InvertedIndex::Add(uint32_t document, const std::vector<uint64_t>& hashes, 
     const size_t b = Bucket(h);
     pool_[e] = {document, static_cast<uint16_t>(i / per_point), Check(h), heads_[b]};
     heads_[b] = e;
+    SketchAdd(h, 1);
     ++live_;
   }
 }
@@ -59,6 +84,7 @@ void InvertedIndex::AddBatch(const std::vector<Batch>& batch, int per_point) {
       if (h == 0) continue;
       pool_[base + cursor[Bucket(h)]++] = {d.document, static_cast<uint16_t>(i / per_point),
                                            Check(h), kNil};
+      SketchAdd(h, 1);
     }
   }
   // cursor[b] is now the end of bucket b's run; link each run, then the older chain.
@@ -85,6 +111,7 @@ bool InvertedIndex::AddIfAbsent(uint64_t hash, uint32_t document, uint16_t keypo
   const uint32_t e = Allocate();
   pool_[e] = {document, keypoint, Check(hash), heads_[b]};
   heads_[b] = e;
+  SketchAdd(hash, 1);
   ++live_;
   return true;
 }
@@ -104,6 +131,7 @@ size_t InvertedIndex::Remove(uint32_t document, const std::vector<uint64_t>& has
         *link = x.next;
         pool_[e].next = free_;
         free_ = e;
+        SketchAdd(h, -1);
         --live_;
         ++removed;
         break;  // Add() made exactly one entry per hash slot
@@ -123,7 +151,8 @@ int InvertedIndex::Count(uint64_t hash, int limit) const {
 }
 
 size_t InvertedIndex::MemoryBytes() const {
-  return heads_.capacity() * sizeof(uint32_t) + pool_.capacity() * sizeof(Entry);
+  return heads_.capacity() * sizeof(uint32_t) + pool_.capacity() * sizeof(Entry) +
+         sketch_.capacity() * sizeof(uint16_t);
 }
 
 }  // namespace texfree

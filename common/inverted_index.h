@@ -65,6 +65,15 @@ class InvertedIndex {
   // Number of entries under a hash (with the check), stopping at `limit`.
   int Count(uint64_t hash, int limit) const;
 
+  // True when the hash certainly or almost certainly has more than `limit` entries, told
+  // without walking its chain: a count-min sketch (two rows of 2^log2_buckets saturating
+  // counters) bounds every hash's count from above, overestimating by the few entries of
+  // other hashes that share both its counters. Stop-word tests use it, because walking a
+  // common descriptor's hundreds of entries only to discard them was most of a query's
+  // lookup time at 10,000 pages; a hash within a few entries of the limit may be called a
+  // stop word too.
+  bool LikelyExceeds(uint64_t hash, int limit) const { return SketchCount(hash) > limit; }
+
   // Pre-allocates room for `entries` entries (start-up rebuild knows the total).
   void Reserve(size_t entries) { pool_.reserve(entries); }
 
@@ -83,10 +92,15 @@ class InvertedIndex {
   size_t Bucket(uint64_t hash) const { return static_cast<size_t>(hash >> shift_); }
   static uint16_t Check(uint64_t hash) { return static_cast<uint16_t>(hash & 0xFFFF); }
   uint32_t Allocate();
+  size_t SketchSlot(uint64_t hash, int row) const;
+  int SketchCount(uint64_t hash) const;
+  void SketchAdd(uint64_t hash, int delta);
 
   int shift_;
   std::vector<uint32_t> heads_;
   std::vector<Entry> pool_;
+  int sketch_bits_;
+  std::vector<uint16_t> sketch_;  // two rows
   uint32_t free_ = kNil;
   size_t live_ = 0;
 };

@@ -398,6 +398,10 @@ std::vector<DocumentHit> LlahRetriever::Retrieve(const std::vector<cv::Point2f> 
         const uint64_t h = hashes[q * per + j];
         if (h == 0) continue;
         // Descriptors under more than max_hits entries are stop words: their hits are dropped.
+        if (index_.LikelyExceeds(h, max_hits)) {
+          if (trace) ++trace->stop_word_lookups;
+          continue;
+        }
         const size_t before = hits.size();
         if (index_.ForEachUpTo(h, max_hits, [&](uint32_t doc, uint16_t kp) {
               hits.push_back({doc, kp});
