@@ -223,5 +223,37 @@ TEST(InvertedIndexTest, ReserveDoesNotChangeContents) {
   EXPECT_EQ(Lookup(index, 22), (std::multiset<Entry>{{1, 1}}));
 }
 
+// The stop-word sketch bounds every hash's count from above (never calls a rare descriptor
+// common) and follows adds, bulk loads and removals.
+TEST(InvertedIndexTest, LikelyExceedsBoundsCountsThroughAddsAndRemovals) {
+  std::mt19937_64 rng(7);
+  InvertedIndex index(12);  // small sketch: 4096 counters per row, so collisions happen
+  const uint64_t common = 0x123456789abcdefull;
+  std::vector<uint64_t> hashes = RandomHashes(rng, 3000, 1);
+  // 40 documents each holding the common descriptor once, plus 3000 random ones.
+  std::vector<std::vector<uint64_t>> docs(40);
+  for (size_t d = 0; d < docs.size(); ++d) {
+    docs[d] = {common};
+    for (size_t i = d; i < hashes.size(); i += docs.size()) docs[d].push_back(hashes[i]);
+  }
+  std::vector<InvertedIndex::Batch> batch;
+  for (size_t d = 0; d < 20; ++d) batch.push_back({static_cast<uint32_t>(d), &docs[d]});
+  index.AddBatch(batch, 1);
+  for (size_t d = 20; d < docs.size(); ++d) index.Add(static_cast<uint32_t>(d), docs[d], 1);
+
+  EXPECT_TRUE(index.LikelyExceeds(common, 39));
+  EXPECT_FALSE(index.LikelyExceeds(common, 45)) << "overestimates by more than a few";
+  // A descriptor with one entry is never a stop word at any limit >= 1, and the sketch
+  // never reports fewer entries than there are.
+  for (uint64_t h : hashes) {
+    ASSERT_FALSE(index.LikelyExceeds(h, 8));
+    ASSERT_TRUE(index.LikelyExceeds(h, 0));
+  }
+  for (size_t d = 0; d < 30; ++d) index.Remove(static_cast<uint32_t>(d), docs[d], 1);
+  EXPECT_EQ(index.Count(common, 100), 10);
+  EXPECT_TRUE(index.LikelyExceeds(common, 9));
+  EXPECT_FALSE(index.LikelyExceeds(common, 15));
+}
+
 }  // namespace
 }  // namespace texfree
