@@ -348,17 +348,39 @@ std::vector<DocumentHit> LlahRetriever::Retrieve(const std::vector<cv::Point2f> 
                                                  double query_char_height,
                                                  const RetrievalOptions &o,
                                                  RetrievalTrace *trace) const {
+  // Descriptors of a steep view are computed on its keypoints rectified to an affine image
+  // of the page (text_perspective.h); positions stay the query's.
+  std::optional<cv::Matx33d> rectification;
+  if (o.rectify_perspective && query.size() >= 8)
+    rectification = EstimateTextPerspective(query, o.perspective);
+  if (!rectification) return RetrieveDescribed(query, query, query_char_height, o, trace);
+  RetrievalTrace rectified_trace;
+  if (trace) rectified_trace.watch = trace->watch;
+  rectified_trace.rectified = true;
+  auto rectified = RetrieveDescribed(query, ApplyPerspective(*rectification, query),
+                                     query_char_height, o, trace ? &rectified_trace : nullptr);
+  const int rectified_inliers = rectified.empty() ? 0 : rectified[0].inliers;
+  if (rectified_inliers < o.min_inliers) {
+    // A spacing gradient that is the layout's (a figure, a heading, a column break) rather
+    // than the camera's fools the fit, and a near-frontal view then loses descriptors it
+    // had: weak or no evidence is checked against the view as seen.
+    auto plain = RetrieveDescribed(query, query, query_char_height, o, trace);
+    if (!plain.empty() && plain[0].inliers > rectified_inliers) return plain;
+  }
+  if (trace) *trace = rectified_trace;
+  return rectified;
+}
+
+std::vector<DocumentHit> LlahRetriever::RetrieveDescribed(const std::vector<cv::Point2f> &query,
+                                                          const std::vector<cv::Point2f> &described,
+                                                          double query_char_height,
+                                                          const RetrievalOptions &o,
+                                                          RetrievalTrace *trace) const {
   std::vector<DocumentHit> results;
   if (trace) trace->query_keypoints = static_cast<int>(query.size());
   if (query.size() < 8) return results;
   std::vector<uint64_t> hashes;
-  // Descriptors of a steep view are computed on its keypoints rectified to an affine image
-  // of the page (text_perspective.h); positions stay the query's.
-  std::optional<cv::Matx33d> rectification;
-  if (o.rectify_perspective) rectification = EstimateTextPerspective(query, o.perspective);
-  if (trace) trace->rectified = rectification.has_value();
-  describer_.DescribeWithProbes(rectification ? ApplyPerspective(*rectification, query) : query,
-                                o.query_probes, &hashes);
+  describer_.DescribeWithProbes(described, o.query_probes, &hashes);
   const int per = static_cast<int>(hashes.size() / query.size());
 
   std::unordered_map<uint32_t, std::shared_ptr<const Model>> candidates_models;

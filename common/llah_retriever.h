@@ -158,6 +158,12 @@ class LlahRetriever {
     cv::Size size;
     float neighbour_radius = 0;  // median distance to the n-th nearest keypoint
   };
+  // Retrieve() with the query's descriptors computed on `described` (the query's keypoints,
+  // or the same rectified), everything else on `query`.
+  std::vector<DocumentHit> RetrieveDescribed(const std::vector<cv::Point2f> &query,
+                                             const std::vector<cv::Point2f> &described,
+                                             double query_char_height, const RetrievalOptions &o,
+                                             RetrievalTrace *trace) const;
   // Ids below kDenseIds (the registry's are dense from 1) also find their model through
   // dense_models_, without hashing: the coherence check looks up thousands per query.
   static constexpr uint32_t kDenseIds = 1u << 24;

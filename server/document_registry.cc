@@ -331,7 +331,7 @@ absl::StatusOr<RetrievalResult> DocumentRegistry::Retrieve(const cv::Mat &gray,
   // extractors (other ways of joining letters into words, for fonts and blur
   // the first one splits or merges differently than on the registered page).
   // Verification keeps false matches out.
-  WordKeypoints kp;
+  WordKeypoints kp, hits_kp;
   std::vector<DocumentHit> hits;
   double extract_ms = 0, match_ms = 0;
   // Every extractor measures the text alike (pass 1); the fallbacks reuse the first's
@@ -350,10 +350,17 @@ absl::StatusOr<RetrievalResult> DocumentRegistry::Retrieve(const cv::Mat &gray,
     if (measured.char_height <= 0) break;
     if (!retriever) break;
     t = Clock::now();
-    hits = retriever->Retrieve(kp.points, kp.char_height, ro);
+    std::vector<DocumentHit> found = retriever->Retrieve(kp.points, kp.char_height, ro);
     match_ms += MillisecondsSince(t);
-    if (!hits.empty()) break;
+    // A page confirmed only by the layout check (fewer than min_inliers LLAH inliers) may
+    // be found firmly by the next extractor: the firmest answer is kept.
+    if (!found.empty() && (hits.empty() || found[0].inliers > hits[0].inliers)) {
+      hits = std::move(found);
+      hits_kp = kp;
+    }
+    if (!hits.empty() && hits[0].inliers >= ro.min_inliers) break;
   }
+  kp = std::move(hits_kp);
   result.timings.Add("extract", extract_ms);
   if (!retriever) return result;
   result.timings.Add("match", match_ms);

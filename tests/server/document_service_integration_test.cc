@@ -164,7 +164,7 @@ TEST_F(DocumentServiceIntegrationTest, RegisterRetrieveDeleteRestart) {
                                               p.image.size(), view.image.size()),
                 3.0)
           << "page " << p.seed << " view " << v;
-      EXPECT_GE(m.inliers(), 12u);
+      EXPECT_GE(m.inliers(), 12u) << "page " << p.seed << " view " << v;
       ASSERT_EQ(m.pose().rotation_size(), 9);
       cv::Matx33d R;
       for (int i = 0; i < 9; ++i) R.val[i] = m.pose().rotation(i);
