@@ -384,7 +384,29 @@ struct ColourRef {
   double chroma_x, chroma_y;
   double saturation;  // |chroma|
   double blue_share;  // BlueShare of the colour
+  double brightness;  // intensity over the cloth's intensity (the albedo's ratio)
 };
+
+// Share of a red ball's votes that go to the 3 (the rest to the maroon 7), from two cues
+// that the calibrated colours tell apart: saturation (chroma over intensity) and
+// brightness over the cloth around the ball (the 3 reflects about half as much light
+// again as the 7). Each cue is scaled by how far apart the two calibrated colours are in
+// it, so that a ball whose saturation sits between the two (small balls lose some to the
+// cloth mixed in at their edge) is decided by its brightness, and the other way round.
+double RedSplit(double saturation, double brightness, const ColourRef& three,
+                const ColourRef& seven) {
+  double z = 0;
+  if (std::abs(three.saturation - seven.saturation) > 0.05)
+    z += std::clamp((saturation - (three.saturation + seven.saturation) / 2) /
+                        ((three.saturation - seven.saturation) / 4),
+                    -4.0, 4.0);
+  if (brightness > 0 && three.brightness > 0 && seven.brightness > 0 &&
+      std::abs(std::log(three.brightness / seven.brightness)) > 0.1) {
+    const double l3 = std::log(three.brightness), l7 = std::log(seven.brightness);
+    z += std::clamp((std::log(brightness) - (l3 + l7) / 2) / ((l3 - l7) / 4), -4.0, 4.0);
+  }
+  return 1 / (1 + std::exp(-z));
+}
 
 // Blue over the larger of red and green: about 0.1 for the yellow of the 1 and the 9,
 // about 0.95 for their white, and in between, in proportion, for a mix of the two.
@@ -782,11 +804,12 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
       const cv::Vec3b& c = profile.ball_bgr[k];
       double h, s, i;
       HueSaturation(cv::Vec3f(c[0], c[1], c[2]), &h, &s, &i);
-      refs[k] = {s * std::cos(h * kPi / 180), s * std::sin(h * kPi / 180), s, BlueShare(c)};
+      refs[k] = {s * std::cos(h * kPi / 180), s * std::sin(h * kPi / 180), s, BlueShare(c),
+                 i / std::max(1.0, profile_cloth)};
     }
     // Pixels in the red group (the 3 and the maroon 7 differ in saturation, not hue): their
     // saturation where the camera did not clip.
-    std::vector<float> red_saturation;
+    std::vector<float> red_saturation, red_brightness;
     double red_votes = 0;
     for (int v = box.y; v < box.y + box.height; ++v)
       for (int u = box.x; u < box.x + box.width; ++u) {
@@ -835,7 +858,10 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
           ball.votes[1] += 1 - w;
         } else if (vote == 3 || vote == 7) {
           red_votes += 1;
-          if (std::max({p[0], p[1], p[2]}) < 250) red_saturation.push_back(static_cast<float>(sat));
+          if (std::max({p[0], p[1], p[2]}) < 250) {
+            red_saturation.push_back(static_cast<float>(sat));
+            red_brightness.push_back(static_cast<float>(q));
+          }
         } else {
           ball.votes[vote] += 1;
         }
@@ -850,11 +876,10 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
         std::nth_element(red_saturation.begin(), red_saturation.begin() + k75,
                          red_saturation.end());
         ball.colour_saturation = red_saturation[k75];
-        const double s3 = refs[3].saturation, s7 = refs[7].saturation;
-        // Soft around the middle: a measured saturation a little under both (small balls
-        // lose some to the cloth mixed in) still ranks two red balls.
-        if (std::abs(s3 - s7) > 0.05)
-          t = 1 / (1 + std::exp(-(ball.colour_saturation - (s3 + s7) / 2) / ((s3 - s7) / 4)));
+        std::nth_element(red_brightness.begin(), red_brightness.begin() + k75,
+                         red_brightness.end());
+        ball.colour_brightness = red_brightness[k75];
+        t = RedSplit(ball.colour_saturation, ball.colour_brightness, refs[3], refs[7]);
       }
       ball.votes[3] += red_votes * t;
       ball.votes[7] += red_votes * (1 - t);

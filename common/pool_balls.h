@@ -59,6 +59,9 @@ struct PoolDetectedBall {
   // Saturation (chroma over intensity, upper quartile) of its red pixels, which tells the
   // red 3 from the maroon 7; 0 when it has none.
   double colour_saturation = 0;
+  // Brightness of its red pixels (upper quartile) over the cloth's around it: the red 3
+  // reflects about half as much again as the maroon 7; 0 when it has no red pixels.
+  double colour_brightness = 0;
 };
 
 // Finds and identifies the balls. `ideal_bgr` is the undistorted image, `pose` the table
