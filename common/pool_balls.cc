@@ -384,29 +384,9 @@ struct ColourRef {
   double chroma_x, chroma_y;
   double saturation;  // |chroma|
   double blue_share;  // BlueShare of the colour
-  double brightness;  // intensity over the cloth's intensity (the albedo's ratio)
 };
 
-// Share of a red ball's votes that go to the 3 (the rest to the maroon 7), from two cues
-// that the calibrated colours tell apart: saturation (chroma over intensity) and
-// brightness over the cloth around the ball (the 3 reflects about half as much light
-// again as the 7). Each cue is scaled by how far apart the two calibrated colours are in
-// it, so that a ball whose saturation sits between the two (small balls lose some to the
-// cloth mixed in at their edge) is decided by its brightness, and the other way round.
-double RedSplit(double saturation, double brightness, const ColourRef& three,
-                const ColourRef& seven) {
-  double z = 0;
-  if (std::abs(three.saturation - seven.saturation) > 0.05)
-    z += std::clamp((saturation - (three.saturation + seven.saturation) / 2) /
-                        ((three.saturation - seven.saturation) / 4),
-                    -4.0, 4.0);
-  if (brightness > 0 && three.brightness > 0 && seven.brightness > 0 &&
-      std::abs(std::log(three.brightness / seven.brightness)) > 0.1) {
-    const double l3 = std::log(three.brightness), l7 = std::log(seven.brightness);
-    z += std::clamp((std::log(brightness) - (l3 + l7) / 2) / ((l3 - l7) / 4), -4.0, 4.0);
-  }
-  return 1 / (1 + std::exp(-z));
-}
+
 
 // Blue over the larger of red and green: about 0.1 for the yellow of the 1 and the 9,
 // about 0.95 for their white, and in between, in proportion, for a mix of the two.
@@ -472,6 +452,30 @@ std::array<double, 10> PoolNumberScores(const PoolVotes& votes, const PoolBallOp
   // lies: never ruled out, preferred in the middle band.
   s[9] = group * (0.35 + 0.65 * std::clamp(1 - std::abs(w - mid) / (1.5 * half), 0.0, 1.0));
   return s;
+}
+
+double PoolRedShareOfThree(double saturation, double brightness,
+                           const PoolTableProfile& profile) {
+  double sat[2], bright[2];
+  const cv::Vec3b& pc = profile.cloth_bgr;
+  const double cloth = std::max(1.0, (pc[0] + pc[1] + pc[2]) / 3.0);
+  for (int k = 0; k < 2; ++k) {
+    const cv::Vec3b& c = profile.ball_bgr[k == 0 ? 3 : 7];
+    double hue, intensity;
+    HueSaturation(cv::Vec3f(c[0], c[1], c[2]), &hue, &sat[k], &intensity);
+    bright[k] = intensity / cloth;
+  }
+  // Each cue as a signed distance from the middle of the two calibrated colours, in
+  // quarters of their gap, capped so that neither cue alone overrules the other.
+  double z = 0;
+  if (std::abs(sat[0] - sat[1]) > 0.05)
+    z += std::clamp((saturation - (sat[0] + sat[1]) / 2) / ((sat[0] - sat[1]) / 4), -4.0, 4.0);
+  if (brightness > 0 && bright[0] > 0 && bright[1] > 0 &&
+      std::abs(std::log(bright[0] / bright[1])) > 0.1) {
+    const double l3 = std::log(bright[0]), l7 = std::log(bright[1]);
+    z += std::clamp((std::log(brightness) - (l3 + l7) / 2) / ((l3 - l7) / 4), -4.0, 4.0);
+  }
+  return 1 / (1 + std::exp(-z));
 }
 
 std::vector<int> AssignPoolNumbers(const std::vector<std::array<double, 10>>& scores) {
@@ -804,8 +808,7 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
       const cv::Vec3b& c = profile.ball_bgr[k];
       double h, s, i;
       HueSaturation(cv::Vec3f(c[0], c[1], c[2]), &h, &s, &i);
-      refs[k] = {s * std::cos(h * kPi / 180), s * std::sin(h * kPi / 180), s, BlueShare(c),
-                 i / std::max(1.0, profile_cloth)};
+      refs[k] = {s * std::cos(h * kPi / 180), s * std::sin(h * kPi / 180), s, BlueShare(c)};
     }
     // Pixels in the red group (the 3 and the maroon 7 differ in saturation, not hue): their
     // saturation where the camera did not clip.
@@ -879,7 +882,7 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
         std::nth_element(red_brightness.begin(), red_brightness.begin() + k75,
                          red_brightness.end());
         ball.colour_brightness = red_brightness[k75];
-        t = RedSplit(ball.colour_saturation, ball.colour_brightness, refs[3], refs[7]);
+        t = PoolRedShareOfThree(ball.colour_saturation, ball.colour_brightness, profile);
       }
       ball.votes[3] += red_votes * t;
       ball.votes[7] += red_votes * (1 - t);

@@ -75,6 +75,15 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& ideal_bgr, const cv
 // Seed eq. 4.3 and the nearest-colour votes: a score for each number 0..9.
 std::array<double, 10> PoolNumberScores(const PoolVotes& votes, const PoolBallOptions& options);
 
+// Share (0..1) of a red ball's votes that go to the red 3 rather than the maroon 7. Two
+// cues tell them apart against the profile's calibrated colours: saturation (chroma over
+// intensity) and brightness over the cloth's (the 3 reflects about half as much light
+// again as the 7). Each is scaled by the gap between the two calibrated colours in it, so
+// that a ball whose saturation sits between the two (a small ball loses some to the cloth
+// mixed in at its edge) is decided by its brightness, and the other way round.
+// `brightness` <= 0: saturation alone.
+double PoolRedShareOfThree(double saturation, double brightness, const PoolTableProfile& profile);
+
 // Assigns numbers to balls so that each number is used at most once and the sum of
 // scores is largest (a ball may stay unknown when no number scores over 0.15).
 std::vector<int> AssignPoolNumbers(const std::vector<std::array<double, 10>>& scores);
