@@ -466,14 +466,16 @@ double PoolRedShareOfThree(double saturation, double brightness,
     bright[k] = intensity / cloth;
   }
   // Each cue as a signed distance from the middle of the two calibrated colours, in
-  // quarters of their gap, capped so that neither cue alone overrules the other.
+  // quarters of their gap. Brightness depends on how each ball sits in the light (a 3
+  // away from the lamps is as dark as a 7 under one), so it is capped at half the gap: it
+  // tips a ball whose saturation lies within half the gap of the middle, never a clear one.
   double z = 0;
   if (std::abs(sat[0] - sat[1]) > 0.05)
     z += std::clamp((saturation - (sat[0] + sat[1]) / 2) / ((sat[0] - sat[1]) / 4), -4.0, 4.0);
   if (brightness > 0 && bright[0] > 0 && bright[1] > 0 &&
       std::abs(std::log(bright[0] / bright[1])) > 0.1) {
     const double l3 = std::log(bright[0]), l7 = std::log(bright[1]);
-    z += std::clamp((std::log(brightness) - (l3 + l7) / 2) / ((l3 - l7) / 4), -4.0, 4.0);
+    z += std::clamp((std::log(brightness) - (l3 + l7) / 2) / ((l3 - l7) / 4), -2.0, 2.0);
   }
   return 1 / (1 + std::exp(-z));
 }

@@ -78,9 +78,10 @@ std::array<double, 10> PoolNumberScores(const PoolVotes& votes, const PoolBallOp
 // Share (0..1) of a red ball's votes that go to the red 3 rather than the maroon 7. Two
 // cues tell them apart against the profile's calibrated colours: saturation (chroma over
 // intensity) and brightness over the cloth's (the 3 reflects about half as much light
-// again as the 7). Each is scaled by the gap between the two calibrated colours in it, so
-// that a ball whose saturation sits between the two (a small ball loses some to the cloth
-// mixed in at its edge) is decided by its brightness, and the other way round.
+// again as the 7). Each is scaled by the gap between the two calibrated colours in it.
+// Brightness also depends on where the ball sits in the light, so it only decides a ball
+// whose saturation lies within half the gap of the middle (a small ball loses some
+// saturation to the cloth mixed in at its edge), never against a clear saturation.
 // `brightness` <= 0: saturation alone.
 double PoolRedShareOfThree(double saturation, double brightness, const PoolTableProfile& profile);
 
