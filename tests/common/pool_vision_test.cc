@@ -320,6 +320,39 @@ TEST(PoolHardBalls, DarkGreenRedAndStripedBallsAreFoundAndNumbered) {
   }
 }
 
+// Two benchmark frames (seed 7) where a dark ball's own inner edge used to be taken for
+// its outline: the black 8 of frame 28 (its highlight) and the green 6 of frame 48 (its
+// lit cap above a dark lower half that runs into its shadow) were placed 18 and 22 mm
+// towards the camera. Fitted to the outermost step from the cloth, both are within 10 mm
+// (one pixel is 4.4-5.5 mm along the line of sight there).
+TEST(PoolHardBalls, DarkBallsAreFittedOnTheirRimNotTheirHighlight) {
+  const testdata::PoolTableSpec spec = testdata::PoolTableSpec::Bench();
+  std::mt19937_64 rng(7);
+  for (int frame = 0; frame <= 48; ++frame) {
+    const PoolScene scene = testdata::RandomPoolScene(rng, spec);
+    const int dark_ball = frame == 28 ? 8 : frame == 48 ? 6 : -1;
+    if (dark_ball < 0) continue;
+    const PoolView view = testdata::RenderPoolView(scene, 7 * 100003 + frame);
+    auto analyzer = PoolAnalyzer::Create(ProfileFor(scene.table), CameraOf(view));
+    ASSERT_TRUE(analyzer.ok()) << analyzer.status();
+    auto analysis = analyzer->Analyze(view.image);
+    ASSERT_TRUE(analysis.ok()) << analysis.status();
+    std::vector<testdata::EstimatedPoolBall> estimated;
+    for (const auto& b : analysis->balls) estimated.push_back({b.number, b.x_mm, b.y_mm});
+    const testdata::PoolScore score =
+        testdata::ScorePoolAnalysis(scene, view, analysis->cloth_corners, estimated);
+    bool seen = false;
+    for (const auto& m : score.matches) {
+      if (m.truth_number != dark_ball) continue;
+      seen = true;
+      EXPECT_GE(m.error_mm, 0) << "frame " << frame;
+      EXPECT_LT(m.error_mm, 10.0) << "frame " << frame;
+      EXPECT_EQ(m.estimated_number, dark_ball) << "frame " << frame;
+    }
+    EXPECT_TRUE(seen) << "frame " << frame << " has no ball " << dark_ball;
+  }
+}
+
 TEST(PoolProfile, ValidateSaysWhatIsWrong) {
   EXPECT_TRUE(NineFootPoolProfile().Validate().ok());
   EXPECT_TRUE(BenchPoolProfile().Validate().ok());
