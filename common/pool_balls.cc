@@ -355,8 +355,7 @@ class EdgeFitter {
             y > area_.y + area_.height - 2)
           return;
         const int ix = static_cast<int>(x), iy = static_cast<int>(y);
-        if (!roi_.contains({ix, iy}) || claimed_.at<float>(iy - roi_.y, ix - roi_.x) > 0.01)
-          return;
+        if (!roi_.contains({ix, iy}) || claimed_.at<float>(iy - roi_.y, ix - roi_.x) > 0.01) return;
         const double d = Sample(distance, x, y);
         if (d >= threshold) {
           if (previous < 0) return;  // already over it outside: no cloth to start from
@@ -372,10 +371,10 @@ class EdgeFitter {
   }
 
   // Fits the sphere's outline to rim points (least squares on the signed pixel distance,
-  // with points more than 1.5 px off given a constant pull), the rim found again from
+  // with points more than kRimHuberPx off given a constant pull), the rim found again from
   // each new position.
-  cv::Point2d FitToRim(cv::Point2d xy, const cv::Mat& distance, double threshold,
-                       double reach_px, int* used = nullptr) const {
+  cv::Point2d FitToRim(cv::Point2d xy, const cv::Mat& distance, double threshold, double reach_px,
+                       int* used = nullptr) const {
     for (int round = 0; round < 3; ++round) {
       const std::vector<cv::Point2d> rim = RimPoints(xy, distance, threshold, reach_px);
       if (used) *used = static_cast<int>(rim.size());
@@ -486,8 +485,6 @@ struct ColourRef {
   double blue_share;  // BlueShare of the colour
 };
 
-
-
 // Blue over the larger of red and green: about 0.1 for the yellow of the 1 and the 9,
 // about 0.95 for their white, and in between, in proportion, for a mix of the two.
 double BlueShare(const cv::Vec3b& bgr) {
@@ -554,8 +551,7 @@ std::array<double, 10> PoolNumberScores(const PoolVotes& votes, const PoolBallOp
   return s;
 }
 
-double PoolRedShareOfThree(double saturation, double brightness,
-                           const PoolTableProfile& profile) {
+double PoolRedShareOfThree(double saturation, double brightness, const PoolTableProfile& profile) {
   double sat[2], bright[2];
   const cv::Vec3b& pc = profile.cloth_bgr;
   const double cloth = std::max(1.0, (pc[0] + pc[1] + pc[2]) / 3.0);
@@ -861,8 +857,8 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
       // fall above can settle on one of them, which moves the ball towards the camera.
       // Its rim is the outermost step instead: half-way from the cloth just outside to
       // the ball's median inside, met first when coming in from the cloth.
-      const double threshold = RimThreshold(distance, grown, claimed, roi, scorer, pose, K,
-                                            seeds[i], r);
+      const double threshold =
+          RimThreshold(distance, grown, claimed, roi, scorer, pose, K, seeds[i], r);
       if (threshold > 0) {
         const cv::Vec3d now(seeds[i].x, seeds[i].y, r);
         const double r_px = K(0, 0) * r / cv::norm(pose.R * now + pose.t);
