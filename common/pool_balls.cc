@@ -250,6 +250,9 @@ class SilhouetteScorer {
   cv::Vec3d ray0_, ray_u_, ray_v_;
 };
 
+// Fewest of the 48 outline points a rim fit needs.
+constexpr int kMinRimPoints = 10;
+
 // Fits a ball's outline to the steepest fall of its colour distance from the cloth.
 class EdgeFitter {
  public:
@@ -271,8 +274,11 @@ class EdgeFitter {
   // no edge to speak of (dark against dark): those outline points are left out.
   void SkipShadowedOutline(bool skip) { skip_shadowed_ = skip; }
 
-  // Mean outward fall of the distance across the outline of a ball at `xy`.
-  double Score(const cv::Point2d& xy, int* used = nullptr) const {
+  // Calls visit(u, v, nx, ny) for each usable point of the outline of a ball at `xy`
+  // (ideal pixels, outward unit normal): not in the dark lower part, not beside the ball's
+  // own shadow when so asked, not on another ball, not hidden by a cushion.
+  template <typename Visit>
+  void ForEachOutlinePoint(const cv::Point2d& xy, const Visit& visit) const {
     const cv::Vec3d centre(xy.x, xy.y, radius_);
     const cv::Vec3d c = pose_.R * centre + pose_.t;  // camera frame
     const double c2 = c.dot(c);
@@ -286,8 +292,6 @@ class EdgeFitter {
     e2 /= cv::norm(e2);
     const cv::Matx33d Q = SphereSilhouetteConic(pose_, K_, centre, radius_);
     const cv::Matx33d to_table = pose_.R.t();
-    double sum = 0;
-    int n = 0;
     constexpr int kPoints = 48;
     for (int k = 0; k < kPoints; ++k) {
       const double a = 2 * 3.14159265358979 * k / kPoints;
@@ -319,13 +323,76 @@ class EdgeFitter {
       const double qy = Q(1, 0) * u + Q(1, 1) * v + Q(1, 2);
       const double norm = std::hypot(qx, qy);
       if (norm <= 0) continue;
-      const double nx = -qx / norm, ny = -qy / norm;
-      const double g = -(Sample(gx_, u, v) * nx + Sample(gy_, u, v) * ny);
-      sum += g;
-      ++n;
+      visit(u, v, -qx / norm, -qy / norm);
     }
+  }
+
+  // Mean outward fall of the distance across the outline of a ball at `xy`.
+  double Score(const cv::Point2d& xy, int* used = nullptr) const {
+    double sum = 0;
+    int n = 0;
+    ForEachOutlinePoint(xy, [&](double u, double v, double nx, double ny) {
+      sum += -(Sample(gx_, u, v) * nx + Sample(gy_, u, v) * ny);
+      ++n;
+    });
     if (used) *used = n;
     return n >= 6 ? sum / n : -1e9;
+  }
+
+  // Rim points: along each outline point's normal, from the cloth outside inwards, the
+  // first place where `distance` (over `area_`) reaches `threshold` (sub-pixel). The
+  // outermost step is the rim; the ball's own inner edges (a highlight, a lit cap) lie
+  // beyond it and are never reached. Points whose scan meets another ball are left out.
+  std::vector<cv::Point2d> RimPoints(const cv::Point2d& xy, const cv::Mat& distance,
+                                     double threshold, double reach_px) const {
+    std::vector<cv::Point2d> rim;
+    ForEachOutlinePoint(xy, [&](double u, double v, double nx, double ny) {
+      constexpr double kStep = 0.25;
+      double previous = -1;
+      for (double s = reach_px; s >= -reach_px; s -= kStep) {
+        const double x = u + s * nx, y = v + s * ny;
+        if (x < area_.x || y < area_.y || x > area_.x + area_.width - 2 ||
+            y > area_.y + area_.height - 2)
+          return;
+        const int ix = static_cast<int>(x), iy = static_cast<int>(y);
+        if (!roi_.contains({ix, iy}) || claimed_.at<float>(iy - roi_.y, ix - roi_.x) > 0.01) return;
+        const double d = Sample(distance, x, y);
+        if (d >= threshold) {
+          if (previous < 0) return;  // already over it outside: no cloth to start from
+          const double f = (threshold - previous) / std::max(1e-9, d - previous);
+          const double at = s + kStep * (1 - f);
+          rim.emplace_back(u + at * nx, v + at * ny);
+          return;
+        }
+        previous = d;
+      }
+    });
+    return rim;
+  }
+
+  // Fits the sphere's outline to rim points (least squares on the signed pixel distance,
+  // with points more than kRimHuberPx off given a constant pull), the rim found again from
+  // each new position.
+  cv::Point2d FitToRim(cv::Point2d xy, const cv::Mat& distance, double threshold, double reach_px,
+                       int* used = nullptr) const {
+    for (int round = 0; round < 3; ++round) {
+      const std::vector<cv::Point2d> rim = RimPoints(xy, distance, threshold, reach_px);
+      if (used) *used = static_cast<int>(rim.size());
+      if (static_cast<int>(rim.size()) < kMinRimPoints) return xy;
+      const cv::Point2d start = xy;
+      xy = CompassSearch(xy, 0.1 * radius_, radius_, [&](const cv::Point2d& p) {
+        const cv::Matx33d Q =
+            SphereSilhouetteConic(pose_, K_, cv::Vec3d(p.x, p.y, radius_), radius_);
+        double cost = 0;
+        for (const auto& q : rim) {
+          const double e = std::abs(SilhouetteScorer::InsideDistance(Q, q.x, q.y));
+          cost += e < kRimHuberPx ? 0.5 * e * e : kRimHuberPx * (e - 0.5 * kRimHuberPx);
+        }
+        return -cost;
+      });
+      if (cv::norm(xy - start) < 0.05 * radius_) break;
+    }
+    return xy;
   }
 
   // The silhouette fit leans along the line of sight (JPEG's smeared colour grows a
@@ -377,7 +444,39 @@ class EdgeFitter {
   cv::Vec3d camera_;
   bool skip_shadowed_ = false;
   static constexpr double kShadowReach = 1.3;  // radii
+  static constexpr double kRimHuberPx = 1.0;
 };
+
+// The level of a ball's rim step in `distance` (over `area`) for a ball at `xy`: half-way
+// from the median just outside its outline (1.5-3.5 px out) to the median inside it (at
+// least 1 px in), leaving out other balls' pixels and the dark zone under it. 0 when
+// either side has too few pixels.
+double RimThreshold(const cv::Mat& distance, const cv::Rect& area, const cv::Mat& claimed,
+                    const cv::Rect& roi, const SilhouetteScorer& scorer, const PlanarPose& pose,
+                    const cv::Matx33d& K, const cv::Point2d& xy, double radius) {
+  const cv::Vec3d centre(xy.x, xy.y, radius);
+  const cv::Matx33d Q = SphereSilhouetteConic(pose, K, centre, radius);
+  const cv::Rect box = scorer.Box(centre);
+  std::vector<float> inside, outside;
+  for (int v = box.y; v < box.y + box.height; ++v)
+    for (int u = box.x; u < box.x + box.width; ++u) {
+      if (!area.contains({u, v}) || claimed.at<float>(v - roi.y, u - roi.x) > 0.01) continue;
+      if (scorer.InShadowZone(centre, u, v)) continue;
+      const double depth = SilhouetteScorer::InsideDistance(Q, u, v);
+      const float d = distance.at<float>(v - area.y, u - area.x);
+      if (depth >= 1) {
+        inside.push_back(d);
+      } else if (depth <= -1.5 && depth >= -3.5) {
+        outside.push_back(d);
+      }
+    }
+  constexpr size_t kMinPixels = 8;
+  if (inside.size() < kMinPixels || outside.size() < kMinPixels) return 0;
+  std::nth_element(inside.begin(), inside.begin() + inside.size() / 2, inside.end());
+  std::nth_element(outside.begin(), outside.begin() + outside.size() / 2, outside.end());
+  const double in = inside[inside.size() / 2], out = outside[outside.size() / 2];
+  return in > out ? out + 0.5 * (in - out) : 0;
+}
 
 // Reference chroma (intensity-normalised opponent colour) of each ball colour.
 struct ColourRef {
@@ -450,6 +549,31 @@ std::array<double, 10> PoolNumberScores(const PoolVotes& votes, const PoolBallOp
   // lies: never ruled out, preferred in the middle band.
   s[9] = group * (0.35 + 0.65 * std::clamp(1 - std::abs(w - mid) / (1.5 * half), 0.0, 1.0));
   return s;
+}
+
+double PoolRedShareOfThree(double saturation, double brightness, const PoolTableProfile& profile) {
+  double sat[2], bright[2];
+  const cv::Vec3b& pc = profile.cloth_bgr;
+  const double cloth = std::max(1.0, (pc[0] + pc[1] + pc[2]) / 3.0);
+  for (int k = 0; k < 2; ++k) {
+    const cv::Vec3b& c = profile.ball_bgr[k == 0 ? 3 : 7];
+    double hue, intensity;
+    HueSaturation(cv::Vec3f(c[0], c[1], c[2]), &hue, &sat[k], &intensity);
+    bright[k] = intensity / cloth;
+  }
+  // Each cue as a signed distance from the middle of the two calibrated colours, in
+  // quarters of their gap. Brightness depends on how each ball sits in the light (a 3
+  // away from the lamps is as dark as a 7 under one), so it is capped at half the gap: it
+  // tips a ball whose saturation lies within half the gap of the middle, never a clear one.
+  double z = 0;
+  if (std::abs(sat[0] - sat[1]) > 0.05)
+    z += std::clamp((saturation - (sat[0] + sat[1]) / 2) / ((sat[0] - sat[1]) / 4), -4.0, 4.0);
+  if (brightness > 0 && bright[0] > 0 && bright[1] > 0 &&
+      std::abs(std::log(bright[0] / bright[1])) > 0.1) {
+    const double l3 = std::log(bright[0]), l7 = std::log(bright[1]);
+    z += std::clamp((std::log(brightness) - (l3 + l7) / 2) / ((l3 - l7) / 4), -2.0, 2.0);
+  }
+  return 1 / (1 + std::exp(-z));
 }
 
 std::vector<int> AssignPoolNumbers(const std::vector<std::array<double, 10>>& scores) {
@@ -727,6 +851,23 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
       if (used < kMinOutlinePoints) edge.SkipShadowedOutline(false);
     }
     seeds[i] = edge.Fit(seeds[i], camera);
+    if (darker_than_cloth) {
+      // A ball darker than the cloth has brighter edges inside it than its rim (the
+      // highlight on the 8, the lit cap of the 6 above its dark lower half) and the mean
+      // fall above can settle on one of them, which moves the ball towards the camera.
+      // Its rim is the outermost step instead: half-way from the cloth just outside to
+      // the ball's median inside, met first when coming in from the cloth.
+      const double threshold =
+          RimThreshold(distance, grown, claimed, roi, scorer, pose, K, seeds[i], r);
+      if (threshold > 0) {
+        const cv::Vec3d now(seeds[i].x, seeds[i].y, r);
+        const double r_px = K(0, 0) * r / cv::norm(pose.R * now + pose.t);
+        int used = 0;
+        const cv::Point2d on_rim =
+            edge.FitToRim(seeds[i], distance, threshold, std::max(3.0, 0.6 * r_px), &used);
+        if (used >= kMinRimPoints) seeds[i] = on_rim;  // else too little rim was found
+      }
+    }
   }
 
   // Keep distinct, well-supported balls on the table.
@@ -786,7 +927,7 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
     }
     // Pixels in the red group (the 3 and the maroon 7 differ in saturation, not hue): their
     // saturation where the camera did not clip.
-    std::vector<float> red_saturation;
+    std::vector<float> red_saturation, red_brightness;
     double red_votes = 0;
     for (int v = box.y; v < box.y + box.height; ++v)
       for (int u = box.x; u < box.x + box.width; ++u) {
@@ -835,7 +976,10 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
           ball.votes[1] += 1 - w;
         } else if (vote == 3 || vote == 7) {
           red_votes += 1;
-          if (std::max({p[0], p[1], p[2]}) < 250) red_saturation.push_back(static_cast<float>(sat));
+          if (std::max({p[0], p[1], p[2]}) < 250) {
+            red_saturation.push_back(static_cast<float>(sat));
+            red_brightness.push_back(static_cast<float>(q));
+          }
         } else {
           ball.votes[vote] += 1;
         }
@@ -850,11 +994,10 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
         std::nth_element(red_saturation.begin(), red_saturation.begin() + k75,
                          red_saturation.end());
         ball.colour_saturation = red_saturation[k75];
-        const double s3 = refs[3].saturation, s7 = refs[7].saturation;
-        // Soft around the middle: a measured saturation a little under both (small balls
-        // lose some to the cloth mixed in) still ranks two red balls.
-        if (std::abs(s3 - s7) > 0.05)
-          t = 1 / (1 + std::exp(-(ball.colour_saturation - (s3 + s7) / 2) / ((s3 - s7) / 4)));
+        std::nth_element(red_brightness.begin(), red_brightness.begin() + k75,
+                         red_brightness.end());
+        ball.colour_brightness = red_brightness[k75];
+        t = PoolRedShareOfThree(ball.colour_saturation, ball.colour_brightness, profile);
       }
       ball.votes[3] += red_votes * t;
       ball.votes[7] += red_votes * (1 - t);

@@ -59,6 +59,9 @@ struct PoolDetectedBall {
   // Saturation (chroma over intensity, upper quartile) of its red pixels, which tells the
   // red 3 from the maroon 7; 0 when it has none.
   double colour_saturation = 0;
+  // Brightness of its red pixels (upper quartile) over the cloth's around it: the red 3
+  // reflects about half as much again as the maroon 7; 0 when it has no red pixels.
+  double colour_brightness = 0;
 };
 
 // Finds and identifies the balls. `ideal_bgr` is the undistorted image, `pose` the table
@@ -71,6 +74,16 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& ideal_bgr, const cv
 
 // Seed eq. 4.3 and the nearest-colour votes: a score for each number 0..9.
 std::array<double, 10> PoolNumberScores(const PoolVotes& votes, const PoolBallOptions& options);
+
+// Share (0..1) of a red ball's votes that go to the red 3 rather than the maroon 7. Two
+// cues tell them apart against the profile's calibrated colours: saturation (chroma over
+// intensity) and brightness over the cloth's (the 3 reflects about half as much light
+// again as the 7). Each is scaled by the gap between the two calibrated colours in it.
+// Brightness also depends on where the ball sits in the light, so it only decides a ball
+// whose saturation lies within half the gap of the middle (a small ball loses some
+// saturation to the cloth mixed in at its edge), never against a clear saturation.
+// `brightness` <= 0: saturation alone.
+double PoolRedShareOfThree(double saturation, double brightness, const PoolTableProfile& profile);
 
 // Assigns numbers to balls so that each number is used at most once and the sum of
 // scores is largest (a ball may stay unknown when no number scores over 0.15).

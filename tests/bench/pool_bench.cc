@@ -67,6 +67,9 @@ int main(int argc, char** argv) {
   app.add_option("--only", only, "Analyse only this frame of the set (to look into one case)");
   bool clean = false;
   app.add_flag("--clean", clean, "No blur, noise, JPEG or lens distortion (the method's floor)");
+  bool true_pose = false;
+  app.add_flag("--true-pose", true_pose,
+               "Find the balls with the true table pose (separates ball errors from pose errors)");
   CLI11_PARSE(app, argc, argv);
   cv::setNumThreads(1);  // one core
 
@@ -122,9 +125,21 @@ int main(int argc, char** argv) {
       continue;
     }
     ++found;
+    std::vector<PoolDetectedBall> detected = analyzer->last_detected_balls();
+    std::array<cv::Point2d, 4> corners = analysis->cloth_corners;
+    if (true_pose) {
+      // The same ball finder on the same ideal image, given the renderer's pose.
+      const PoolUndistorter undistorter(camera);
+      const cv::Mat ideal = undistorter.Undistort(view.image);
+      PlanarPose pose;
+      pose.R = view.rotation;
+      pose.t = view.translation;
+      detected = DetectPoolBalls(ideal, camera.K, pose, profile, analysis->cloth_bgr);
+      corners = view.cloth_corners;
+    }
     std::vector<EstimatedPoolBall> est;
-    for (const auto& b : analysis->balls) est.push_back({b.number, b.x_mm, b.y_mm});
-    const PoolScore score = ScorePoolAnalysis(scene, view, analysis->cloth_corners, est);
+    for (const auto& b : detected) est.push_back({b.number, b.x_mm, b.y_mm});
+    const PoolScore score = ScorePoolAnalysis(scene, view, corners, est);
     corner_errors.push_back(score.max_corner_error_px);
     for (const auto& m : score.matches)
       if (m.separated && m.error_mm >= 0) separated_errors.push_back(m.error_mm);
@@ -156,20 +171,26 @@ int main(int argc, char** argv) {
             if (b.pixel == m.pixel) truth = &b;
           cv::Point2d away(truth->x_mm - c[0], truth->y_mm - c[1]);
           away *= 1.0 / cv::norm(away);
+          // What one pixel is worth there: the table distance along the line of sight
+          // that moves the ball's image by one pixel.
+          const double r = spec.ball_radius_mm;
+          const cv::Point2d p0 = ProjectTablePoint(view, {truth->x_mm, truth->y_mm, r});
+          const cv::Point2d p1 =
+              ProjectTablePoint(view, {truth->x_mm + 10 * away.x, truth->y_mm + 10 * away.y, r});
           std::printf(
-              "    ball %d%s at px (%.0f, %.0f): found as %d, error %.1f mm (%.1f, %.1f), "
-              "%.1f mm away from the camera\n",
-              m.truth_number, m.separated ? " (separated)" : "", m.pixel.x, m.pixel.y,
-              m.estimated_number, m.error_mm, m.dx_mm, m.dy_mm,
-              m.dx_mm * away.x + m.dy_mm * away.y);
+              "    ball %d%s at px (%.0f, %.0f) mm (%.1f, %.1f): found as %d, error %.1f mm "
+              "(%.1f, %.1f), %.1f mm away from the camera; 1 px = %.1f mm along it\n",
+              m.truth_number, m.separated ? " (separated)" : "", m.pixel.x, m.pixel.y, truth->x_mm,
+              truth->y_mm, m.estimated_number, m.error_mm, m.dx_mm, m.dy_mm,
+              m.dx_mm * away.x + m.dy_mm * away.y, 10 / std::max(1e-9, cv::norm(p1 - p0)));
         }
       for (const auto& m : score.matches) {
         if (m.estimated_index < 0) continue;
-        const PoolDetectedBall& b = analyzer->last_detected_balls()[m.estimated_index];
+        const PoolDetectedBall& b = detected[m.estimated_index];
         std::printf("      votes of %d as %d:", m.truth_number, b.number);
         for (int v : b.votes) std::printf(" %d", v);
-        std::printf("  white share %.2f  red saturation %.2f  radius %.1f px\n", b.white_share,
-                    b.colour_saturation, b.radius_px);
+        std::printf("  white share %.2f  red saturation %.2f brightness %.2f  radius %.1f px\n",
+                    b.white_share, b.colour_saturation, b.colour_brightness, b.radius_px);
       }
     }
     if (verbose) {

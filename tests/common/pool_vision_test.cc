@@ -261,6 +261,25 @@ TEST(PoolNumbers, TwoRedBallsAreBothNumbered) {
   EXPECT_EQ(numbers[1], 3);
 }
 
+TEST(PoolNumbers, RedThreeAndMaroonSevenByBothSaturationAndBrightness) {
+  // Saturation and brightness over the cloth as the benchmark measured them on small,
+  // blurred balls (the profile's colours: 1.86 / 1.34 saturation, 1.07 / 0.74
+  // brightness): clear cases follow both cues; when saturation sits near the middle,
+  // brightness decides; a ball far from the lamps (or under one) never overrules a clear
+  // saturation.
+  const PoolTableProfile profile = BenchPoolProfile();
+  EXPECT_GT(PoolRedShareOfThree(1.90, 1.07, profile), 0.9);  // a clear 3
+  EXPECT_LT(PoolRedShareOfThree(1.30, 0.80, profile), 0.1);  // a clear 7
+  EXPECT_GT(PoolRedShareOfThree(1.54, 1.26, profile), 0.5);  // a 3 that lost saturation
+  EXPECT_GT(PoolRedShareOfThree(1.58, 1.16, profile), 0.5);  // ... and another
+  EXPECT_LT(PoolRedShareOfThree(1.64, 0.75, profile), 0.5);  // a 7 as saturated as a 3
+  EXPECT_GT(PoolRedShareOfThree(1.96, 0.60, profile), 0.5);  // a clear 3 in the shade
+  EXPECT_LT(PoolRedShareOfThree(1.30, 2.00, profile), 0.5);  // a clear 7 under a lamp
+  // Without a brightness, saturation alone decides.
+  EXPECT_GT(PoolRedShareOfThree(1.90, 0, profile), 0.8);
+  EXPECT_LT(PoolRedShareOfThree(1.35, 0, profile), 0.2);
+}
+
 // The balls the benchmark found hardest, under JPEG: the black 8 (dark against its own
 // shadow), the green 6 on green cloth, the red 3 and maroon 7 (told by saturation) and the
 // 9 against the 1 and the cue; near and far, from a long and a short side.
@@ -298,6 +317,39 @@ TEST(PoolHardBalls, DarkGreenRedAndStripedBallsAreFoundAndNumbered) {
       sum += std::max(0.0, m.error_mm);
     }
     EXPECT_LT(sum / score.matches.size(), 5.0) << view_index;
+  }
+}
+
+// Two benchmark frames (seed 7) where a dark ball's own inner edge used to be taken for
+// its outline: the black 8 of frame 28 (its highlight) and the green 6 of frame 48 (its
+// lit cap above a dark lower half that runs into its shadow) were placed 18 and 22 mm
+// towards the camera. Fitted to the outermost step from the cloth, both are within 10 mm
+// (one pixel is 4.4-5.5 mm along the line of sight there).
+TEST(PoolHardBalls, DarkBallsAreFittedOnTheirRimNotTheirHighlight) {
+  const testdata::PoolTableSpec spec = testdata::PoolTableSpec::Bench();
+  std::mt19937_64 rng(7);
+  for (int frame = 0; frame <= 48; ++frame) {
+    const PoolScene scene = testdata::RandomPoolScene(rng, spec);
+    const int dark_ball = frame == 28 ? 8 : frame == 48 ? 6 : -1;
+    if (dark_ball < 0) continue;
+    const PoolView view = testdata::RenderPoolView(scene, 7 * 100003 + frame);
+    auto analyzer = PoolAnalyzer::Create(ProfileFor(scene.table), CameraOf(view));
+    ASSERT_TRUE(analyzer.ok()) << analyzer.status();
+    auto analysis = analyzer->Analyze(view.image);
+    ASSERT_TRUE(analysis.ok()) << analysis.status();
+    std::vector<testdata::EstimatedPoolBall> estimated;
+    for (const auto& b : analysis->balls) estimated.push_back({b.number, b.x_mm, b.y_mm});
+    const testdata::PoolScore score =
+        testdata::ScorePoolAnalysis(scene, view, analysis->cloth_corners, estimated);
+    bool seen = false;
+    for (const auto& m : score.matches) {
+      if (m.truth_number != dark_ball) continue;
+      seen = true;
+      EXPECT_GE(m.error_mm, 0) << "frame " << frame;
+      EXPECT_LT(m.error_mm, 10.0) << "frame " << frame;
+      EXPECT_EQ(m.estimated_number, dark_ball) << "frame " << frame;
+    }
+    EXPECT_TRUE(seen) << "frame " << frame << " has no ball " << dark_ball;
   }
 }
 
