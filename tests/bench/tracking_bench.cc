@@ -20,7 +20,8 @@
 //   texfree-bench-tracking [--step 0.5] [--print-every 5] [--distractors 20]
 //                          [--streams 8] [--fps 30] [--seconds 10] [--only SEQUENCE]
 //                          [--no-grpc] [--no-baselines] [--trace-from DEG [--trace-dir D]]
-//                          [--seed N] [--frame-letter-graph]
+//                          [--seed N] [--frame-letter-graph] [--rectify-above F]
+//                          [--rectified-height PX] [--max-upsampling F]
 #include <spdlog/spdlog.h>
 
 #include <CLI/CLI.hpp>
@@ -172,6 +173,13 @@ int main(int argc, char** argv) {
                  "measure the text size on one frame in this many (1: every frame)");
   app.add_option("--half-resolution-above", video.half_resolution_above_char_height,
                  "group words at half resolution when the text is taller (px; 0: never)");
+  app.add_option("--rectify-above", video.rectify_above_perspective,
+                 "extract pages rectified when the frame's magnification of them varies by "
+                 "more than this factor (0: never)");
+  app.add_option("--rectified-height", video.rectified_char_height,
+                 "text height in rectified page images, px");
+  app.add_option("--max-upsampling", video.max_rectify_upsampling,
+                 "rectified images enlarge the frame at most this much");
   app.add_option("--seed", sequence_seed, "seed of the camera paths' hand shake and noise");
   app.add_option("--llah-interval", tracking.llah_interval,
                  "track methods: LLAH matching every this many frames while projection holds");
@@ -304,8 +312,12 @@ int main(int argc, char** argv) {
         } else {
           const auto t0 = SteadyClock::now();
           const double c0 = texfree::ThreadCpuMilliseconds();
-          const auto keypoints = extractor.Extract(gray);
-          const auto result = tracker->Track(keypoints, gray.size(), shared);
+          // The pages the tracker expects: extracted rectified when seen at a slant.
+          texfree::VideoFrameInfo extracted;
+          const auto keypoints = extractor.Extract(gray, tracker->PredictedPages(), &extracted);
+          const auto result =
+              tracker->Track(keypoints, gray.size(), shared, extracted.whole_frame);
+          const auto& rectified = extracted.rectified;
           s.ms = MillisecondsSince(t0);
           s.cpu_ms = texfree::ThreadCpuMilliseconds() - c0;
           const TrackedDocument* doc = nullptr;
@@ -333,6 +345,12 @@ int main(int argc, char** argv) {
                          doc ? doc->learned : 0, s.found ? s.error : -1.0, s.ms,
                          result.timings.match_ms, result.timings.pose_ms, result.timings.update_ms);
           if (where >= trace_from) {
+            for (const auto& r : rectified)
+              std::fprintf(stderr,
+                           "   rectified: %dx%d at %.3f px per page px, text %.1f px, %d "
+                           "keypoints replacing %d\n",
+                           r.size.width, r.size.height, r.scale, r.char_height, r.keypoints,
+                           r.replaced);
             // Oracle: frame keypoints within 1.5 px of a reference keypoint placed by the
             // truth, and the homography they give.
             const auto reference = shared->Keypoints(tracked_id);
