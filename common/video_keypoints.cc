@@ -89,12 +89,11 @@ absl::Status VideoKeypointOptions::Validate() const {
   if (!(rectified_min_char_height >= 2.5 && rectified_char_height >= rectified_min_char_height &&
         rectified_char_height <= 64))
     return absl::InvalidArgumentError(absl::StrCat(
-        "rectified text height: need 2.5 <= rectified_min_char_height (",
-        rectified_min_char_height, ") <= rectified_char_height (", rectified_char_height,
-        ") <= 64"));
+        "rectified text height: need 2.5 <= rectified_min_char_height (", rectified_min_char_height,
+        ") <= rectified_char_height (", rectified_char_height, ") <= 64"));
   if (!(max_rectify_upsampling >= 1 && max_rectify_upsampling <= 16))
-    return absl::InvalidArgumentError(absl::StrCat(
-        "max_rectify_upsampling must be in [1, 16], got ", max_rectify_upsampling));
+    return absl::InvalidArgumentError(
+        absl::StrCat("max_rectify_upsampling must be in [1, 16], got ", max_rectify_upsampling));
   if (!(max_rectified_area > 0 && max_rectified_area <= 16))
     return absl::InvalidArgumentError(
         absl::StrCat("max_rectified_area must be in (0, 16], got ", max_rectified_area));
@@ -142,9 +141,8 @@ WordKeypoints VideoKeypointExtractor::Extract(const cv::Mat& gray,
   done = VideoFrameInfo();
   // Forget the text of pages no longer followed.
   for (auto it = pages_.begin(); it != pages_.end();) {
-    const bool followed = std::any_of(pages.begin(), pages.end(), [&](const PageInView& p) {
-      return p.document == it->first;
-    });
+    const bool followed = std::any_of(pages.begin(), pages.end(),
+                                      [&](const PageInView& p) { return p.document == it->first; });
     it = followed ? std::next(it) : pages_.erase(it);
   }
   const bool rectify = options_.rectify_above_perspective > 0 && !pages.empty();
@@ -156,7 +154,8 @@ WordKeypoints VideoKeypointExtractor::Extract(const cv::Mat& gray,
     pages_only.text_angle_rad = known_->text_angle_rad;
     for (const PageInView& page : pages) {
       RectifiedPage report;
-      if (ExtractRectified(gray, page, pages_only, &report)) done.rectified.push_back(report);
+      if (ExtractRectified(gray, page, known_->char_height, pages_only, &report))
+        done.rectified.push_back(report);
     }
     if (!done.rectified.empty()) {
       ++frames_since_measure_;
@@ -180,13 +179,15 @@ WordKeypoints VideoKeypointExtractor::Extract(const cv::Mat& gray,
   if (!rectify) return result;
   for (const PageInView& page : pages) {
     RectifiedPage report;
-    if (ExtractRectified(gray, page, result, &report)) done.rectified.push_back(report);
+    if (ExtractRectified(gray, page, result.char_height, result, &report))
+      done.rectified.push_back(report);
   }
   return result;
 }
 
 bool VideoKeypointExtractor::ExtractRectified(const cv::Mat& gray, const PageInView& page,
-                                              WordKeypoints& frame, RectifiedPage* report) {
+                                              double frame_char_height, WordKeypoints& frame,
+                                              RectifiedPage* report) {
   const cv::Matx33d& H = page.page_to_frame;
   cv::Matx33d inverse;
   if (cv::invert(H, inverse, cv::DECOMP_LU) == 0 || page.area.area() <= 0) return false;
@@ -219,59 +220,115 @@ bool VideoKeypointExtractor::ExtractRectified(const cv::Mat& gray, const PageInV
     return false;
 
   PageText& text = pages_[page.document];
-  // Rectified pixels per page pixel: text of rectified_char_height once the page's text
-  // is known, else the frame's median magnification (the first measurement tells).
-  double scale = text.known ? options_.rectified_char_height / text.known->char_height
-                            : magnification[magnification.size() / 2];
+  // The rectified image at `scale` rectified pixels per page pixel: the region of the page
+  // it covers (the scale shrinks to fit the pixel budget), its pixels and its mapping.
   const double budget = options_.max_rectified_area * gray.total();
   cv::Rect2d region;
-  for (int round = 0; round < 3; ++round) {
-    double x0 = 1e300, y0 = 1e300, x1 = -1e300, y1 = -1e300;
-    for (const Sample& s : samples) {
-      if (scale > options_.max_rectify_upsampling * s.smallest) continue;
-      x0 = std::min(x0, s.page.x);
-      y0 = std::min(y0, s.page.y);
-      x1 = std::max(x1, s.page.x);
-      y1 = std::max(y1, s.page.y);
-    }
-    if (!(x1 > x0 && y1 > y0)) return false;
-    region = cv::Rect2d(x0, y0, x1 - x0, y1 - y0) & cv::Rect2d(page.area);
-    if (region.area() * scale * scale <= budget) break;
-    scale = std::sqrt(budget / region.area()) * 0.99;  // smaller text, and a wider region
-  }
-  if (region.area() * scale * scale > budget * 1.01) return false;
-  const double expected_height = text.known ? text.known->char_height * scale : 0;
-  if (text.known && expected_height < options_.rectified_min_char_height) return false;
-
-  // Rectified pixel u -> page origin + u / scale -> frame.
-  const cv::Matx33d to_page(1 / scale, 0, region.x, 0, 1 / scale, region.y, 0, 0, 1);
-  const cv::Matx33d to_frame = H * to_page;
-  const cv::Size size(std::max(1, static_cast<int>(std::ceil(region.width * scale))),
-                      std::max(1, static_cast<int>(std::ceil(region.height * scale))));
+  cv::Matx33d to_frame;
+  cv::Size size;
   cv::Mat image;
-  // Outside the frame the border is replicated: no step between paper and a fill value
-  // for the thresholding to take for ink.
-  cv::warpPerspective(gray, image, cv::Mat(to_frame), size,
-                      cv::INTER_LINEAR | cv::WARP_INVERSE_MAP, cv::BORDER_REPLICATE);
-
+  auto rectify = [&](double& scale, double max_upsampling) {
+    for (int round = 0; round < 3; ++round) {
+      double x0 = 1e300, y0 = 1e300, x1 = -1e300, y1 = -1e300;
+      for (const Sample& s : samples) {
+        if (scale > max_upsampling * s.smallest) continue;
+        x0 = std::min(x0, s.page.x);
+        y0 = std::min(y0, s.page.y);
+        x1 = std::max(x1, s.page.x);
+        y1 = std::max(y1, s.page.y);
+      }
+      if (!(x1 > x0 && y1 > y0)) return false;
+      region = cv::Rect2d(x0, y0, x1 - x0, y1 - y0) & cv::Rect2d(page.area);
+      if (region.area() * scale * scale <= budget) break;
+      scale = std::sqrt(budget / region.area()) * 0.99;  // smaller text, and a wider region
+    }
+    if (region.area() <= 0 || region.area() * scale * scale > budget * 1.01) return false;
+    // Rectified pixel u -> page origin + u / scale -> frame.
+    const cv::Matx33d to_page(1 / scale, 0, region.x, 0, 1 / scale, region.y, 0, 0, 1);
+    to_frame = H * to_page;
+    size = cv::Size(std::max(1, static_cast<int>(std::ceil(region.width * scale))),
+                    std::max(1, static_cast<int>(std::ceil(region.height * scale))));
+    // Outside the frame the border is replicated: no step between paper and a fill value
+    // for the thresholding to take for ink.
+    cv::warpPerspective(gray, image, cv::Mat(to_frame), size,
+                        cv::INTER_LINEAR | cv::WARP_INVERSE_MAP, cv::BORDER_REPLICATE);
+    return true;
+  };
+  const double target = options_.rectified_char_height;
+  // A measurement of the rectified text is believed when it is within this factor of what
+  // was expected: one thresholding pass on a blurred, squeezed view can take the wrong
+  // structure (line pitch, letter strokes) for the text height.
+  constexpr double kMeasureTolerance = 1.5;
+  auto plausible = [&](double measured, double expected) {
+    return measured > 0 && measured < kMeasureTolerance * expected &&
+           measured * kMeasureTolerance > expected;
+  };
   WordKeypoints words;
-  const double density_measured =
-      static_cast<double>(text.measured_keypoints);  // keypoints per 10^4 rectified px
-  bool measure = !text.known || ++text.frames_since_measure >= options_.measure_every_frames;
-  if (!measure) {
-    words = rectified_.Extract(image, TextGeometry{expected_height, text.known->text_angle_rad});
-    measure = 1e4 * words.points.size() / image.total() <
-              options_.remeasure_below_ratio * density_measured;
-  }
-  if (measure) {
-    words = rectified_.Extract(image);
-    text.frames_since_measure = 0;
-    text.measured_keypoints = static_cast<size_t>(1e4 * words.points.size() / image.total());
-    if (words.char_height > 0) {
-      text.known = TextGeometry{words.char_height / scale, words.text_angle_rad};
-    } else {
-      text.known.reset();
-      return false;
+  double scale = 0;
+  if (!text.known) {
+    // First sight of the page at a slant: its text is measured where the frame sees it
+    // best (the nearer half of the samples, not enlarged), then checked at the scale
+    // it asks for over the whole region (titles near the camera can mislead the first
+    // measurement), and measured again there when it was off.
+    std::vector<double> squeezed;
+    for (const Sample& s : samples) squeezed.push_back(s.smallest);
+    std::sort(squeezed.begin(), squeezed.end());
+    // Too few words there (a steep view): a wider part, enlarged more.
+    for (double enlarge = 1; enlarge <= options_.max_rectify_upsampling; enlarge *= 2) {
+      scale = squeezed[squeezed.size() / 2];
+      if (!rectify(scale, enlarge)) return false;
+      words = rectified_.Extract(image);
+      if (words.char_height > 0) break;
+    }
+    if (!(words.char_height > 0)) return false;
+    for (int attempt = 0; attempt < 2 && !text.known; ++attempt) {
+      scale *= target / words.char_height;
+      const double wanted = scale;
+      if (!rectify(scale, options_.max_rectify_upsampling)) return false;
+      words = rectified_.Extract(image);
+      if (plausible(words.char_height, target * scale / wanted)) {
+        text.heights.assign(1, words.char_height / scale);
+        text.known = TextGeometry{words.char_height / scale, words.text_angle_rad};
+        text.frames_since_measure = 0;
+        text.measured_keypoints = static_cast<size_t>(1e4 * words.points.size() / image.total());
+      } else if (!(words.char_height > 0)) {
+        return false;
+      }
+    }
+    if (!text.known) return false;
+  } else {
+    scale = target / text.known->char_height;
+    if (!rectify(scale, options_.max_rectify_upsampling)) return false;
+    const double expected = text.known->char_height * scale;
+    if (expected < options_.rectified_min_char_height) return false;
+    const TextGeometry known{expected, text.known->text_angle_rad};
+    bool measure = ++text.frames_since_measure >= options_.measure_every_frames;
+    if (!measure) {
+      words = rectified_.Extract(image, known);
+      // Far fewer words per pixel than when last measured: measure again.
+      measure = 1e4 * words.points.size() / image.total() <
+                options_.remeasure_below_ratio * text.measured_keypoints;
+    }
+    if (measure) {
+      text.frames_since_measure = 0;
+      WordKeypoints measured = rectified_.Extract(image);
+      if (plausible(measured.char_height, expected)) {
+        // The page's text height is one number: the median of its recent measurements
+        // (a steep view measures less reliably than the first, moderate one).
+        text.heights.push_back(measured.char_height / scale);
+        if (text.heights.size() > 7) text.heights.erase(text.heights.begin());
+        std::vector<double> sorted = text.heights;
+        std::sort(sorted.begin(), sorted.end());
+        const double page_height = sorted[sorted.size() / 2];
+        text.known = TextGeometry{page_height, measured.text_angle_rad};
+        words = page_height == measured.char_height / scale
+                    ? std::move(measured)
+                    : rectified_.Extract(
+                          image, TextGeometry{page_height * scale, measured.text_angle_rad});
+      } else {
+        words = rectified_.Extract(image, known);  // keep what is known
+      }
+      text.measured_keypoints = static_cast<size_t>(1e4 * words.points.size() / image.total());
     }
   }
   const double h = words.char_height;
@@ -292,7 +349,8 @@ bool VideoKeypointExtractor::ExtractRectified(const cv::Mat& gray, const PageInV
     if (scale <= options_.max_rectify_upsampling * s.smallest) continue;
     cv::Point2d x;
     if (!Project(H, s.page, &x)) continue;
-    far = far.area() > 0 ? (far | cv::Rect2d(x, cv::Size2d(1, 1))) : cv::Rect2d(x, cv::Size2d(1, 1));
+    far =
+        far.area() > 0 ? (far | cv::Rect2d(x, cv::Size2d(1, 1))) : cv::Rect2d(x, cv::Size2d(1, 1));
   }
   if (far.area() > 0) {
     // One sample spacing around the samples.

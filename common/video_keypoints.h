@@ -40,8 +40,10 @@ struct VideoKeypointOptions {
   // distance. 0: never.
   double rectify_above_perspective = 1.8;
   // Height of the text in the rectified image, pixels: tall enough for words to be cut
-  // reliably, small enough to keep the image cheap.
-  double rectified_char_height = 9;
+  // reliably, small enough to keep the image cheap and the far part within
+  // max_rectify_upsampling (on the benchmark's close orbit, seeds 77-81: 7 px held every
+  // frame to 80 deg; 8 and 9 px lost one or two frames on some seeds).
+  double rectified_char_height = 7;
   // The rectified image leaves out the part of the page where it would enlarge the frame
   // more than this along the squeezed direction: the frame does not resolve the text
   // there, and enlarging it invents nothing.
@@ -72,14 +74,14 @@ struct RectifiedPage {
   double scale = 0;
   cv::Point2d origin;
   cv::Matx33d to_frame = cv::Matx33d::eye();  // rectified pixels -> frame pixels
-  cv::Size size;                // of the rectified image
+  cv::Size size;                              // of the rectified image
   cv::Size frame_size;
-  double char_height = 0;       // text height in the rectified image
+  double char_height = 0;  // text height in the rectified image
   // Frame pixels of the page part in view left out for being too far to rectify (empty:
   // none).
   cv::Rect unresolved;
-  int keypoints = 0;            // rectified keypoints kept in the frame
-  int replaced = 0;             // frame keypoints they replaced
+  int keypoints = 0;  // rectified keypoints kept in the frame
+  int replaced = 0;   // frame keypoints they replaced
 };
 
 // True when a frame keypoint at `frame_point` lies where `page`'s rectified image gives
@@ -88,8 +90,8 @@ bool TakenByRectified(const RectifiedPage& page, const cv::Point2f& frame_point)
 
 // What VideoKeypointExtractor::Extract did on one frame.
 struct VideoFrameInfo {
-  bool measured = false;     // the text of the frame was measured
-  bool whole_frame = true;   // false: only the rectified pages were extracted
+  bool measured = false;    // the text of the frame was measured
+  bool whole_frame = true;  // false: only the rectified pages were extracted
   std::vector<RectifiedPage> rectified;
 };
 
@@ -116,7 +118,8 @@ class VideoKeypointExtractor {
   // What is known of a page's text in page pixels, measured on rectified images.
   struct PageText {
     std::optional<TextGeometry> known;  // char_height in page pixels
-    size_t measured_keypoints = 0;
+    std::vector<double> heights;        // the last few measurements of it
+    size_t measured_keypoints = 0;      // per 10^4 rectified pixels, when last measured
     int frames_since_measure = 0;
   };
 
@@ -124,8 +127,9 @@ class VideoKeypointExtractor {
   // Extracts one page rectified: its keypoints, in frame coordinates, replace those of
   // `frame` where the rectified image sees the page well. False when the page is not seen
   // at a slant, or not well enough to be rectified.
-  bool ExtractRectified(const cv::Mat& gray, const PageInView& page, WordKeypoints& frame,
-                        RectifiedPage* report);
+  // `frame_char_height`: the frame's text height, for a first guess of the page's.
+  bool ExtractRectified(const cv::Mat& gray, const PageInView& page, double frame_char_height,
+                        WordKeypoints& frame, RectifiedPage* report);
 
   const VideoKeypointOptions options_;
   WordKeypointExtractor measuring_;  // the registration's options

@@ -22,6 +22,7 @@
 //                          [--no-grpc] [--no-baselines] [--trace-from DEG [--trace-dir D]]
 //                          [--seed N] [--frame-letter-graph] [--rectify-above F]
 //                          [--rectified-height PX] [--max-upsampling F]
+//                          [--max-frame-age-ms MS] [--queue-frames N]
 #include <spdlog/spdlog.h>
 
 #include <CLI/CLI.hpp>
@@ -161,6 +162,11 @@ int main(int argc, char** argv) {
   app.add_option("--print-every", print_every, "print a row every this many degrees");
   app.add_option("--distractors", distractors, "other pages registered besides the tracked one");
   app.add_option("--streams", streams, "concurrent streams of the throughput test");
+  texfree::server::TrackingServiceOptions service;
+  app.add_option("--max-frame-age-ms", service.max_frame_age_ms,
+                 "throughput test: a frame waiting longer is stale (dropped if a newer waits)");
+  app.add_option("--queue-frames", service.queue_frames,
+                 "throughput test: frames waiting per stream at most");
   app.add_option("--fps", fps, "frame rate of each concurrent stream");
   app.add_option("--seconds", seconds, "duration of each throughput test");
   app.add_option("--only", only, "run only the sequence with this name");
@@ -505,7 +511,7 @@ int main(int argc, char** argv) {
       jpegs.emplace_back(bytes.begin(), bytes.end());
     }
     texfree::bench::RunGrpcThroughput(registry->get(), jpegs, sequences[0].name, streams, fps,
-                                      seconds);
+                                      seconds, service);
   }
   return 0;
 }
