@@ -156,15 +156,23 @@ void TrackingSession::ExtractLoop() {
       std::unique_lock lock(mutex_);
       input_cv_.wait(lock, [&] { return cancelled_ || finishing_ || !input_.empty(); });
       if (cancelled_ || input_.empty()) break;
-      // Stale frames with a newer one behind them are dropped (error results are not:
-      // every bad frame is answered).
+      // The oldest waiting frame is stale: the stream has fallen behind for longer than a
+      // burst, so it skips to the newest frame, dropping those in between (error results
+      // are kept: every bad frame is answered).
       const auto stale_before =
           SteadyClock::now() - std::chrono::milliseconds(options_.max_frame_age_ms);
-      while (input_.size() > 1 && input_.front().error.empty() &&
-             input_.front().arrived < stale_before) {
-        dropped_.push_back(input_.front().frame.frame_index());
-        input_.pop_front();
-        ++stats_.dropped;
+      if (input_.size() > 1 && input_.front().arrived < stale_before) {
+        std::deque<Pending> kept;
+        for (size_t i = 0; i + 1 < input_.size(); ++i) {
+          if (!input_[i].error.empty()) {
+            kept.push_back(std::move(input_[i]));
+            continue;
+          }
+          dropped_.push_back(input_[i].frame.frame_index());
+          ++stats_.dropped;
+        }
+        kept.push_back(std::move(input_.back()));
+        input_ = std::move(kept);
       }
       pending = std::move(input_.front());
       input_.pop_front();

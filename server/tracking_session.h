@@ -2,12 +2,13 @@
 // a two-stage pipeline (seed 5.4): stage 1 decodes frame t+1 and extracts its word
 // keypoints while stage 2 matches frame t, estimates the pose, learns and writes the
 // result, so one stream keeps two cores busy. Queues are bounded in time and in count:
-// stage 1 waits for stage 2 (one frame in between); a frame that has waited longer than
-// `max_frame_age_ms` is stale and dropped when a newer one waits behind it, and frames
-// arriving while `queue_frames` wait already push the oldest waiting frame out. A server
-// that falls behind thus drops stale frames, and says so in the next result, instead of
-// queueing without bound and answering late; a burst (many streams starting at once, each
-// running retrieval) is absorbed as long as no frame gets stale.
+// stage 1 waits for stage 2 (one frame in between); when the oldest waiting frame has
+// waited longer than `max_frame_age_ms` it is stale, and stage 1 skips to the newest
+// frame, dropping those in between; frames arriving while `queue_frames` wait already
+// push the oldest waiting frame out. A server that falls behind thus drops stale frames,
+// and says so in the next result, instead of queueing without bound and answering late,
+// while a burst (many streams starting at once, each running retrieval) is absorbed
+// without a drop as long as no frame gets stale.
 //
 // IdleWatchdog ends a stream that stays silent.
 #pragma once
@@ -37,8 +38,8 @@
 namespace texfree::server {
 
 struct TrackingSessionOptions {
-  // A frame waiting for stage 1 longer than this is stale: it is dropped when a newer
-  // frame waits behind it (the newest is always answered). 250 ms: an overlay lagging
+  // A frame waiting for stage 1 longer than this is stale: the stream skips to the newest
+  // frame waiting (which is always answered). 250 ms: an overlay lagging
   // more than a quarter second no longer looks attached to the page, while start-up
   // bursts (retrieval, about 30 ms per frame, on every stream at once) last less.
   int max_frame_age_ms = 250;

@@ -167,6 +167,9 @@ int main(int argc, char** argv) {
                  "throughput test: a frame waiting longer is stale (dropped if a newer waits)");
   app.add_option("--queue-frames", service.queue_frames,
                  "throughput test: frames waiting per stream at most");
+  int grpc_opencv_threads = -1;
+  app.add_option("--grpc-opencv-threads", grpc_opencv_threads,
+                 "throughput test: OpenCV's threads (cv::setNumThreads; -1: its default)");
   app.add_option("--fps", fps, "frame rate of each concurrent stream");
   app.add_option("--seconds", seconds, "duration of each throughput test");
   app.add_option("--only", only, "run only the sequence with this name");
@@ -502,7 +505,7 @@ int main(int argc, char** argv) {
   }
   std::fflush(stdout);
 
-  cv::setNumThreads(-1);  // the server as deployed: OpenCV's default threads
+  cv::setNumThreads(grpc_opencv_threads);  // the server as deployed: OpenCV's default
   if (!no_grpc && !sequences.empty()) {
     std::vector<std::string> jpegs;
     for (const auto& v : sequences[0].views) {

@@ -157,6 +157,7 @@ void RunGrpcThroughput(const server::DocumentRegistry* registry,
     std::vector<StreamResult> results(streams);
     std::vector<std::thread> threads;
     const double cpu0 = ProcessCpuMs();
+    const auto wall0 = Clock::now();
     for (int s = 0; s < streams; ++s) {
       threads.emplace_back([&, s] {
         auto stub = v1::TrackingService::NewStub(channel_for());
@@ -165,13 +166,17 @@ void RunGrpcThroughput(const server::DocumentRegistry* registry,
     }
     for (auto& t : threads) t.join();
     const double cpu = ProcessCpuMs() - cpu0;
+    const double wall_seconds = std::chrono::duration<double>(Clock::now() - wall0).count();
     int answered = 0, dropped = 0, dropped_first_second = 0, tracked = 0, sent = 0;
+    int fewest = 1 << 30, most = 0;  // answered per stream: the cores are shared fairly?
     double rate = 0;
     std::vector<double> server_ms, latency;
     for (const auto& r : results) {
       answered += r.results;
       dropped += r.dropped;
       dropped_first_second += r.dropped_first_second;
+      fewest = std::min(fewest, r.results);
+      most = std::max(most, r.results);
       tracked += r.tracked;
       sent += r.sent;
       rate += r.results / r.seconds;
@@ -185,9 +190,13 @@ void RunGrpcThroughput(const server::DocumentRegistry* registry,
         dropped_first_second, 100.0 * tracked / std::max(1, answered), Median(server_ms),
         Median(latency), Quantile(latency, 0.99), cpu / std::max(1, answered));
     std::printf("\nCPU time counts server and client threads; %d streams at %.0f fps need %.0f "
-                "frames/s x CPU ms per frame of the %u cores' %u ms per second.\n",
+                "frames/s x CPU ms per frame of the %u cores' %u ms per second. The process "
+                "got %.2f cores (CPU time / wall time) and needed %.2f: fewer means the "
+                "machine's other load took the rest.\n",
                 streams, fps, streams * fps, std::thread::hardware_concurrency(),
-                1000 * std::thread::hardware_concurrency());
+                1000 * std::thread::hardware_concurrency(), cpu / 1000 / wall_seconds,
+                streams * fps * cpu / std::max(1, answered) / 1000);
+    std::printf("Frames answered per stream: %d to %d.\n", fewest, most);
   }
   server->Shutdown(std::chrono::system_clock::now() + std::chrono::seconds(2));
 }
