@@ -146,47 +146,62 @@ WordKeypoints VideoKeypointExtractor::Extract(const cv::Mat& gray,
     it = followed ? std::next(it) : pages_.erase(it);
   }
   const bool rectify = options_.rectify_above_perspective > 0 && !pages.empty();
-  // Between two measurements of the frame, a page seen at a slant is all that is
-  // extracted.
-  if (rectify && known_ && frames_since_measure_ + 1 < options_.measure_every_frames) {
+  // Pages at a slant, rectified (the frame's text height is needed for a first guess of
+  // a page's).
+  std::vector<cv::Point2f> rectified;
+  auto rectify_pages = [&](double frame_char_height) {
+    for (const PageInView& page : pages) {
+      RectifiedPage report;
+      if (ExtractRectified(gray, page, frame_char_height, &rectified, &report))
+        done.rectified.push_back(report);
+    }
+  };
+  auto taken = [&](const cv::Point2f& x) {
+    return std::any_of(done.rectified.begin(), done.rectified.end(),
+                       [&](const RectifiedPage& r) { return TakenByRectified(r, x); });
+  };
+  if (rectify && known_) rectify_pages(known_->char_height);
+  // Between two measurements of the frame, when every page is rectified, the pages are
+  // all that is extracted: their rectified parts, and their far parts, too squeezed to
+  // rectify, from the frame itself.
+  if (rectify && known_ && frames_since_measure_ + 1 < options_.measure_every_frames &&
+      done.rectified.size() == pages.size()) {
+    ++frames_since_measure_;
+    done.whole_frame = false;
     WordKeypoints pages_only;
     pages_only.char_height = known_->char_height;
     pages_only.text_angle_rad = known_->text_angle_rad;
-    for (const PageInView& page : pages) {
-      RectifiedPage report;
-      if (ExtractRectified(gray, page, known_->char_height, pages_only, &report))
-        done.rectified.push_back(report);
-    }
-    if (!done.rectified.empty()) {
-      ++frames_since_measure_;
-      done.whole_frame = false;
-      // The far parts of the pages, too squeezed to rectify, from the frame itself.
-      for (const RectifiedPage& page : done.rectified) {
-        if (page.unresolved.area() <= 0) continue;
-        const WordKeypoints band = reusing_.Extract(gray(page.unresolved), *known_);
-        for (cv::Point2f x : band.points) {
-          x += cv::Point2f(page.unresolved.tl());
-          const bool taken =
-              std::any_of(done.rectified.begin(), done.rectified.end(),
-                          [&](const RectifiedPage& r) { return TakenByRectified(r, x); });
-          if (!taken) pages_only.points.push_back(x);
-        }
+    for (const RectifiedPage& page : done.rectified) {
+      if (page.unresolved.area() <= 0) continue;
+      const WordKeypoints band = reusing_.Extract(gray(page.unresolved), *known_);
+      for (cv::Point2f x : band.points) {
+        x += cv::Point2f(page.unresolved.tl());
+        if (!taken(x)) pages_only.points.push_back(x);
       }
-      return pages_only;
     }
+    pages_only.points.insert(pages_only.points.end(), rectified.begin(), rectified.end());
+    return pages_only;
   }
+  const bool first = !known_;
   WordKeypoints result = Extract(gray, &done.measured);
   if (!rectify) return result;
-  for (const PageInView& page : pages) {
-    RectifiedPage report;
-    if (ExtractRectified(gray, page, result.char_height, result, &report))
-      done.rectified.push_back(report);
-  }
+  if (first && result.char_height > 0) rectify_pages(result.char_height);
+  if (done.rectified.empty()) return result;
+  // The frame's keypoints make way for the rectified ones where those are taken.
+  std::vector<cv::Point2f> points;
+  points.reserve(result.points.size() + rectified.size());
+  for (const cv::Point2f& x : result.points)
+    if (!taken(x)) points.push_back(x);
+  const int replaced = static_cast<int>(result.points.size() - points.size());
+  if (done.rectified.size() == 1) done.rectified[0].replaced = replaced;
+  points.insert(points.end(), rectified.begin(), rectified.end());
+  result.points = std::move(points);
   return result;
 }
 
 bool VideoKeypointExtractor::ExtractRectified(const cv::Mat& gray, const PageInView& page,
-                                              double frame_char_height, WordKeypoints& frame,
+                                              double frame_char_height,
+                                              std::vector<cv::Point2f>* points,
                                               RectifiedPage* report) {
   const cv::Matx33d& H = page.page_to_frame;
   cv::Matx33d inverse;
@@ -358,22 +373,13 @@ bool VideoKeypointExtractor::ExtractRectified(const cv::Mat& gray, const PageInV
     far = cv::Rect2d(far.x - dx, far.y - dy, far.width + 2 * dx, far.height + 2 * dy);
     done.unresolved = cv::Rect(far) & cv::Rect(0, 0, gray.cols, gray.rows);
   }
-  std::vector<cv::Point2f> points;
-  points.reserve(frame.points.size() + words.points.size());
-  for (const cv::Point2f& x : frame.points) {
-    if (TakenByRectified(done, x))
-      ++done.replaced;
-    else
-      points.push_back(x);
-  }
   for (const cv::Point2f& u : words.points) {
     cv::Point2d x;
     if (!InnerPart(done, u) || !Project(to_frame, u, &x)) continue;
-    points.emplace_back(static_cast<float>(x.x), static_cast<float>(x.y));
+    points->emplace_back(static_cast<float>(x.x), static_cast<float>(x.y));
     ++done.keypoints;
   }
-  frame.points = std::move(points);
-  if (report) *report = done;
+  *report = done;
   return true;
 }
 

@@ -104,10 +104,11 @@ class VideoKeypointExtractor {
   // gray: CV_8UC1. `measured` (optional) tells whether the text was measured on this frame.
   WordKeypoints Extract(const cv::Mat& gray, bool* measured = nullptr);
   // The same, with the pages the tracker expects in this frame: those seen at a slant are
-  // extracted rectified (see the file comment). While some are, the rest of the frame is
-  // extracted only on the frames that measure the text (one in measure_every_frames), to
-  // look for other pages: the other frames return the rectified pages' keypoints alone
-  // (info->whole_frame false), with the last measured text height of the frame.
+  // extracted rectified (see the file comment). While all of them are, the rest of the
+  // frame is extracted only on the frames that measure the text (one in
+  // measure_every_frames), to look for other pages: the other frames return the pages'
+  // keypoints alone (info->whole_frame false), with the last measured text height of the
+  // frame.
   WordKeypoints Extract(const cv::Mat& gray, const std::vector<PageInView>& pages,
                         VideoFrameInfo* info = nullptr);
 
@@ -124,12 +125,12 @@ class VideoKeypointExtractor {
   };
 
   WordKeypoints Measure(const cv::Mat& gray);
-  // Extracts one page rectified: its keypoints, in frame coordinates, replace those of
-  // `frame` where the rectified image sees the page well. False when the page is not seen
-  // at a slant, or not well enough to be rectified.
+  // Extracts one page rectified: appends its keypoints, in frame coordinates, to
+  // `points` (those well inside the rectified image; TakenByRectified says where). False
+  // when the page is not seen at a slant, or not well enough to be rectified.
   // `frame_char_height`: the frame's text height, for a first guess of the page's.
   bool ExtractRectified(const cv::Mat& gray, const PageInView& page, double frame_char_height,
-                        WordKeypoints& frame, RectifiedPage* report);
+                        std::vector<cv::Point2f>* points, RectifiedPage* report);
 
   const VideoKeypointOptions options_;
   WordKeypointExtractor measuring_;  // the registration's options

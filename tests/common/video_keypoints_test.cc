@@ -264,6 +264,23 @@ TEST(VideoKeypointsTest, BetweenMeasurementsOnlyTheSlantedPageIsExtracted) {
   EXPECT_TRUE(info.rectified.empty());
 }
 
+TEST(VideoKeypointsTest, AnotherPageSeenFromAboveKeepsTheWholeFrame) {
+  const auto& view = OrbitViews()[7];
+  const cv::Mat gray = Gray(view.image);
+  PageInView flat;  // a second page, seen from above in the frame's lower half
+  flat.document = 8;
+  flat.page_to_frame = cv::Matx33d(0.3, 0, 100, 0, 0.3, 250, 0, 0, 1);
+  flat.area = cv::Rect2f(0, 0, 1000, 600);
+  VideoKeypointExtractor video(WordKeypointOptions{}, VideoKeypointOptions{});
+  for (int i = 0; i < 4; ++i) {
+    VideoFrameInfo info;
+    video.Extract(gray, {TruePage(view), flat}, &info);
+    ASSERT_EQ(info.rectified.size(), 1u);
+    EXPECT_EQ(info.rectified[0].document, 7u);
+    EXPECT_TRUE(info.whole_frame) << "the flat page's keypoints come from the frame";
+  }
+}
+
 TEST(VideoKeypointsTest, OptionsValidate) {
   EXPECT_TRUE(VideoKeypointOptions().Validate().ok());
   VideoKeypointOptions o;
