@@ -94,6 +94,9 @@ absl::Status VideoKeypointOptions::Validate() const {
   if (!(max_rectify_upsampling >= 1 && max_rectify_upsampling <= 16))
     return absl::InvalidArgumentError(
         absl::StrCat("max_rectify_upsampling must be in [1, 16], got ", max_rectify_upsampling));
+  if (!(max_median_upsampling >= 1 && max_median_upsampling <= 16))
+    return absl::InvalidArgumentError(absl::StrCat(
+        "max_median_upsampling must be in [1, 16], got ", max_median_upsampling));
   if (!(max_rectified_area > 0 && max_rectified_area <= 16))
     return absl::InvalidArgumentError(
         absl::StrCat("max_rectified_area must be in (0, 16], got ", max_rectified_area));
@@ -311,8 +314,14 @@ bool VideoKeypointExtractor::ExtractRectified(const cv::Mat& gray, const PageInV
       }
     }
     if (!text.known) return false;
+    if (scale > options_.max_median_upsampling * magnification[magnification.size() / 2])
+      return false;
   } else {
     scale = target / text.known->char_height;
+    // Small text seen from afar: the rectified image would mostly enlarge the frame, and
+    // the frame's own keypoints do better.
+    if (scale > options_.max_median_upsampling * magnification[magnification.size() / 2])
+      return false;
     if (!rectify(scale, options_.max_rectify_upsampling)) return false;
     const double expected = text.known->char_height * scale;
     if (expected < options_.rectified_min_char_height) return false;

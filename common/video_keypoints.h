@@ -48,6 +48,10 @@ struct VideoKeypointOptions {
   // more than this along the squeezed direction: the frame does not resolve the text
   // there, and enlarging it invents nothing.
   double max_rectify_upsampling = 3;
+  // A page is not rectified when the rectified image would enlarge the frame more than
+  // this at the median magnification (small text seen from afar: enlarging blurs it, and
+  // the frame's own keypoints do better).
+  double max_median_upsampling = 1.2;
   // Pixel budget of a rectified image, as a multiple of the frame's pixels; the text is
   // made smaller to fit (not below rectified_min_char_height, else the page is not
   // rectified).

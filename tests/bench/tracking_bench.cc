@@ -189,6 +189,9 @@ int main(int argc, char** argv) {
                  "text height in rectified page images, px");
   app.add_option("--max-upsampling", video.max_rectify_upsampling,
                  "rectified images enlarge the frame at most this much");
+  app.add_option("--max-median-upsampling", video.max_median_upsampling,
+                 "pages are not rectified when that enlarges the frame more than this at the "
+                 "median magnification");
   app.add_option("--seed", sequence_seed, "seed of the camera paths' hand shake and noise");
   app.add_option("--llah-interval", tracking.llah_interval,
                  "track methods: LLAH matching every this many frames while projection holds");
