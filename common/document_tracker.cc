@@ -338,6 +338,7 @@ size_t DocumentTracker::followed_documents() const { return followed_.size(); }
 
 std::vector<PageInView> DocumentTracker::PredictedPages(int frames_ahead) const {
   std::vector<PageInView> out;
+  if (!options_.predict) return out;  // LLAH alone, as the seed's experiment
   for (const auto& doc : followed_) {
     if (!doc->has_homography || doc->lost_frames > 0 || doc->last_seen != frame_count_ ||
         doc->hull.empty())

@@ -166,7 +166,7 @@ class DocumentTracker {
   // Where the pages tracked on the last frame are expected `frames_ahead` frames after it
   // (the last homography moved on by the last inter-frame motion), with their text areas:
   // for VideoKeypointExtractor's rectified extraction. Pages lost on the last frame are
-  // left out.
+  // left out; nothing without options().predict.
   std::vector<PageInView> PredictedPages(int frames_ahead = 1) const;
 
   const TrackerOptions& options() const { return options_; }

@@ -95,8 +95,8 @@ absl::Status VideoKeypointOptions::Validate() const {
     return absl::InvalidArgumentError(
         absl::StrCat("max_rectify_upsampling must be in [1, 16], got ", max_rectify_upsampling));
   if (!(max_median_upsampling >= 1 && max_median_upsampling <= 16))
-    return absl::InvalidArgumentError(absl::StrCat(
-        "max_median_upsampling must be in [1, 16], got ", max_median_upsampling));
+    return absl::InvalidArgumentError(
+        absl::StrCat("max_median_upsampling must be in [1, 16], got ", max_median_upsampling));
   if (!(max_rectified_area > 0 && max_rectified_area <= 16))
     return absl::InvalidArgumentError(
         absl::StrCat("max_rectified_area must be in (0, 16], got ", max_rectified_area));
