@@ -336,6 +336,34 @@ void DocumentTracker::Reset() {
 
 size_t DocumentTracker::followed_documents() const { return followed_.size(); }
 
+std::vector<PageInView> DocumentTracker::PredictedPages(int frames_ahead) const {
+  std::vector<PageInView> out;
+  if (!options_.predict) return out;  // LLAH alone, as the seed's experiment
+  for (const auto& doc : followed_) {
+    if (!doc->has_homography || doc->lost_frames > 0 || doc->last_seen != frame_count_ ||
+        doc->hull.empty())
+      continue;
+    cv::Matx33d H = doc->homography;
+    for (int k = 0; k < frames_ahead && doc->has_motion; ++k) {
+      cv::Matx33d moved = doc->motion * H;
+      if (!NormaliseInFront(moved, doc->seen_centroid) ||
+          !MakePlausibleHomography(&moved, {cv::Point2f(doc->seen_centroid)}))
+        break;
+      H = moved;
+    }
+    PageInView page;
+    page.document = doc->id;
+    page.page_to_frame = H;
+    // The keypoints are word centres: the words reach a little beyond their hull.
+    const cv::Rect2f box = cv::boundingRect(doc->hull);
+    const float margin = 0.03f * std::max(box.width, box.height);
+    page.area = cv::Rect2f(box.x - margin, box.y - margin, box.width + 2 * margin,
+                           box.height + 2 * margin);
+    out.push_back(page);
+  }
+  return out;
+}
+
 bool DocumentTracker::ShouldLearn(int llah_inliers) const {
   switch (options_.update_policy) {
     case UpdatePolicy::kEveryFrame:
@@ -626,7 +654,8 @@ void DocumentTracker::Follow(uint32_t id, const DocumentHit& hit, Frame& frame,
 
 TrackerFrameResult DocumentTracker::Track(const WordKeypoints& keypoints,
                                           const cv::Size& image_size,
-                                          std::shared_ptr<const LlahRetriever> shared) {
+                                          std::shared_ptr<const LlahRetriever> shared,
+                                          bool whole_frame) {
   TrackerFrameResult result;
   if (shared != shared_) {
     // A new shared index (the first page was registered): hashes of the old one mean
@@ -657,8 +686,8 @@ TrackerFrameResult DocumentTracker::Track(const WordKeypoints& keypoints,
   }
 
   // Retrieval: pages not followed yet, and lost ones the session index cannot re-find.
-  if (!any_tracked ||
-      frame_count_ - last_retrieval_ >= static_cast<uint64_t>(options_.retrieval_interval)) {
+  if (whole_frame && (!any_tracked || frame_count_ - last_retrieval_ >=
+                                          static_cast<uint64_t>(options_.retrieval_interval))) {
     t = SteadyClock::now();
     last_retrieval_ = frame_count_;
     std::vector<int> free_index;

@@ -41,6 +41,7 @@
 #include "common/llah_retriever.h"
 #include "common/planar_pose.h"
 #include "common/session_index.h"
+#include "common/video_keypoints.h"
 #include "common/word_keypoints.h"
 
 namespace texfree {
@@ -152,12 +153,21 @@ class DocumentTracker {
   DocumentTracker& operator=(const DocumentTracker&) = delete;
 
   // Tracks the pages in one frame. `shared` is the registry's index (null while nothing
-  // is registered); the tracker keeps it alive while it follows its pages.
+  // is registered); the tracker keeps it alive while it follows its pages. `whole_frame`
+  // false: the keypoints cover only the pages tracked (VideoKeypointExtractor's rectified
+  // extraction), so retrieval of further pages waits for a frame that covers it all.
   TrackerFrameResult Track(const WordKeypoints& frame, const cv::Size& image_size,
-                           std::shared_ptr<const LlahRetriever> shared);
+                           std::shared_ptr<const LlahRetriever> shared,
+                           bool whole_frame = true);
 
   // Forgets every page and everything learned.
   void Reset();
+
+  // Where the pages tracked on the last frame are expected `frames_ahead` frames after it
+  // (the last homography moved on by the last inter-frame motion), with their text areas:
+  // for VideoKeypointExtractor's rectified extraction. Pages lost on the last frame are
+  // left out; nothing without options().predict.
+  std::vector<PageInView> PredictedPages(int frames_ahead = 1) const;
 
   const TrackerOptions& options() const { return options_; }
   const SessionIndex& session_index() const { return session_; }

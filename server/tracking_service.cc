@@ -17,6 +17,8 @@ absl::Status TrackingServiceOptions::Validate() const {
   if (max_sessions < 1) return absl::InvalidArgumentError("max_sessions must be >= 1");
   if (queue_frames < 1 || queue_frames > 64)
     return absl::InvalidArgumentError("queue_frames must be in [1, 64]");
+  if (max_frame_age_ms < 1 || max_frame_age_ms > 60'000)
+    return absl::InvalidArgumentError("max_frame_age_ms must be in [1, 60000]");
   RETURN_IF_ERROR(limits.Validate());
   RETURN_IF_ERROR(tracker.Validate());
   return absl::OkStatus();
@@ -95,6 +97,7 @@ grpc::Status TrackingServiceImpl::Track(
   if (!tracker.ok()) return ToGrpcStatus(tracker.status());
   TrackingSessionOptions session_options;
   session_options.queue_frames = options_.queue_frames;
+  session_options.max_frame_age_ms = options_.max_frame_age_ms;
   session_options.limits = options_.limits;
   session_options.tracker = *tracker;
   session_options.camera = *camera;

@@ -22,8 +22,10 @@ struct TrackingServiceOptions {
   std::chrono::milliseconds idle_timeout{60'000};
   // Streams served at once; more are refused with RESOURCE_EXHAUSTED.
   int max_sessions = 64;
-  // Frames waiting per stream before the oldest is dropped (TrackingSessionOptions).
-  int queue_frames = 2;
+  // Per stream: a frame waiting longer than this is stale, and frames waiting at most
+  // (TrackingSessionOptions).
+  int max_frame_age_ms = 250;
+  int queue_frames = 16;
   ImageLimits limits;
   // Defaults of every session; a stream's TrackOptions override some of them.
   TrackerOptions tracker;

@@ -36,6 +36,9 @@ void AddTiming(v1::TrackResponse* r, const char* stage, double ms) {
 absl::Status TrackingSessionOptions::Validate() const {
   if (queue_frames < 1 || queue_frames > 64)
     return absl::InvalidArgumentError(absl::StrCat("queue_frames must be in [1, 64], got ", queue_frames));
+  if (max_frame_age_ms < 1 || max_frame_age_ms > 60'000)
+    return absl::InvalidArgumentError(
+        absl::StrCat("max_frame_age_ms must be in [1, 60000], got ", max_frame_age_ms));
   RETURN_IF_ERROR(limits.Validate());
   RETURN_IF_ERROR(tracker.Validate());
   RETURN_IF_ERROR(keypoints.Validate());
@@ -126,9 +129,19 @@ TrackingSession::Extracted TrackingSession::Extract(Pending pending) {
                            options_.camera->size.height, " images");
     return e;
   }
+  // Stage 2 is one frame behind while busy: the prediction is for 1 or 2 frames ahead.
+  e.sequence = ++extracted_sequence_;
+  std::vector<PageInView> pages;
+  {
+    std::lock_guard lock(mutex_);
+    const uint64_t ahead = e.sequence - tracked_sequence_;
+    if (ahead == 1 || ahead == 2) pages = predicted_[ahead - 1];
+  }
   t = SteadyClock::now();
   try {
-    e.keypoints = extractor_.Extract(*gray);
+    VideoFrameInfo info;
+    e.keypoints = extractor_.Extract(*gray, pages, &info);
+    e.whole_frame = info.whole_frame;
   } catch (const std::exception& ex) {  // OpenCV throws cv::Exception
     e.error = absl::StrCat("frame ", e.frame_index, ": keypoint extraction failed: ", ex.what());
   }
@@ -143,6 +156,24 @@ void TrackingSession::ExtractLoop() {
       std::unique_lock lock(mutex_);
       input_cv_.wait(lock, [&] { return cancelled_ || finishing_ || !input_.empty(); });
       if (cancelled_ || input_.empty()) break;
+      // The oldest waiting frame is stale: the stream has fallen behind for longer than a
+      // burst, so it skips to the newest frame, dropping those in between (error results
+      // are kept: every bad frame is answered).
+      const auto stale_before =
+          SteadyClock::now() - std::chrono::milliseconds(options_.max_frame_age_ms);
+      if (input_.size() > 1 && input_.front().arrived < stale_before) {
+        std::deque<Pending> kept;
+        for (size_t i = 0; i + 1 < input_.size(); ++i) {
+          if (!input_[i].error.empty()) {
+            kept.push_back(std::move(input_[i]));
+            continue;
+          }
+          dropped_.push_back(input_[i].frame.frame_index());
+          ++stats_.dropped;
+        }
+        kept.push_back(std::move(input_.back()));
+        input_ = std::move(kept);
+      }
       pending = std::move(input_.front());
       input_.pop_front();
     }
@@ -176,7 +207,13 @@ void TrackingSession::MatchLoop() {
     TrackerFrameResult tracked;
     if (e.error.empty()) {
       try {
-        tracked = tracker_.Track(e.keypoints, e.size, registry_->retriever());
+        tracked = tracker_.Track(e.keypoints, e.size, registry_->retriever(), e.whole_frame);
+        std::vector<PageInView> next = tracker_.PredictedPages(1);
+        std::vector<PageInView> after = tracker_.PredictedPages(2);
+        std::lock_guard lock(mutex_);
+        tracked_sequence_ = e.sequence;
+        predicted_[0] = std::move(next);
+        predicted_[1] = std::move(after);
       } catch (const std::exception& ex) {
         spdlog::error("tracking frame {}: {}", e.frame_index, ex.what());
         e.error = absl::StrCat("frame ", e.frame_index, ": internal error while tracking");

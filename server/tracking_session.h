@@ -1,10 +1,14 @@
 // TrackingSession: the work of one TrackingService.Track stream, off gRPC's threads, as
 // a two-stage pipeline (seed 5.4): stage 1 decodes frame t+1 and extracts its word
 // keypoints while stage 2 matches frame t, estimates the pose, learns and writes the
-// result, so one stream keeps two cores busy. Queues are bounded: stage 1 waits for stage
-// 2 (one frame in between), and frames arriving while `queue_frames` wait already push
-// the oldest waiting frame out. A server that falls behind thus drops stale frames, and
-// says so in the next result, instead of queueing without bound and answering late.
+// result, so one stream keeps two cores busy. Queues are bounded in time and in count:
+// stage 1 waits for stage 2 (one frame in between); when the oldest waiting frame has
+// waited longer than `max_frame_age_ms` it is stale, and stage 1 skips to the newest
+// frame, dropping those in between; frames arriving while `queue_frames` wait already
+// push the oldest waiting frame out. A server that falls behind thus drops stale frames,
+// and says so in the next result, instead of queueing without bound and answering late,
+// while a burst (many streams starting at once, each running retrieval) is absorbed
+// without a drop as long as no frame gets stale.
 //
 // IdleWatchdog ends a stream that stays silent.
 #pragma once
@@ -34,9 +38,15 @@
 namespace texfree::server {
 
 struct TrackingSessionOptions {
-  // Frames waiting for stage 1; when a frame arrives and this many wait, the oldest is
-  // dropped. 2 absorbs network jitter at video rate without adding much latency.
-  int queue_frames = 2;
+  // A frame waiting for stage 1 longer than this is stale: the stream skips to the newest
+  // frame waiting (which is always answered). 250 ms: an overlay lagging
+  // more than a quarter second no longer looks attached to the page, while start-up
+  // bursts (retrieval, about 30 ms per frame, on every stream at once) last less.
+  int max_frame_age_ms = 250;
+  // Frames waiting for stage 1 at most (memory bound when a client sends faster than
+  // the stale rule can tell): when a frame arrives and this many wait, the oldest is
+  // dropped. 16: half a second of video at 30 fps.
+  int queue_frames = 16;
   ImageLimits limits;
   TrackerOptions tracker;
   // How often stage 1 measures the text size (frames in between reuse it).
@@ -90,6 +100,8 @@ class TrackingSession {
     SteadyClock::time_point arrived;
     std::string error;
     WordKeypoints keypoints;
+    bool whole_frame = true;  // false: only the predicted pages were extracted
+    uint64_t sequence = 0;    // frames handed to the tracker before this one, plus one
     cv::Size size;
     double decode_ms = 0, extract_ms = 0;
   };
@@ -114,6 +126,12 @@ class TrackingSession {
   std::deque<Pending> input_;
   std::deque<Extracted> stage_;       // at most one frame between the stages
   std::vector<uint64_t> dropped_;     // since the last result
+  // The tracker's prediction for the frames after the last one tracked (stage 2 writes,
+  // stage 1 reads): where the pages will be 1 and 2 frames later, for the rectified
+  // extraction of pages seen at a slant.
+  uint64_t tracked_sequence_ = 0;
+  std::vector<PageInView> predicted_[2];
+  uint64_t extracted_sequence_ = 0;  // stage 1 only
   bool finishing_ = false;            // no more input; drain
   bool cancelled_ = false;            // stop now
   bool extract_done_ = false;

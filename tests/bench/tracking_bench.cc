@@ -20,7 +20,9 @@
 //   texfree-bench-tracking [--step 0.5] [--print-every 5] [--distractors 20]
 //                          [--streams 8] [--fps 30] [--seconds 10] [--only SEQUENCE]
 //                          [--no-grpc] [--no-baselines] [--trace-from DEG [--trace-dir D]]
-//                          [--seed N] [--frame-letter-graph]
+//                          [--seed N] [--frame-letter-graph] [--rectify-above F]
+//                          [--rectified-height PX] [--max-upsampling F]
+//                          [--max-frame-age-ms MS] [--queue-frames N]
 #include <spdlog/spdlog.h>
 
 #include <CLI/CLI.hpp>
@@ -160,6 +162,14 @@ int main(int argc, char** argv) {
   app.add_option("--print-every", print_every, "print a row every this many degrees");
   app.add_option("--distractors", distractors, "other pages registered besides the tracked one");
   app.add_option("--streams", streams, "concurrent streams of the throughput test");
+  texfree::server::TrackingServiceOptions service;
+  app.add_option("--max-frame-age-ms", service.max_frame_age_ms,
+                 "throughput test: a frame waiting longer is stale (dropped if a newer waits)");
+  app.add_option("--queue-frames", service.queue_frames,
+                 "throughput test: frames waiting per stream at most");
+  int grpc_opencv_threads = -1;
+  app.add_option("--grpc-opencv-threads", grpc_opencv_threads,
+                 "throughput test: OpenCV's threads (cv::setNumThreads; -1: its default)");
   app.add_option("--fps", fps, "frame rate of each concurrent stream");
   app.add_option("--seconds", seconds, "duration of each throughput test");
   app.add_option("--only", only, "run only the sequence with this name");
@@ -172,6 +182,16 @@ int main(int argc, char** argv) {
                  "measure the text size on one frame in this many (1: every frame)");
   app.add_option("--half-resolution-above", video.half_resolution_above_char_height,
                  "group words at half resolution when the text is taller (px; 0: never)");
+  app.add_option("--rectify-above", video.rectify_above_perspective,
+                 "extract pages rectified when the frame's magnification of them varies by "
+                 "more than this factor (0: never)");
+  app.add_option("--rectified-height", video.rectified_char_height,
+                 "text height in rectified page images, px");
+  app.add_option("--max-upsampling", video.max_rectify_upsampling,
+                 "rectified images enlarge the frame at most this much");
+  app.add_option("--max-median-upsampling", video.max_median_upsampling,
+                 "pages are not rectified when that enlarges the frame more than this at the "
+                 "median magnification");
   app.add_option("--seed", sequence_seed, "seed of the camera paths' hand shake and noise");
   app.add_option("--llah-interval", tracking.llah_interval,
                  "track methods: LLAH matching every this many frames while projection holds");
@@ -304,8 +324,12 @@ int main(int argc, char** argv) {
         } else {
           const auto t0 = SteadyClock::now();
           const double c0 = texfree::ThreadCpuMilliseconds();
-          const auto keypoints = extractor.Extract(gray);
-          const auto result = tracker->Track(keypoints, gray.size(), shared);
+          // The pages the tracker expects: extracted rectified when seen at a slant.
+          texfree::VideoFrameInfo extracted;
+          const auto keypoints = extractor.Extract(gray, tracker->PredictedPages(), &extracted);
+          const auto result =
+              tracker->Track(keypoints, gray.size(), shared, extracted.whole_frame);
+          const auto& rectified = extracted.rectified;
           s.ms = MillisecondsSince(t0);
           s.cpu_ms = texfree::ThreadCpuMilliseconds() - c0;
           const TrackedDocument* doc = nullptr;
@@ -333,6 +357,12 @@ int main(int argc, char** argv) {
                          doc ? doc->learned : 0, s.found ? s.error : -1.0, s.ms,
                          result.timings.match_ms, result.timings.pose_ms, result.timings.update_ms);
           if (where >= trace_from) {
+            for (const auto& r : rectified)
+              std::fprintf(stderr,
+                           "   rectified: %dx%d at %.3f px per page px, text %.1f px, %d "
+                           "keypoints replacing %d\n",
+                           r.size.width, r.size.height, r.scale, r.char_height, r.keypoints,
+                           r.replaced);
             // Oracle: frame keypoints within 1.5 px of a reference keypoint placed by the
             // truth, and the homography they give.
             const auto reference = shared->Keypoints(tracked_id);
@@ -478,7 +508,7 @@ int main(int argc, char** argv) {
   }
   std::fflush(stdout);
 
-  cv::setNumThreads(-1);  // the server as deployed: OpenCV's default threads
+  cv::setNumThreads(grpc_opencv_threads);  // the server as deployed: OpenCV's default
   if (!no_grpc && !sequences.empty()) {
     std::vector<std::string> jpegs;
     for (const auto& v : sequences[0].views) {
@@ -487,7 +517,7 @@ int main(int argc, char** argv) {
       jpegs.emplace_back(bytes.begin(), bytes.end());
     }
     texfree::bench::RunGrpcThroughput(registry->get(), jpegs, sequences[0].name, streams, fps,
-                                      seconds);
+                                      seconds, service);
   }
   return 0;
 }

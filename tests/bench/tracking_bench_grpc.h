@@ -8,11 +8,13 @@
 #include <vector>
 
 #include "server/document_registry.h"
+#include "server/tracking_service.h"
 
 namespace texfree::bench {
 
 void RunGrpcThroughput(const server::DocumentRegistry* registry,
                        const std::vector<std::string>& jpegs, const std::string& sequence,
-                       int streams, double fps, double seconds);
+                       int streams, double fps, double seconds,
+                       const server::TrackingServiceOptions& options);
 
 }  // namespace texfree::bench

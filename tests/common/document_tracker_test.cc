@@ -4,6 +4,7 @@
 // session (the shared index is untouched, another tracker sees none) and within budget;
 // a mirrored page is not drawn; two pages in one view are both followed.
 #include "common/document_tracker.h"
+#include "common/video_keypoints.h"
 
 #include <gtest/gtest.h>
 
@@ -127,6 +128,42 @@ TEST_F(DocumentTrackerTest, KeepsThePoseWithinAFewPixelsFromTopViewTo76DegreesTi
     }
   }
   EXPECT_GT(tracker.session_index().learned_entries(), 0u) << "tilted views were learned";
+}
+
+// As the server's stream: the tracker's prediction tells the extractor where the page
+// will be, and a page seen at a slant is extracted rectified.
+TEST_F(DocumentTrackerTest, WithRectifiedExtractionKeepsThePoseTo80DegreesTilt) {
+  DocumentTracker tracker(TrackerOptions{});
+  VideoKeypointExtractor extractor(WordKeypointOptions{}, VideoKeypointOptions{});
+  const std::vector<testdata::CameraView> views = Orbit(80, 2);
+  int rectified = 0;
+  for (size_t i = 0; i < views.size(); ++i) {
+    SCOPED_TRACE(testing::Message() << "tilt " << 2 * i << " deg");
+    const cv::Mat gray = Gray(views[i].image);
+    const std::vector<PageInView> predicted = tracker.PredictedPages(1);
+    if (i > 0) {
+      ASSERT_EQ(predicted.size(), 1u);
+      EXPECT_EQ(predicted[0].document, kPageId);
+      // The last pose moved on by the last motion: a few pixels from the truth.
+      EXPECT_LE(testdata::MeanHomographyError(predicted[0].page_to_frame, views[i].homography,
+                                              page_->size(), gray.size()),
+                12.0);
+    }
+    VideoFrameInfo info;
+    const WordKeypoints keypoints = extractor.Extract(gray, predicted, &info);
+    rectified += !info.rectified.empty();
+    const auto result = tracker.Track(keypoints, gray.size(), *shared_, info.whole_frame);
+    ASSERT_EQ(result.documents.size(), 1u);
+    const TrackedDocument& doc = result.documents[0];
+    ASSERT_NE(doc.state, TrackState::kLost);
+    EXPECT_LE(testdata::MeanHomographyError(doc.homography, views[i].homography, page_->size(),
+                                            gray.size()),
+              3.0);
+  }
+  EXPECT_GE(rectified, static_cast<int>(views.size()) / 3) << "the steeper half at least";
+  EXPECT_TRUE(tracker.PredictedPages(1).size() == 1u);
+  tracker.Reset();
+  EXPECT_TRUE(tracker.PredictedPages(1).empty()) << "nothing followed, nothing predicted";
 }
 
 TEST_F(DocumentTrackerTest, LearningCarriesLlahMatchingFurtherThanTheTopViewIndex) {

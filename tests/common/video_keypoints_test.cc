@@ -7,6 +7,8 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cstdio>
 #include <opencv2/imgproc.hpp>
 #include <vector>
 
@@ -123,6 +125,162 @@ TEST(VideoKeypointsTest, MeasuresOnScheduleAndWhenTheViewChanges) {
   EXPECT_TRUE(m) << "Reset measures afresh";
 }
 
+// The page of the orbit and its word keypoints (page pixels), cut as the frames are.
+struct OrbitPage {
+  cv::Mat gray;
+  std::vector<cv::Point2f> keypoints;
+  cv::Rect2f area;  // around the keypoints
+};
+const OrbitPage& Page() {
+  static const auto* page = [] {
+    auto* out = new OrbitPage;
+    out->gray = Gray(testdata::RenderTextPage(4242).image);
+    out->keypoints = WordKeypointExtractor().Extract(out->gray).points;
+    const cv::Rect box = cv::boundingRect(out->keypoints);
+    out->area = cv::Rect2f(box.x - 40, box.y - 40, box.width + 80, box.height + 80);
+    return out;
+  }();
+  return *page;
+}
+
+// Views of the close orbit with their true homographies, every 10 deg (0 to 80).
+const std::vector<testdata::CameraView>& OrbitViews() {
+  static const auto* views = [] {
+    testdata::CameraSequenceOptions o;
+    o.step_deg = 10;
+    const auto path = testdata::MakeCameraSequence(Page().gray.size(), o, 5);
+    auto* out = new std::vector<testdata::CameraView>();
+    for (size_t i = 0; i < path.size(); ++i)
+      out->push_back(testdata::RenderSequenceFrame(testdata::RenderTextPage(4242).image, path[i], 5,
+                                                   static_cast<int>(i)));
+    return out;
+  }();
+  return *views;
+}
+
+// The page's word keypoints where the truth puts them in the view.
+std::vector<cv::Point2f> TrueKeypoints(const testdata::CameraView& view) {
+  std::vector<cv::Point2f> out;
+  for (const auto& p : Page().keypoints) {
+    const cv::Vec3d v = view.homography * cv::Vec3d(p.x, p.y, 1);
+    if (v[2] <= 0) continue;
+    const cv::Point2f q(v[0] / v[2], v[1] / v[2]);
+    if (q.x >= 0 && q.y >= 0 && q.x < view.image.cols && q.y < view.image.rows) out.push_back(q);
+  }
+  return out;
+}
+
+PageInView TruePage(const testdata::CameraView& view) {
+  PageInView page;
+  page.document = 7;
+  page.page_to_frame = view.homography;
+  page.area = Page().area;
+  return page;
+}
+
+TEST(VideoKeypointsTest, RectifiedKeypointsLieOnThePageWordsWhereTheFrameSqueezesThem) {
+  for (size_t i : {6, 7, 8}) {  // 60, 70, 80 deg of tilt
+    SCOPED_TRACE("tilt " + std::to_string(i * 10));
+    const auto& view = OrbitViews()[i];
+    const cv::Mat gray = Gray(view.image);
+    const std::vector<cv::Point2f> truth = TrueKeypoints(view);
+    const WordKeypoints plain = WordKeypointExtractor().Extract(gray);
+    VideoKeypointExtractor video(WordKeypointOptions{}, VideoKeypointOptions{});
+    VideoFrameInfo info;
+    const WordKeypoints rectified = video.Extract(gray, {TruePage(view)}, &info);
+    ASSERT_EQ(info.rectified.size(), 1u) << "a page seen at a slant is rectified";
+    EXPECT_TRUE(info.whole_frame) << "the first frame measures the whole frame";
+    const RectifiedPage& report = info.rectified[0];
+    EXPECT_EQ(report.document, 7u);
+    EXPECT_NEAR(report.char_height, VideoKeypointOptions().rectified_char_height, 2.5);
+    EXPECT_GT(report.keypoints, 15);
+    // The keypoints that come from the rectified image, mapped back into the frame, lie
+    // on the page's words where the truth puts them.
+    std::vector<cv::Point2f> from_rectified;
+    for (const auto& p : rectified.points)
+      if (std::find(plain.points.begin(), plain.points.end(), p) == plain.points.end())
+        from_rectified.push_back(p);
+    ASSERT_EQ(static_cast<int>(from_rectified.size()), report.keypoints);
+    const double on_words = MatchedFraction(from_rectified, truth, 1.5);
+    const double plain_on_words = MatchedFraction(plain.points, truth, 1.5);
+    std::printf(
+        "tilt %zu: rectified %zu keypoints, %.2f on words; frame %zu, %.2f; truth "
+        "found %.2f vs %.2f\n",
+        i * 10, from_rectified.size(), on_words, plain.points.size(), plain_on_words,
+        MatchedFraction(truth, rectified.points, 1.5), MatchedFraction(truth, plain.points, 1.5));
+    EXPECT_GE(on_words, 0.6);
+    EXPECT_GE(MatchedFraction(truth, rectified.points, 1.5),
+              MatchedFraction(truth, plain.points, 1.5))
+        << "more of the page's words are found than in the frame alone";
+  }
+}
+
+TEST(VideoKeypointsTest, APageSeenFromAboveIsNotRectified) {
+  const auto& view = OrbitViews()[0];
+  const cv::Mat gray = Gray(view.image);
+  VideoKeypointExtractor video(WordKeypointOptions{}, VideoKeypointOptions{});
+  VideoFrameInfo info;
+  const WordKeypoints kp = video.Extract(gray, {TruePage(view)}, &info);
+  EXPECT_TRUE(info.rectified.empty());
+  EXPECT_TRUE(info.whole_frame);
+  EXPECT_EQ(kp.points, WordKeypointExtractor().Extract(gray).points);
+}
+
+TEST(VideoKeypointsTest, BetweenMeasurementsOnlyTheSlantedPageIsExtracted) {
+  VideoKeypointOptions o;
+  o.measure_every_frames = 4;
+  VideoKeypointExtractor video(WordKeypointOptions(), o);
+  const auto& view = OrbitViews()[7];
+  const cv::Mat gray = Gray(view.image);
+  const std::vector<cv::Point2f> truth = TrueKeypoints(view);
+  cv::Matx33d to_page;
+  ASSERT_NE(cv::invert(view.homography, to_page), 0);
+  std::vector<bool> whole;
+  double whole_found = 0;
+  for (int i = 0; i < 9; ++i) {
+    VideoFrameInfo info;
+    const WordKeypoints kp = video.Extract(gray, {TruePage(view)}, &info);
+    whole.push_back(info.whole_frame);
+    ASSERT_EQ(info.rectified.size(), 1u);
+    const double found = MatchedFraction(truth, kp.points, 1.5);
+    if (info.whole_frame) {
+      whole_found = found;
+      continue;
+    }
+    EXPECT_GT(kp.char_height, 0) << "the frame's last measured text height";
+    EXPECT_GE(found, 0.8 * whole_found) << "the page's words are found as on a whole frame";
+    int on_page = 0;
+    for (const auto& p : kp.points) {
+      const cv::Vec3d v = to_page * cv::Vec3d(p.x, p.y, 1);
+      on_page += Page().area.contains(cv::Point2f(v[0] / v[2], v[1] / v[2]));
+    }
+    EXPECT_GE(on_page, 0.9 * kp.points.size()) << "keypoints of the page only";
+  }
+  EXPECT_EQ(whole, std::vector<bool>({true, false, false, false, true, false, false, false, true}));
+  // No page expected: the whole frame.
+  VideoFrameInfo info;
+  video.Extract(gray, {}, &info);
+  EXPECT_TRUE(info.whole_frame);
+  EXPECT_TRUE(info.rectified.empty());
+}
+
+TEST(VideoKeypointsTest, AnotherPageSeenFromAboveKeepsTheWholeFrame) {
+  const auto& view = OrbitViews()[7];
+  const cv::Mat gray = Gray(view.image);
+  PageInView flat;  // a second page, seen from above in the frame's lower half
+  flat.document = 8;
+  flat.page_to_frame = cv::Matx33d(0.3, 0, 100, 0, 0.3, 250, 0, 0, 1);
+  flat.area = cv::Rect2f(0, 0, 1000, 600);
+  VideoKeypointExtractor video(WordKeypointOptions{}, VideoKeypointOptions{});
+  for (int i = 0; i < 4; ++i) {
+    VideoFrameInfo info;
+    video.Extract(gray, {TruePage(view), flat}, &info);
+    ASSERT_EQ(info.rectified.size(), 1u);
+    EXPECT_EQ(info.rectified[0].document, 7u);
+    EXPECT_TRUE(info.whole_frame) << "the flat page's keypoints come from the frame";
+  }
+}
+
 TEST(VideoKeypointsTest, OptionsValidate) {
   EXPECT_TRUE(VideoKeypointOptions().Validate().ok());
   VideoKeypointOptions o;
@@ -136,6 +294,15 @@ TEST(VideoKeypointsTest, OptionsValidate) {
   EXPECT_FALSE(w.Validate().ok());
   w.half_resolution_above_char_height = -1;
   EXPECT_FALSE(w.Validate().ok());
+  o = VideoKeypointOptions();
+  o.rectify_above_perspective = 0.5;
+  EXPECT_FALSE(o.Validate().ok());
+  o = VideoKeypointOptions();
+  o.rectified_char_height = 3;  // below rectified_min_char_height
+  EXPECT_FALSE(o.Validate().ok());
+  o = VideoKeypointOptions();
+  o.max_rectify_upsampling = 0.5;
+  EXPECT_FALSE(o.Validate().ok());
 }
 
 }  // namespace

@@ -280,6 +280,44 @@ TEST_F(TrackingServiceTest, FallingBehindDropsTheOldestFramesAndSaysSo) {
   EXPECT_EQ(answered.count(kFrames - 1), 1u) << "the newest frame is never dropped";
 }
 
+// The queue is bounded in time: frames are stale once they have waited max_frame_age_ms.
+TEST_F(TrackingServiceTest, ABurstIsAnsweredInFullWhileNoFrameGetsStale) {
+  TrackingServiceOptions options;
+  options.max_frame_age_ms = 60'000;
+  options.queue_frames = 64;
+  StartServer(options);
+  constexpr int kFrames = 30;
+  std::vector<v1::TrackRequest> messages = {ConfigMessage(nullptr)};
+  for (int i = 0; i < kFrames; ++i)
+    messages.push_back(FrameMessage(i, (*frames_)[i % frames_->size()].jpeg));
+  const auto outcome = RunStream(*stub_, messages, /*paced=*/false);
+  ASSERT_TRUE(outcome.status.ok());
+  ASSERT_EQ(outcome.responses.size(), static_cast<size_t>(kFrames));
+  for (const auto& r : outcome.responses) EXPECT_EQ(r.dropped_frames(), 0u);
+}
+
+TEST_F(TrackingServiceTest, StaleFramesAreDroppedWhenANewerOneWaits) {
+  TrackingServiceOptions options;
+  options.max_frame_age_ms = 1;  // every frame that waits at all is stale
+  options.queue_frames = 64;     // so the count bound never acts
+  StartServer(options);
+  constexpr int kFrames = 30;
+  std::vector<v1::TrackRequest> messages = {ConfigMessage(nullptr)};
+  for (int i = 0; i < kFrames; ++i)
+    messages.push_back(FrameMessage(i, (*frames_)[i % frames_->size()].jpeg));
+  const auto outcome = RunStream(*stub_, messages, /*paced=*/false);
+  ASSERT_TRUE(outcome.status.ok());
+  std::set<uint64_t> answered, dropped;
+  for (const auto& r : outcome.responses) {
+    answered.insert(r.frame_index());
+    for (uint64_t d : r.dropped_frame_indices()) dropped.insert(d);
+  }
+  EXPECT_GT(dropped.size(), 0u) << "frames sent at once wait longer than 1 ms";
+  EXPECT_EQ(answered.size() + dropped.size(), static_cast<size_t>(kFrames))
+      << "every frame is answered or reported dropped";
+  EXPECT_EQ(answered.count(kFrames - 1), 1u) << "the newest frame is never stale";
+}
+
 TEST_F(TrackingServiceTest, ACancelledStreamLeavesNoSessionBehind) {
   StartServer();
   grpc::ClientContext context;
