@@ -394,14 +394,6 @@ std::vector<DocumentHit> LlahRetriever::RetrieveDescribed(const std::vector<cv::
     const int max_hits =
         std::max<int>(o.max_hits_per_descriptor,
                       static_cast<int>(o.max_hits_per_1000_documents * models_.size() / 1000));
-    // Voting, one query keypoint at a time. Its descriptors' hits are few (at most
-    // per * max_hits), so sorting them locally finds, per document, the reference keypoint
-    // most of them agree on. Every document then gets one vote per query keypoint, and a
-    // strong vote when two or more descriptors agree on one reference keypoint: a single
-    // hit is often chance (text is regular, so some arrangements recur on every page),
-    // agreement rarely is. Ranking all documents by these votes, rather than pre-selecting
-    // by raw hit counts, keeps the right page of a large database in the running: raw
-    // hits favour long pages, which collect chance hits by the hundred.
     // All hits, grouped by query keypoint (hit_begin[q] is where keypoint q's start).
     struct LocalHit {
       uint32_t document;
@@ -436,13 +428,16 @@ std::vector<DocumentHit> LlahRetriever::RetrieveDescribed(const std::vector<cv::
     hit_begin[query.size()] = hits.size();
     if (trace) trace->total_hits = static_cast<int>(hits.size());
     // Only the documents with most hits go on (bounds the query time of large databases).
+    // Raw hits favour long pages, which collect chance hits by the hundred, so the cut is
+    // generous (256 pages) and the ranking below uses votes instead.
     VoteTally tally;
     for (const LocalHit &h : hits) tally.AddHit(h.document);
     const int floor = tally.HitFloor(o.prefilter_documents);
     if (trace) trace->hits = tally.Get(trace->watch).hits;
 
-    // Voting, one query keypoint at a time: sorting its hits finds, per document, the
-    // reference keypoint most of its descriptors agree on. Every document gets one vote per
+    // Voting, one query keypoint at a time: its hits are few (at most per * max_hits), and
+    // sorting them finds, per document, the reference keypoint most of its descriptors
+    // agree on. Every document gets one vote per
     // query keypoint, and a strong vote when two or more descriptors agree on one reference
     // keypoint: a single hit is often chance (text is regular, so some arrangements recur on
     // every page), agreement rarely is.
@@ -531,7 +526,7 @@ std::vector<DocumentHit> LlahRetriever::RetrieveDescribed(const std::vector<cv::
     });
     if (trace) {
       const Candidate mine{trace->watch, trace->votes, trace->strong, trace->coherent, {}};
-      trace->rank_by_votes = static_cast<int>(
+      trace->rank_by_score = static_cast<int>(
           std::count_if(scores.begin(), scores.end(), [&](int s) { return s > mine.Score(); }));
     }
     std::sort(ranked.begin(), ranked.end(), [](const Candidate &a, const Candidate &b) {

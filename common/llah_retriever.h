@@ -97,8 +97,8 @@ struct RetrievalTrace {
   int total_hits = 0;         // index hits of every document
   int hits = 0;               // the watched document's
   int votes = 0, strong = 0;  // the watched document's votes and strong votes
-  int coherent = -1;          // ...and coherent votes (-1: too few votes to count them)
-  int rank_by_votes = -1;     // 0-based rank by score among all documents voted for
+  int coherent = -1;          // ...and coherent votes (-1: no votes, or cut by the prefilter)
+  int rank_by_score = -1;     // 0-based rank by score among all documents voted for
   int rank = -1;              // among the candidates before the max_candidates cut
   int candidates = 0;         // documents that passed the vote gates
   int ransac_inliers = -1;    // -1: not verified

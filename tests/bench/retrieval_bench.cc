@@ -158,7 +158,7 @@ void PrintMiss(const DocumentRegistry &registry, const Query &q, const cv::Mat &
                   " [%sstop %d, hits %d/%d, votes %d/%d/%d rank %d, candidate %d of %d, ransac %d "
                   "final %d guided %d%s]",
                   t.rectified ? "rectified, " : "", t.stop_word_lookups, t.hits, t.total_hits,
-                  t.coherent, t.strong, t.votes, t.rank_by_votes, t.rank, t.candidates,
+                  t.coherent, t.strong, t.votes, t.rank_by_score, t.rank, t.candidates,
                   t.ransac_inliers, t.final_inliers, t.guided, t.accepted ? " accepted" : "");
     stats += line;
   }
