@@ -115,6 +115,8 @@ std::vector<cv::Point2d> EdgePoints(const cv::Mat& bgr, const cv::Point2d& a, co
   // Farther out than in: the outside plateau must be the rail, past a cushion face and
   // top that the outline may have cut short.
   constexpr double kInner = 5.0, kOuter = 7.0, kStep = 0.5;
+  // The colour crossing stands for the chromaticity crossing when this close (pixels).
+  constexpr double kColourSnapPx = 1.0;
   constexpr int kSamples = static_cast<int>((kInner + kOuter) / kStep) + 1;
   const double length = cv::norm(b - a);
   const cv::Point2d dir = (b - a) / std::max(1e-9, length);
@@ -175,6 +177,20 @@ std::vector<cv::Point2d> EdgePoints(const cv::Mat& bgr, const cv::Point2d& a, co
       }
     }
     if (best_t < -kInner + 1 || best_t > kOuter - 1.5) continue;
+    // Blur mixes colours, not chromaticities, so a step in chromaticity between colours of
+    // unequal brightness is crossed off its middle. Where the colour's own half-way
+    // crossing (between the cloth inside and the rail outside) is next to it, it is the
+    // same edge, and the place to take it.
+    const float contrast = diff.dot(diff);
+    double colour_t = 1e9;
+    for (int i = 0; i + 1 < kSamples; ++i) {
+      const double a = (p.colour[i] - p.outside).dot(diff) / contrast;
+      const double b = (p.colour[i + 1] - p.outside).dot(diff) / contrast;
+      if (a < 0.5 || b >= 0.5) continue;
+      const double t = -kInner + kStep * (i + (a - 0.5) / (a - b));
+      if (std::abs(t - best_t) < std::abs(colour_t - best_t)) colour_t = t;
+    }
+    if (std::abs(colour_t - best_t) < kColourSnapPx) best_t = colour_t;
     points.push_back(p.base + outward * best_t);
   }
   return points;
