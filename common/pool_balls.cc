@@ -512,6 +512,8 @@ absl::Status PoolBallOptions::Validate() const {
     return absl::InvalidArgumentError("min_area_fraction must be in (0, 1]");
   if (!(one_white_share > 0 && one_white_share < cue_white_share && cue_white_share < 1))
     return absl::InvalidArgumentError("need 0 < one_white_share < cue_white_share < 1");
+  if (!(five_orange_share > 0 && five_orange_share < 0.5))
+    return absl::InvalidArgumentError("five_orange_share must be in (0, 0.5)");
   return absl::OkStatus();
 }
 
@@ -528,7 +530,14 @@ std::array<double, 10> PoolNumberScores(const PoolVotes& votes, const PoolBallOp
   double total = 0;
   for (double v : votes) total += v;
   if (total <= 0) return s;
+  // Yellow votes of a ball with a real share of orange ones are an orange 5 faded by
+  // mixing (options.five_orange_share): they count for the 5, not for the 1/9 group.
+  const double yellow_orange = votes[1] + votes[5];
+  const double orange_share = yellow_orange > 0 ? votes[5] / yellow_orange : 0;
+  const double faded = std::clamp(orange_share / o.five_orange_share - 1, 0.0, 1.0);
+  const double yellow = votes[1] * (1 - faded);
   for (int k = 2; k <= 8; ++k) s[k] = votes[k] / total;
+  s[5] = (votes[5] + votes[1] * faded) / total;
   // The 3 and the 7 share the red votes (split by saturation in DetectPoolBalls): a red
   // ball is never ruled out as either, so that when two red balls both look like one of
   // them, the less likely number still goes to one of them rather than to neither.
@@ -539,8 +548,8 @@ std::array<double, 10> PoolNumberScores(const PoolVotes& votes, const PoolBallOp
   // of their white+yellow votes tells them apart (over cue_white_share: cue, under
   // one_white_share: 1, else 9). The cue's score keeps growing up to all white, so that a
   // 9 showing mostly its white caps does not tie with the cue.
-  const double group = (votes[0] + votes[1]) / total;
-  const double w = votes[0] + votes[1] > 0 ? votes[0] / (votes[0] + votes[1]) : 0;
+  const double group = (votes[0] + yellow) / total;
+  const double w = votes[0] + yellow > 0 ? votes[0] / (votes[0] + yellow) : 0;
   const double mid = (o.cue_white_share + o.one_white_share) / 2;
   const double half = (o.cue_white_share - o.one_white_share) / 2;
   s[0] = group * std::clamp((w - mid) / (1 - mid), 0.0, 1.0);

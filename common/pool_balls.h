@@ -39,6 +39,12 @@ struct PoolBallOptions {
   // more: 0.2 separates them better than the seed's 0.3 on rendered and real balls.
   double cue_white_share = 0.7;
   double one_white_share = 0.2;
+  // The orange 5 and the yellow 1 are a chroma step apart: blur, JPEG's halved colour
+  // resolution and the green cloth mixed in turn orange pixels yellow, while no mixture
+  // turns yellow orange. So when orange is over this share of a ball's yellow + orange
+  // votes (1s and 9s of the benchmark: under 0.05; 5s: 0.42 and up), its yellow votes
+  // are taken as a faded 5 (fully from twice this share).
+  double five_orange_share = 0.15;
 
   absl::Status Validate() const;
 };

@@ -4,7 +4,6 @@
 #include <algorithm>
 #include <cmath>
 #include <numeric>
-
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -107,13 +106,18 @@ cv::Vec3f Bilinear(const cv::Mat& bgr, double x, double y) {
 
 // Sub-pixel points of the cloth/rail colour edge along the side from `a` to `b`, found
 // on profiles across the side (`outward` points away from the cloth): the place where
-// the colour is half-way between the cloth and the rail beyond it, which is where the
-// edge is for any symmetric blur.
-std::vector<cv::Point2d> EdgePoints(const cv::Mat& bgr, const cv::Point2d& a,
-                                    const cv::Point2d& b, const cv::Point2d& outward,
-                                    const cv::Vec3f& cloth) {
-  constexpr double kReach = 5.0, kStep = 0.5;
-  constexpr int kSamples = static_cast<int>(2 * kReach / kStep) + 1;
+// the chromaticity is half-way between the cloth's and the rail's, which is where the
+// edge is for any symmetric blur. Chromaticity, not colour: a cushion face seen beyond
+// the cloth at a grazing angle is cloth in shade, as dark as the rail but of the cloth's
+// hue, and the cloth-covered cushion top beyond it may be only a pixel or two wide.
+std::vector<cv::Point2d> EdgePoints(const cv::Mat& bgr, const cv::Point2d& a, const cv::Point2d& b,
+                                    const cv::Point2d& outward, const cv::Vec3f& cloth) {
+  // Farther out than in: the outside plateau must be the rail, past a cushion face and
+  // top that the outline may have cut short.
+  constexpr double kInner = 5.0, kOuter = 7.0, kStep = 0.5;
+  // The colour crossing stands for the chromaticity crossing when this close (pixels).
+  constexpr double kColourSnapPx = 1.0;
+  constexpr int kSamples = static_cast<int>((kInner + kOuter) / kStep) + 1;
   const double length = cv::norm(b - a);
   const cv::Point2d dir = (b - a) / std::max(1e-9, length);
   struct Profile {
@@ -126,13 +130,12 @@ std::vector<cv::Point2d> EdgePoints(const cv::Mat& bgr, const cv::Point2d& a,
     Profile p;
     p.base = a + dir * s;
     for (int i = 0; i < kSamples; ++i) {
-      const cv::Point2d q = p.base + outward * (-kReach + i * kStep);
+      const cv::Point2d q = p.base + outward * (-kInner + i * kStep);
       if (q.x < 0 || q.y < 0 || q.x > bgr.cols - 1 || q.y > bgr.rows - 1) goto skip;
       p.colour[i] = Bilinear(bgr, q.x, q.y);
     }
     p.inside = (p.colour[0] + p.colour[1] + p.colour[2] + p.colour[3]) / 4.f;
-    p.outside = (p.colour[kSamples - 1] + p.colour[kSamples - 2] + p.colour[kSamples - 3] +
-                 p.colour[kSamples - 4]) / 4.f;
+    p.outside = (p.colour[kSamples - 1] + p.colour[kSamples - 2] + p.colour[kSamples - 3]) / 3.f;
     profiles.push_back(p);
   skip:;
   }
@@ -145,28 +148,49 @@ std::vector<cv::Point2d> EdgePoints(const cv::Mat& bgr, const cv::Point2d& a,
     std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
     rail[k] = v[v.size() / 2];
   }
+  const auto chroma = [](const cv::Vec3f& c) {
+    const float sum = std::max(1.f, c[0] + c[1] + c[2]);
+    return cv::Vec2f(c[0] / sum, c[1] / sum);
+  };
+  const cv::Vec2f rail_chroma = chroma(rail);
+  const cv::Vec2f chroma_step = chroma(cloth) - rail_chroma;
+  const float chroma_contrast = chroma_step.dot(chroma_step);
   std::vector<cv::Point2d> points;
+  if (chroma_contrast < 0.03f * 0.03f) return points;  // rail and cloth of one hue
   for (const auto& p : profiles) {
     // Balls on the cushion, pockets and diamonds make profiles that are not this edge.
     if (cv::norm(p.outside - rail, cv::NORM_L1) > 60) continue;
     if (ColorAngleDeg(p.inside, cloth) > 12) continue;
     const cv::Vec3f diff = p.inside - p.outside;
-    const float contrast = diff.dot(diff);
-    if (contrast < 15 * 15) continue;
-    // f = 1 on the cloth, 0 on the rail, linear in the mixture of the two.
+    if (diff.dot(diff) < 15 * 15) continue;
+    // f = 1 on the cloth's hue, 0 on the rail's.
     std::array<double, kSamples> f;
-    for (int i = 0; i < kSamples; ++i) f[i] = (p.colour[i] - p.outside).dot(diff) / contrast;
+    for (int i = 0; i < kSamples; ++i)
+      f[i] = (chroma(p.colour[i]) - rail_chroma).dot(chroma_step) / chroma_contrast;
     // The outermost fall from cloth to rail: the cloth-covered cushion top is the last
-    // cloth before the rail (a dark cushion face seen nearer the cloth makes an earlier,
-    // wrong fall on the far side of the table).
+    // cloth before the rail.
     double best_t = 1e9;
     for (int i = kSamples - 2; i >= 0; --i) {
       if (f[i] >= 0.5 && f[i + 1] < 0.5) {
-        best_t = -kReach + kStep * (i + (f[i] - 0.5) / (f[i] - f[i + 1]));
+        best_t = -kInner + kStep * (i + (f[i] - 0.5) / (f[i] - f[i + 1]));
         break;
       }
     }
-    if (std::abs(best_t) > kReach - 1) continue;
+    if (best_t < -kInner + 1 || best_t > kOuter - 1.5) continue;
+    // Blur mixes colours, not chromaticities, so a step in chromaticity between colours of
+    // unequal brightness is crossed off its middle. Where the colour's own half-way
+    // crossing (between the cloth inside and the rail outside) is next to it, it is the
+    // same edge, and the place to take it.
+    const float contrast = diff.dot(diff);
+    double colour_t = 1e9;
+    for (int i = 0; i + 1 < kSamples; ++i) {
+      const double a = (p.colour[i] - p.outside).dot(diff) / contrast;
+      const double b = (p.colour[i + 1] - p.outside).dot(diff) / contrast;
+      if (a < 0.5 || b >= 0.5) continue;
+      const double t = -kInner + kStep * (i + (a - 0.5) / (a - b));
+      if (std::abs(t - best_t) < std::abs(colour_t - best_t)) colour_t = t;
+    }
+    if (std::abs(colour_t - best_t) < kColourSnapPx) best_t = colour_t;
     points.push_back(p.base + outward * best_t);
   }
   return points;
@@ -281,8 +305,8 @@ cv::Mat PoolUndistorter::Undistort(const cv::Mat& bgr) const {
 cv::Point2d PoolUndistorter::Distort(const cv::Point2d& ideal) const {
   if (!camera_.has_distortion()) return ideal;
   const cv::Matx33d& K = camera_.K;
-  std::vector<cv::Point3d> object{{(ideal.x - K(0, 2)) / K(0, 0), (ideal.y - K(1, 2)) / K(1, 1),
-                                   1.0}};
+  std::vector<cv::Point3d> object{
+      {(ideal.x - K(0, 2)) / K(0, 0), (ideal.y - K(1, 2)) / K(1, 1), 1.0}};
   std::vector<cv::Point2d> out;
   cv::projectPoints(object, cv::Vec3d(0, 0, 0), cv::Vec3d(0, 0, 0), cv::Mat(K),
                     cv::Mat(camera_.distortion), out);
@@ -304,8 +328,8 @@ absl::StatusOr<PoolTableDetection> DetectPoolTable(const cv::Mat& bgr, const cv:
   cv::pyrDown(bgr, small);
   // 1. Wide search for the cloth, then its colour measured on this image.
   int area = 0;
-  cv::Mat region = LargestRegion(AngleMask(small, profile_cloth, options.search_angle_deg, 45),
-                                 &area);
+  cv::Mat region =
+      LargestRegion(AngleMask(small, profile_cloth, options.search_angle_deg, 45), &area);
   const int min_area = static_cast<int>(options.min_cloth_fraction * small.total());
   if (area < min_area) {
     return absl::FailedPreconditionError(absl::StrCat(
@@ -317,9 +341,9 @@ absl::StatusOr<PoolTableDetection> DetectPoolTable(const cv::Mat& bgr, const cv:
   cv::Vec3f cloth = MeanColor(small, region, profile_cloth, options.search_angle_deg);
   cloth = MeanColor(small, region, cloth, options.cloth_angle_deg);
   const double brightness = (cloth[0] + cloth[1] + cloth[2]) / 3;
-  det.cloth_bgr = cv::Vec3b(cv::saturate_cast<uint8_t>(cloth[0]),
-                            cv::saturate_cast<uint8_t>(cloth[1]),
-                            cv::saturate_cast<uint8_t>(cloth[2]));
+  det.cloth_bgr =
+      cv::Vec3b(cv::saturate_cast<uint8_t>(cloth[0]), cv::saturate_cast<uint8_t>(cloth[1]),
+                cv::saturate_cast<uint8_t>(cloth[2]));
   det.cloth_brightness = brightness;
   // 2. Seed eq. 4.1 at the cloth angle; the largest region is the table.
   cv::Mat mask = AngleMask(small, cloth, options.cloth_angle_deg,
@@ -334,9 +358,9 @@ absl::StatusOr<PoolTableDetection> DetectPoolTable(const cv::Mat& bgr, const cv:
   std::vector<std::vector<cv::Point>> contours;
   cv::findContours(det.cloth_mask, contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_NONE);
   if (contours.empty()) return absl::FailedPreconditionError("no pool table in view");
-  const auto& contour = *std::max_element(
-      contours.begin(), contours.end(),
-      [](const auto& a, const auto& b) { return a.size() < b.size(); });
+  const auto& contour =
+      *std::max_element(contours.begin(), contours.end(),
+                        [](const auto& a, const auto& b) { return a.size() < b.size(); });
   int on_border = 0;
   for (const auto& p : contour)
     if (p.x <= 0 || p.y <= 0 || p.x >= small.cols - 1 || p.y >= small.rows - 1) ++on_border;
@@ -415,12 +439,14 @@ absl::StatusOr<PoolTableDetection> DetectPoolTable(const cv::Mat& bgr, const cv:
           // Convex, not degenerate, corners not far outside the image.
           double sign = 0;
           for (int i = 0; i < 4 && ok; ++i) {
-            const cv::Point2d e1 = quad[(i + 1) % 4] - quad[i], e2 = quad[(i + 2) % 4] - quad[(i + 1) % 4];
+            const cv::Point2d e1 = quad[(i + 1) % 4] - quad[i],
+                              e2 = quad[(i + 2) % 4] - quad[(i + 1) % 4];
             const double cross = e1.x * e2.y - e1.y * e2.x;
             if (cv::norm(e1) < 10) ok = false;
             if (sign == 0) sign = cross;
             if (cross * sign <= 0) ok = false;
-            if (std::abs(quad[i].x) > 4 * small.cols || std::abs(quad[i].y) > 4 * small.rows) ok = false;
+            if (std::abs(quad[i].x) > 4 * small.cols || std::abs(quad[i].y) > 4 * small.rows)
+              ok = false;
           }
           if (!ok) continue;
           std::fill(covered.begin(), covered.end(), 0);
@@ -476,8 +502,7 @@ absl::StatusOr<PoolTableDetection> DetectPoolTable(const cv::Mat& bgr, const cv:
   // intrinsics). The two survivors differ by the table's 180 degree symmetry.
   const double L = profile.length_mm, W = profile.width_mm, cw = profile.cushion_width_mm;
   const std::array<cv::Point2f, 4> plane = {cv::Point2f(-cw, -cw), cv::Point2f(L + cw, -cw),
-                                            cv::Point2f(L + cw, W + cw),
-                                            cv::Point2f(-cw, W + cw)};
+                                            cv::Point2f(L + cw, W + cw), cv::Point2f(-cw, W + cw)};
   double best_inconsistency = 1e18;
   std::array<cv::Point2d, 4> best_order;
   for (int dir = -1; dir <= 1; dir += 2)
@@ -498,10 +523,10 @@ absl::StatusOr<PoolTableDetection> DetectPoolTable(const cv::Mat& bgr, const cv:
       }
     }
   if (best_inconsistency > options.max_rectangle_inconsistency) {
-    return absl::FailedPreconditionError(absl::StrCat(
-        "the table outline does not fit a ", L, " x ", W,
-        " mm table seen by this camera (inconsistency ", best_inconsistency,
-        "); check the table profile and the camera intrinsics"));
+    return absl::FailedPreconditionError(
+        absl::StrCat("the table outline does not fit a ", L, " x ", W,
+                     " mm table seen by this camera (inconsistency ", best_inconsistency,
+                     "); check the table profile and the camera intrinsics"));
   }
   det.rectangle_inconsistency = best_inconsistency;
   std::vector<cv::Point2f> plane_points(plane.begin(), plane.end()), pixels;
