@@ -25,8 +25,9 @@ struct TextPerspectiveOptions {
   // The local spacing is the distance to this nearest neighbour (beyond the word's own
   // line neighbours, so it follows the line spacing too).
   int neighbour = 4;
-  // Fewer keypoints than this give no estimate.
-  int min_points = 40;
+  // Fewer keypoints than this give no estimate. Views of large type hold only 20-60 words,
+  // and the fit with 20 still measured better than none (10,000 pages: +1 point of top-1).
+  int min_points = 20;
   // The rectification is applied only when the fitted depth varies over the keypoints by
   // at least this ratio (max / min): below it the view is close enough to affine, and a
   // fit of noisy spacings would only add noise.

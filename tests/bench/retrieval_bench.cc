@@ -206,6 +206,8 @@ int main(int argc, char **argv) {
                "describe steep views' keypoints as seen (no perspective rectification)");
   app.add_option("--perspective-neighbour", registry_options.retrieval.perspective.neighbour,
                  "keypoint spacing = distance to this nearest neighbour");
+  app.add_option("--perspective-min-points", registry_options.retrieval.perspective.min_points,
+                 "fewer keypoints than this are described as seen");
   app.add_option("--depth-ratio", registry_options.retrieval.perspective.min_depth_ratio,
                  "rectify when the fitted depth varies over the keypoints by at least this ratio");
   app.add_option("--min-coherent", registry_options.retrieval.min_coherent_votes,

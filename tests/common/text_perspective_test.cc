@@ -106,7 +106,7 @@ TEST(TextPerspectiveTest, FrontoParallelViewIsLeftAlone) {
 TEST(TextPerspectiveTest, TooFewKeypointsGiveNoEstimate) {
   const cv::Size page(1000, 1414);
   ProjectedView view = Project(PageWords(5, page), page, 35, 0, 0.8);
-  view.image.resize(20);
+  view.image.resize(12);
   EXPECT_FALSE(EstimateTextPerspective(view.image).has_value());
 }
 
