@@ -360,7 +360,7 @@ std::vector<DocumentHit> LlahRetriever::Retrieve(const std::vector<cv::Point2f> 
   auto rectified = RetrieveDescribed(query, ApplyPerspective(*rectification, query),
                                      query_char_height, o, trace ? &rectified_trace : nullptr);
   const int rectified_inliers = rectified.empty() ? 0 : rectified[0].inliers;
-  if (rectified_inliers < o.min_inliers) {
+  if (rectified_inliers < o.min_inliers && o.retry_unrectified) {
     // A spacing gradient that is the layout's (a figure, a heading, a column break) rather
     // than the camera's fools the fit, and a near-frontal view then loses descriptors it
     // had: weak or no evidence is checked against the view as seen.

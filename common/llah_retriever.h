@@ -73,6 +73,10 @@ struct RetrievalOptions {
   // when the view is steep (text_perspective.h): LLAH's invariants are only affine.
   bool rectify_perspective = true;
   TextPerspectiveOptions perspective;
+  // When the rectified descriptors find no page with min_inliers, the query is also tried
+  // with its descriptors as seen (a spacing gradient that is the layout's, not the
+  // camera's, fools the fit). Doubles the cost of a query that finds nothing.
+  bool retry_unrectified = true;
 
   absl::Status Validate() const;
 };

@@ -350,6 +350,9 @@ absl::StatusOr<RetrievalResult> DocumentRegistry::Retrieve(const cv::Mat &gray,
     if (measured.char_height <= 0) break;
     if (!retriever) break;
     t = Clock::now();
+    // Only the first extractor's keypoints are retried unrectified: a query that finds
+    // nothing would otherwise pay for six retrievals.
+    ro.retry_unrectified = options_.retrieval.retry_unrectified && attempt == 0;
     std::vector<DocumentHit> found = retriever->Retrieve(kp.points, kp.char_height, ro);
     match_ms += MillisecondsSince(t);
     // A page confirmed only by the layout check (fewer than min_inliers LLAH inliers) may
