@@ -42,6 +42,24 @@ CameraModel CameraOf(const PoolView& view) {
   return camera;
 }
 
+// A rendered view analysed with its table's profile and its camera, and scored against the
+// renderer's truth.
+struct ScoredAnalysis {
+  PoolAnalysis analysis;
+  testdata::PoolScore score;
+};
+absl::StatusOr<ScoredAnalysis> AnalyzeAndScore(const PoolScene& scene, const PoolView& view) {
+  auto analyzer = PoolAnalyzer::Create(ProfileFor(scene.table), CameraOf(view));
+  if (!analyzer.ok()) return analyzer.status();
+  auto analysis = analyzer->Analyze(view.image);
+  if (!analysis.ok()) return analysis.status();
+  std::vector<testdata::EstimatedPoolBall> estimated;
+  for (const auto& b : analysis->balls) estimated.push_back({b.number, b.x_mm, b.y_mm});
+  testdata::PoolScore score =
+      testdata::ScorePoolAnalysis(scene, view, analysis->cloth_corners, estimated);
+  return ScoredAnalysis{std::move(*analysis), std::move(score)};
+}
+
 // A fixed, well-spread layout of all ten balls (none touching).
 std::vector<testdata::PoolBallPlacement> SpreadLayout() {
   return {{0, 300, 350}, {1, 520, 200}, {2, 700, 520}, {3, 900, 180},  {4, 1050, 450},
@@ -71,16 +89,12 @@ TEST_P(PoolViewsTest, CornersNumbersAndPositionsMatchTheTruth) {
   const ViewCase c = GetParam();
   const PoolScene scene = Scene(c.side, c.elevation, 8);
   const PoolView view = testdata::RenderPoolView(scene, 1234);
-  auto analyzer = PoolAnalyzer::Create(ProfileFor(scene.table), CameraOf(view));
-  ASSERT_TRUE(analyzer.ok()) << analyzer.status();
-  auto analysis = analyzer->Analyze(view.image);
-  ASSERT_TRUE(analysis.ok()) << analysis.status();
-  std::vector<testdata::EstimatedPoolBall> estimated;
-  for (const auto& b : analysis->balls) estimated.push_back({b.number, b.x_mm, b.y_mm});
-  const testdata::PoolScore score =
-      testdata::ScorePoolAnalysis(scene, view, analysis->cloth_corners, estimated);
+  auto scored = AnalyzeAndScore(scene, view);
+  ASSERT_TRUE(scored.ok()) << scored.status();
+  const PoolAnalysis& analysis = scored->analysis;
+  const testdata::PoolScore& score = scored->score;
   EXPECT_LT(score.max_corner_error_px, 1.5) << c.name;
-  EXPECT_EQ(analysis->long_side_view,
+  EXPECT_EQ(analysis.long_side_view,
             c.side == PoolViewSide::kLongNear || c.side == PoolViewSide::kLongFar);
   // Every ball found, each within 12 mm, 5 mm on average (the seed: 16 mm max, 10 mean).
   EXPECT_EQ(score.position_errors_mm.size(), view.balls.size()) << c.name;
@@ -319,14 +333,10 @@ TEST(PoolHardBalls, DarkGreenRedAndStripedBallsAreFoundAndNumbered) {
     scene.jpeg_quality = 75;
     scene.lamps = 2;
     const PoolView view = testdata::RenderPoolView(scene, 4321 + view_index++);
-    auto analyzer = PoolAnalyzer::Create(ProfileFor(scene.table), CameraOf(view));
-    ASSERT_TRUE(analyzer.ok()) << analyzer.status();
-    auto analysis = analyzer->Analyze(view.image);
-    ASSERT_TRUE(analysis.ok()) << analysis.status();
-    std::vector<testdata::EstimatedPoolBall> estimated;
-    for (const auto& b : analysis->balls) estimated.push_back({b.number, b.x_mm, b.y_mm});
-    const testdata::PoolScore score =
-        testdata::ScorePoolAnalysis(scene, view, analysis->cloth_corners, estimated);
+    auto scored = AnalyzeAndScore(scene, view);
+    ASSERT_TRUE(scored.ok()) << scored.status();
+    const PoolAnalysis& analysis = scored->analysis;
+    const testdata::PoolScore& score = scored->score;
     EXPECT_EQ(score.false_balls, 0) << view_index;
     double sum = 0;
     for (const auto& m : score.matches) {
@@ -353,14 +363,10 @@ TEST(PoolHardBalls, DarkBallsAreFittedOnTheirRimNotTheirHighlight) {
     const int dark_ball = frame == 28 ? 8 : frame == 48 ? 6 : -1;
     if (dark_ball < 0) continue;
     const PoolView view = testdata::RenderPoolView(scene, 7 * 100003 + frame);
-    auto analyzer = PoolAnalyzer::Create(ProfileFor(scene.table), CameraOf(view));
-    ASSERT_TRUE(analyzer.ok()) << analyzer.status();
-    auto analysis = analyzer->Analyze(view.image);
-    ASSERT_TRUE(analysis.ok()) << analysis.status();
-    std::vector<testdata::EstimatedPoolBall> estimated;
-    for (const auto& b : analysis->balls) estimated.push_back({b.number, b.x_mm, b.y_mm});
-    const testdata::PoolScore score =
-        testdata::ScorePoolAnalysis(scene, view, analysis->cloth_corners, estimated);
+    auto scored = AnalyzeAndScore(scene, view);
+    ASSERT_TRUE(scored.ok()) << scored.status();
+    const PoolAnalysis& analysis = scored->analysis;
+    const testdata::PoolScore& score = scored->score;
     bool seen = false;
     for (const auto& m : score.matches) {
       if (m.truth_number != dark_ball) continue;
@@ -384,14 +390,10 @@ TEST(PoolTablePose, FarCushionSeenAtAGrazingAngleIsTakenAtItsTop) {
   PoolScene scene;
   for (int frame = 0; frame <= 24; ++frame) scene = testdata::RandomPoolScene(rng, spec);
   const PoolView view = testdata::RenderPoolView(scene, 7 * 100003 + 24);
-  auto analyzer = PoolAnalyzer::Create(ProfileFor(scene.table), CameraOf(view));
-  ASSERT_TRUE(analyzer.ok()) << analyzer.status();
-  auto analysis = analyzer->Analyze(view.image);
-  ASSERT_TRUE(analysis.ok()) << analysis.status();
-  std::vector<testdata::EstimatedPoolBall> estimated;
-  for (const auto& b : analysis->balls) estimated.push_back({b.number, b.x_mm, b.y_mm});
-  const testdata::PoolScore score =
-      testdata::ScorePoolAnalysis(scene, view, analysis->cloth_corners, estimated);
+  auto scored = AnalyzeAndScore(scene, view);
+  ASSERT_TRUE(scored.ok()) << scored.status();
+  const PoolAnalysis& analysis = scored->analysis;
+  const testdata::PoolScore& score = scored->score;
   EXPECT_LT(score.max_corner_error_px, 1.0);
   EXPECT_EQ(score.position_errors_mm.size(), view.balls.size());
   for (const auto& m : score.matches) {

@@ -42,8 +42,8 @@ class TrackingServiceTest : public ::testing::Test {
   }
 
   void SetUp() override {
-    dir_ = fs::temp_directory_path() / ("texfree-track-" + std::to_string(::getpid()) + "-" +
-                                        std::to_string(counter_++));
+    dir_ = fs::temp_directory_path() /
+           ("texfree-track-" + std::to_string(::getpid()) + "-" + std::to_string(counter_++));
     fs::remove_all(dir_);
     fs::create_directories(dir_);
     auto store = DocumentStore::Open((dir_ / "texfree.db").string());
@@ -77,8 +77,8 @@ class TrackingServiceTest : public ::testing::Test {
     builder.RegisterService(service_.get());
     server_ = builder.BuildAndStart();
     ASSERT_NE(server_, nullptr);
-    stub_ = v1::TrackingService::NewStub(
-        grpc::CreateChannel("127.0.0.1:" + std::to_string(port), grpc::InsecureChannelCredentials()));
+    stub_ = v1::TrackingService::NewStub(grpc::CreateChannel("127.0.0.1:" + std::to_string(port),
+                                                             grpc::InsecureChannelCredentials()));
   }
 
   void StopServer() {
@@ -93,6 +93,15 @@ class TrackingServiceTest : public ::testing::Test {
     while (service_->active_sessions() > 0 && std::chrono::steady_clock::now() < end)
       std::this_thread::sleep_for(std::chrono::milliseconds(10));
     return service_->active_sessions() == 0;
+  }
+
+  // A config without intrinsics, then `count` frames sent back to back (the sequence's
+  // frames over and over).
+  static std::vector<v1::TrackRequest> Burst(int count) {
+    std::vector<v1::TrackRequest> messages = {ConfigMessage(nullptr)};
+    for (int i = 0; i < count; ++i)
+      messages.push_back(FrameMessage(i, (*frames_)[i % frames_->size()].jpeg));
+    return messages;
   }
 
   static cv::Mat* page_;
@@ -163,14 +172,13 @@ TEST_F(TrackingServiceTest, BadFramesGetAnErrorResultAndTheStreamGoesOn) {
   raw->set_pixels(std::string(1000, '\x80'));
   v1::TrackRequest no_image;
   no_image.mutable_frame()->set_frame_index(4);
-  const std::vector<v1::TrackRequest> messages = {
-      ConfigMessage(nullptr),
-      FrameMessage(1, (*frames_)[0].jpeg),
-      FrameMessage(2, "this is not an image"),
-      raw_too_short,
-      no_image,
-      ConfigMessage(nullptr),  // a second config
-      FrameMessage(6, (*frames_)[1].jpeg)};
+  const std::vector<v1::TrackRequest> messages = {ConfigMessage(nullptr),
+                                                  FrameMessage(1, (*frames_)[0].jpeg),
+                                                  FrameMessage(2, "this is not an image"),
+                                                  raw_too_short,
+                                                  no_image,
+                                                  ConfigMessage(nullptr),  // a second config
+                                                  FrameMessage(6, (*frames_)[1].jpeg)};
   const auto outcome = RunStream(*stub_, messages);
   ASSERT_TRUE(outcome.status.ok()) << outcome.status.error_message();
   ASSERT_EQ(outcome.responses.size(), 6u);
@@ -256,9 +264,7 @@ TEST_F(TrackingServiceTest, FallingBehindDropsTheOldestFramesAndSaysSo) {
   options.queue_frames = 1;
   StartServer(options);
   constexpr int kFrames = 40;
-  std::vector<v1::TrackRequest> messages = {ConfigMessage(nullptr)};
-  for (int i = 0; i < kFrames; ++i)
-    messages.push_back(FrameMessage(i, (*frames_)[i % frames_->size()].jpeg));
+  const std::vector<v1::TrackRequest> messages = Burst(kFrames);
   const auto outcome = RunStream(*stub_, messages, /*paced=*/false);
   ASSERT_TRUE(outcome.status.ok());
   std::set<uint64_t> answered, dropped;
@@ -287,9 +293,7 @@ TEST_F(TrackingServiceTest, ABurstIsAnsweredInFullWhileNoFrameGetsStale) {
   options.queue_frames = 64;
   StartServer(options);
   constexpr int kFrames = 30;
-  std::vector<v1::TrackRequest> messages = {ConfigMessage(nullptr)};
-  for (int i = 0; i < kFrames; ++i)
-    messages.push_back(FrameMessage(i, (*frames_)[i % frames_->size()].jpeg));
+  const std::vector<v1::TrackRequest> messages = Burst(kFrames);
   const auto outcome = RunStream(*stub_, messages, /*paced=*/false);
   ASSERT_TRUE(outcome.status.ok());
   ASSERT_EQ(outcome.responses.size(), static_cast<size_t>(kFrames));
@@ -302,9 +306,7 @@ TEST_F(TrackingServiceTest, StaleFramesAreDroppedWhenANewerOneWaits) {
   options.queue_frames = 64;     // so the count bound never acts
   StartServer(options);
   constexpr int kFrames = 30;
-  std::vector<v1::TrackRequest> messages = {ConfigMessage(nullptr)};
-  for (int i = 0; i < kFrames; ++i)
-    messages.push_back(FrameMessage(i, (*frames_)[i % frames_->size()].jpeg));
+  const std::vector<v1::TrackRequest> messages = Burst(kFrames);
   const auto outcome = RunStream(*stub_, messages, /*paced=*/false);
   ASSERT_TRUE(outcome.status.ok());
   std::set<uint64_t> answered, dropped;
