@@ -85,8 +85,8 @@ absl::Status TrackerOptions::Validate() const {
         "inlier distance: inlier_chars and min_inlier_px must be > 0 and "
         "max_inlier_px >= min_inlier_px");
   if (!(min_separation_inliers >= 0) || min_separation_inliers > 10)
-    return absl::InvalidArgumentError(absl::StrCat(
-        "min_separation_inliers must be in [0, 10], got ", min_separation_inliers));
+    return absl::InvalidArgumentError(
+        absl::StrCat("min_separation_inliers must be in [0, 10], got ", min_separation_inliers));
   if (ransac_iterations < 10)
     return absl::InvalidArgumentError(
         absl::StrCat("ransac_iterations must be >= 10, got ", ransac_iterations));
@@ -106,6 +106,9 @@ absl::Status TrackerOptions::Validate() const {
   if (!(max_rotation_jump_deg > 0) || max_rotation_jump_deg > 180)
     return absl::InvalidArgumentError("max_rotation_jump_deg must be in (0, 180]");
   if (retrieval_interval < 1) return absl::InvalidArgumentError("retrieval_interval must be >= 1");
+  if (retrieval_phase < 0)
+    return absl::InvalidArgumentError(
+        absl::StrCat("retrieval_phase must be >= 0, got ", retrieval_phase));
   if (max_documents < 1 || max_documents > 64)
     return absl::InvalidArgumentError(
         absl::StrCat("max_documents must be in [1, 64], got ", max_documents));
@@ -331,7 +334,7 @@ void DocumentTracker::Reset() {
   followed_.clear();
   session_ = SessionIndex(options_.session);
   frame_count_ = 0;
-  last_retrieval_ = 0;
+  next_retrieval_ = 0;
 }
 
 size_t DocumentTracker::followed_documents() const { return followed_.size(); }
@@ -357,8 +360,8 @@ std::vector<PageInView> DocumentTracker::PredictedPages(int frames_ahead) const 
     // The keypoints are word centres: the words reach a little beyond their hull.
     const cv::Rect2f box = cv::boundingRect(doc->hull);
     const float margin = 0.03f * std::max(box.width, box.height);
-    page.area = cv::Rect2f(box.x - margin, box.y - margin, box.width + 2 * margin,
-                           box.height + 2 * margin);
+    page.area =
+        cv::Rect2f(box.x - margin, box.y - margin, box.width + 2 * margin, box.height + 2 * margin);
     out.push_back(page);
   }
   return out;
@@ -449,8 +452,7 @@ TrackedDocument DocumentTracker::TrackOne(Followed& doc, Frame& frame, TrackerTi
   Fit projected;
   if (predicted) {
     const Pairs candidates = ProjectionMatch(*predicted, ref, frame.points, frame.grid, frame.used,
-                                             frame.size, frame.search_px, 0.8,
-                                             frame.separation_px);
+                                             frame.size, frame.search_px, 0.8, frame.separation_px);
     projected =
         RansacFit(candidates, {}, ref, frame.points, frame.inlier_px, 200, options_.min_inliers);
     if (projected.ok) projected = Refine(projected, ref, frame, options_.min_inliers);
@@ -686,10 +688,15 @@ TrackerFrameResult DocumentTracker::Track(const WordKeypoints& keypoints,
   }
 
   // Retrieval: pages not followed yet, and lost ones the session index cannot re-find.
-  if (whole_frame && (!any_tracked || frame_count_ - last_retrieval_ >=
-                                          static_cast<uint64_t>(options_.retrieval_interval))) {
+  if (whole_frame && (!any_tracked || frame_count_ >= next_retrieval_)) {
     t = SteadyClock::now();
-    last_retrieval_ = frame_count_;
+    result.retrieved = true;
+    // While nothing is followed retrieval runs every frame; from the last such frame the
+    // cycle starts at this stream's phase (so streams started together spread it out).
+    next_retrieval_ = frame_count_ + static_cast<uint64_t>(options_.retrieval_interval);
+    if (!any_tracked)
+      next_retrieval_ -=
+          static_cast<uint64_t>(options_.retrieval_phase % options_.retrieval_interval);
     std::vector<int> free_index;
     std::vector<cv::Point2f> free_points;
     // Keypoints on a tracked page's text area belong to it: retrieval looks for other

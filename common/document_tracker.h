@@ -31,11 +31,10 @@
 
 #include <cstdint>
 #include <memory>
+#include <opencv2/core.hpp>
 #include <optional>
 #include <string>
 #include <vector>
-
-#include <opencv2/core.hpp>
 
 #include "absl/status/status.h"
 #include "common/llah_retriever.h"
@@ -107,6 +106,10 @@ struct TrackerOptions {
 
   // Retrieval of pages not followed yet, every this many frames while following some.
   int retrieval_interval = 10;
+  // This stream retrieves that many frames earlier in the cycle (modulo
+  // retrieval_interval), so that streams started together do not all retrieve on the
+  // same frame (see VideoKeypointOptions::measure_phase).
+  int retrieval_phase = 0;
   RetrievalOptions retrieval;
   // Pages followed at once.
   int max_documents = 8;
@@ -127,10 +130,10 @@ struct TrackedDocument {
   int inliers = 0;                 // correspondences agreeing with the homography
   // Those correspondences: (frame keypoint index, reference keypoint index).
   std::vector<std::pair<int, int>> matches;
-  int llah_inliers = -1;           // LLAH correspondences among them; -1: LLAH not run
-  int learned = 0;                 // entries added to the session index on this frame
-  size_t learned_entries = 0;      // entries learned for this page so far (kept)
-  std::string method;              // "retrieval", "projection", "llah", "" when lost
+  int llah_inliers = -1;       // LLAH correspondences among them; -1: LLAH not run
+  int learned = 0;             // entries added to the session index on this frame
+  size_t learned_entries = 0;  // entries learned for this page so far (kept)
+  std::string method;          // "retrieval", "projection", "llah", "" when lost
 };
 
 struct TrackerTimings {
@@ -142,6 +145,7 @@ struct TrackerTimings {
 struct TrackerFrameResult {
   std::vector<TrackedDocument> documents;  // every followed page, LOST ones included
   TrackerTimings timings;
+  bool retrieved = false;  // retrieval over the shared index ran on this frame
 };
 
 // Not thread-safe: one tracker per stream, fed frames in order by one thread at a time.
@@ -157,8 +161,7 @@ class DocumentTracker {
   // false: the keypoints cover only the pages tracked (VideoKeypointExtractor's rectified
   // extraction), so retrieval of further pages waits for a frame that covers it all.
   TrackerFrameResult Track(const WordKeypoints& frame, const cv::Size& image_size,
-                           std::shared_ptr<const LlahRetriever> shared,
-                           bool whole_frame = true);
+                           std::shared_ptr<const LlahRetriever> shared, bool whole_frame = true);
 
   // Forgets every page and everything learned.
   void Reset();
@@ -177,8 +180,7 @@ class DocumentTracker {
   struct Followed;
   struct Frame;
 
-  void Follow(uint32_t document, const DocumentHit& hit, Frame& frame,
-              TrackerFrameResult& result);
+  void Follow(uint32_t document, const DocumentHit& hit, Frame& frame, TrackerFrameResult& result);
   TrackedDocument TrackOne(Followed& doc, Frame& frame, TrackerTimings& timings);
   // LLAH correspondences of the page in the frame from the session index: per free frame
   // keypoint, the reference keypoint most of its descriptors hit (`strong`: two or more).
@@ -194,7 +196,7 @@ class DocumentTracker {
   SessionIndex session_;
   std::vector<std::unique_ptr<Followed>> followed_;
   uint64_t frame_count_ = 0;
-  uint64_t last_retrieval_ = 0;
+  uint64_t next_retrieval_ = 0;  // frame_count_ at which retrieval is next due
 };
 
 }  // namespace texfree

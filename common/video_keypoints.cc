@@ -76,6 +76,9 @@ absl::Status VideoKeypointOptions::Validate() const {
   if (measure_every_frames < 1)
     return absl::InvalidArgumentError(
         absl::StrCat("measure_every_frames must be >= 1, got ", measure_every_frames));
+  if (measure_phase < 0)
+    return absl::InvalidArgumentError(
+        absl::StrCat("measure_phase must be >= 0, got ", measure_phase));
   if (!(remeasure_below_ratio >= 0 && remeasure_below_ratio <= 1))
     return absl::InvalidArgumentError(
         absl::StrCat("remeasure_below_ratio must be in [0, 1], got ", remeasure_below_ratio));
@@ -117,7 +120,8 @@ void VideoKeypointExtractor::Reset() {
 
 WordKeypoints VideoKeypointExtractor::Measure(const cv::Mat& gray) {
   WordKeypoints result = measuring_.Extract(gray);
-  frames_since_measure_ = 0;
+  // The first measurement of a stream sets its phase in the cycle.
+  frames_since_measure_ = known_ ? 0 : options_.measure_phase % options_.measure_every_frames;
   measured_keypoints_ = result.points.size();
   if (result.char_height > 0)
     known_ = TextGeometry{result.char_height, result.text_angle_rad};
@@ -307,7 +311,7 @@ bool VideoKeypointExtractor::ExtractRectified(const cv::Mat& gray, const PageInV
       if (plausible(words.char_height, target * scale / wanted)) {
         text.heights.assign(1, words.char_height / scale);
         text.known = TextGeometry{words.char_height / scale, words.text_angle_rad};
-        text.frames_since_measure = 0;
+        text.frames_since_measure = options_.measure_phase % options_.measure_every_frames;
         text.measured_keypoints = static_cast<size_t>(1e4 * words.points.size() / image.total());
       } else if (!(words.char_height > 0)) {
         return false;

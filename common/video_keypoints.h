@@ -26,6 +26,11 @@ namespace texfree {
 struct VideoKeypointOptions {
   // The text is measured on one frame in this many (1: every frame, as a still image).
   int measure_every_frames = 8;
+  // This stream measures that many frames earlier in the cycle (taken modulo
+  // measure_every_frames): a server following many streams gives each its own phase, so
+  // that their measuring frames, several times dearer than the others, do not fall on the
+  // same moment when the streams start together.
+  int measure_phase = 0;
   // A frame that reuses the measurement and finds fewer than this share of the keypoints
   // of the last measured frame is extracted again with a fresh measurement (the camera
   // came much closer or moved away fast).

@@ -101,6 +101,12 @@ grpc::Status TrackingServiceImpl::Track(
   session_options.limits = options_.limits;
   session_options.tracker = *tracker;
   session_options.camera = *camera;
+  if (options_.stagger_streams) {
+    // Phases taken modulo the cycles' lengths: consecutive streams get consecutive phases.
+    const int phase = static_cast<int>(id % 1024);
+    session_options.keypoints.measure_phase = phase;
+    session_options.tracker.retrieval_phase = phase;
+  }
   if (auto s = session_options.Validate(); !s.ok()) return ToGrpcStatus(s);
 
   spdlog::info("tracking session {} opened from {} ({} active{})", id, context->peer(), active,
@@ -130,8 +136,11 @@ grpc::Status TrackingServiceImpl::Track(
   spdlog::info(
       "tracking session {} closed ({}): {} frames in {:.1f} s, {} results, {} dropped, {} "
       "errors, {:.2f} ms server time per frame ({} active)",
-      id, watchdog.fired() ? "idle" : cancelled ? "cancelled" : "client done", stats.frames,
-      seconds, stats.results, stats.dropped, stats.errors,
+      id,
+      watchdog.fired() ? "idle"
+      : cancelled      ? "cancelled"
+                       : "client done",
+      stats.frames, seconds, stats.results, stats.dropped, stats.errors,
       stats.results ? stats.server_ms / stats.results : 0.0, active_.load() - 1);
   if (watchdog.fired()) return idle_status();
   return grpc::Status::OK;

@@ -26,6 +26,10 @@ struct TrackingServiceOptions {
   // (TrackingSessionOptions).
   int max_frame_age_ms = 250;
   int queue_frames = 16;
+  // Each new stream does its periodic work (the full text measurement, retrieval of
+  // further pages) at its own phase of the cycle: streams started together would
+  // otherwise all do it on the same frames, a burst of several times the mean work.
+  bool stagger_streams = true;
   ImageLimits limits;
   // Defaults of every session; a stream's TrackOptions override some of them.
   TrackerOptions tracker;
@@ -46,9 +50,9 @@ class TrackingServiceImpl final : public v1::TrackingService::Service {
   TrackingServiceImpl(const DocumentRegistry* registry, TrackingServiceOptions options)
       : registry_(registry), options_(std::move(options)) {}
 
-  grpc::Status Track(grpc::ServerContext* context,
-                     grpc::ServerReaderWriter<v1::TrackResponse, v1::TrackRequest>* stream)
-      override;
+  grpc::Status Track(
+      grpc::ServerContext* context,
+      grpc::ServerReaderWriter<v1::TrackResponse, v1::TrackRequest>* stream) override;
 
   // Streams with a live session (for logs, tests and shutdown).
   int active_sessions() const { return active_.load(); }

@@ -167,6 +167,10 @@ int main(int argc, char** argv) {
                  "throughput test: a frame waiting longer is stale (dropped if a newer waits)");
   app.add_option("--queue-frames", service.queue_frames,
                  "throughput test: frames waiting per stream at most");
+  bool no_stagger = false;
+  app.add_flag("--no-stagger", no_stagger,
+               "throughput test: every stream measures and retrieves on the same frames "
+               "(TrackingServiceOptions::stagger_streams off)");
   int grpc_opencv_threads = -1;
   app.add_option("--grpc-opencv-threads", grpc_opencv_threads,
                  "throughput test: OpenCV's threads (cv::setNumThreads; -1: its default)");
@@ -206,6 +210,7 @@ int main(int argc, char** argv) {
   app.add_flag("--no-baselines", no_baselines, "skip ORB and SIFT");
   app.add_option("--dir", dir, "working directory for the database");
   CLI11_PARSE(app, argc, argv);
+  service.stagger_streams = !no_stagger;
   spdlog::set_level(spdlog::level::warn);
 
   fs::remove_all(dir);
@@ -327,8 +332,7 @@ int main(int argc, char** argv) {
           // The pages the tracker expects: extracted rectified when seen at a slant.
           texfree::VideoFrameInfo extracted;
           const auto keypoints = extractor.Extract(gray, tracker->PredictedPages(), &extracted);
-          const auto result =
-              tracker->Track(keypoints, gray.size(), shared, extracted.whole_frame);
+          const auto result = tracker->Track(keypoints, gray.size(), shared, extracted.whole_frame);
           const auto& rectified = extracted.rectified;
           s.ms = MillisecondsSince(t0);
           s.cpu_ms = texfree::ThreadCpuMilliseconds() - c0;

@@ -4,7 +4,6 @@
 // session (the shared index is untouched, another tracker sees none) and within budget;
 // a mirrored page is not drawn; two pages in one view are both followed.
 #include "common/document_tracker.h"
-#include "common/video_keypoints.h"
 
 #include <gtest/gtest.h>
 
@@ -13,6 +12,7 @@
 #include <vector>
 
 #include "common/llah_retriever.h"
+#include "common/video_keypoints.h"
 #include "common/word_keypoints.h"
 #include "tests/data/camera_sequence.h"
 #include "tests/data/camera_view.h"
@@ -284,6 +284,32 @@ TEST_F(DocumentTrackerTest, FollowsTwoPagesInOneView) {
   }
 }
 
+// While a page is followed, retrieval of further pages runs every retrieval_interval
+// frames, at the stream's phase of that cycle (streams started together spread it out).
+TEST_F(DocumentTrackerTest, RetrievalRunsOnTheStreamsPhaseOfItsCycle) {
+  const auto& views = SteepOrbit();
+  ASSERT_GE(views.size(), 24u);
+  const WordKeypointExtractor extractor;
+  for (int phase : {0, 3, 13}) {
+    SCOPED_TRACE(testing::Message() << "phase " << phase);
+    TrackerOptions o;
+    o.retrieval_interval = 10;
+    o.retrieval_phase = phase;
+    DocumentTracker tracker(o);
+    std::vector<int> retrieved;
+    for (int i = 0; i < 24; ++i) {
+      const cv::Mat gray = Gray(views[i].image);
+      const auto result = tracker.Track(extractor.Extract(gray), gray.size(), *shared_);
+      ASSERT_FALSE(result.documents.empty());
+      ASSERT_NE(result.documents[0].state, TrackState::kLost) << "frame " << i;
+      if (result.retrieved) retrieved.push_back(i);
+    }
+    // Found on frame 0, then every 10 frames from phase (mod 10) frames earlier.
+    const int first = 10 - phase % 10;
+    EXPECT_EQ(retrieved, std::vector<int>({0, first, first + 10}));
+  }
+}
+
 TEST(TrackerOptionsTest, ValidateNamesTheProblem) {
   TrackerOptions o;
   EXPECT_TRUE(o.Validate().ok());
@@ -298,6 +324,9 @@ TEST(TrackerOptionsTest, ValidateNamesTheProblem) {
   o = {};
   o.max_documents = 0;
   EXPECT_NE(o.Validate().message().find("max_documents"), std::string::npos);
+  o = {};
+  o.retrieval_phase = -2;
+  EXPECT_NE(o.Validate().message().find("retrieval_phase"), std::string::npos);
 }
 
 TEST(TrackerTest, NothingRegisteredGivesNoDocuments) {

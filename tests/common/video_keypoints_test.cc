@@ -125,6 +125,24 @@ TEST(VideoKeypointsTest, MeasuresOnScheduleAndWhenTheViewChanges) {
   EXPECT_TRUE(m) << "Reset measures afresh";
 }
 
+// A stream's phase moves its measurements earlier in the cycle, so that streams started
+// together measure on different frames; the cycle's length stays the same.
+TEST(VideoKeypointsTest, ThePhaseShiftsTheMeasuringFrames) {
+  VideoKeypointOptions o;
+  o.measure_every_frames = 4;
+  o.measure_phase = 5;  // taken modulo 4: one frame earlier
+  VideoKeypointExtractor video(WordKeypointOptions(), o);
+  const cv::Mat& frame = OrbitFrames()[3];
+  std::vector<bool> measured;
+  for (int i = 0; i < 9; ++i) {
+    bool m = false;
+    video.Extract(frame, &m);
+    measured.push_back(m);
+  }
+  EXPECT_EQ(measured,
+            std::vector<bool>({true, false, false, true, false, false, false, true, false}));
+}
+
 // The page of the orbit and its word keypoints (page pixels), cut as the frames are.
 struct OrbitPage {
   cv::Mat gray;
@@ -285,6 +303,9 @@ TEST(VideoKeypointsTest, OptionsValidate) {
   EXPECT_TRUE(VideoKeypointOptions().Validate().ok());
   VideoKeypointOptions o;
   o.measure_every_frames = 0;
+  EXPECT_FALSE(o.Validate().ok());
+  o = VideoKeypointOptions();
+  o.measure_phase = -1;
   EXPECT_FALSE(o.Validate().ok());
   o = VideoKeypointOptions();
   o.remeasure_below_ratio = 1.5;
