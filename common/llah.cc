@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <limits>
 #include <numeric>
 
 #include "absl/strings/str_cat.h"
@@ -36,6 +37,20 @@ constexpr int kMaxN = 10;
 inline float Cross(const cv::Point2f &a, const cv::Point2f &b, const cv::Point2f &c) {
   return (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x);
 }
+
+// A strictly increasing function of atan2(y, x) on (-pi, pi], with values in
+// (-2, 2] (the L1 "diamond angle"); (x, y) must not be (0, 0). Comparing it
+// orders angles as atan2 does at a fraction of the cost: atan2 was the largest
+// single cost of describing a point.
+inline double PseudoAngle(double y, double x) {
+  const double r = 1 - x / (std::abs(x) + std::abs(y));
+  return std::signbit(y) ? -r : r;
+}
+
+// Pseudo-angles closer than this may be ordered differently by atan2 on floats
+// (its rounding is ~1e-7 rad); there atan2 itself decides, so that hashes are
+// exactly those computed with it (they are stored with registered pages).
+constexpr double kPseudoAngleTie = 1e-5;
 
 }  // namespace
 
@@ -86,6 +101,45 @@ LlahDescriber::LlahDescriber(LlahOptions options, InvariantQuantizer quantizer)
   std::vector<std::vector<int>> c4;
   Combinations(options_.m, 4, &c4);
   for (const auto &c : c4) subsets_4_.push_back({c[0], c[1], c[2], c[3]});
+  // The quadruples each (m-subset, cyclic rotation, 4-subset) reads, as slots of
+  // the per-point level table: the same for every point.
+  const int n = options_.n, m = options_.m;
+  std::vector<char> used(static_cast<size_t>(n * n * n * n), 0);
+  for (const std::vector<int> &sub : subsets_m_) {
+    for (int r = 0; r < m; ++r) {
+      for (const auto &f : subsets_4_) {
+        const int a = sub[(f[0] + r) % m], b = sub[(f[1] + r) % m], c = sub[(f[2] + r) % m],
+                  d = sub[(f[3] + r) % m];
+        const int slot = ((a * n + b) * n + c) * n + d;
+        rotation_slots_.push_back(slot);
+        if (!used[slot]) quads_.push_back({slot, a, b, c, d});
+        used[slot] = 1;
+      }
+    }
+  }
+  for (float t : quantizer_.thresholds())
+    pseudo_thresholds_.push_back(
+        PseudoAngle(std::sin(static_cast<double>(t)), std::cos(static_cast<double>(t))));
+  // The canonical rotation is the lexicographically smallest sequence of levels,
+  // which is the smallest base-k number they spell when k^dims fits in 64 bits.
+  unsigned __int128 largest = 1;
+  for (size_t j = 0; j < subsets_4_.size() && packed_keys_; ++j) {
+    largest *= static_cast<unsigned>(options_.k);
+    packed_keys_ = largest <= std::numeric_limits<uint64_t>::max();
+  }
+}
+
+int LlahDescriber::QuantizedInvariant(const cv::Point2f &a, const cv::Point2f &b,
+                                      const cv::Point2f &c, const cv::Point2f &d) const {
+  // AffineInvariant's atan2, compared through the pseudo-angle.
+  const float y = Cross(a, c, d), x = Cross(a, b, c);
+  if (x == 0 && y == 0) return quantizer_.Quantize(std::atan2(y, x));
+  const double p = PseudoAngle(y, x);
+  const auto above = std::upper_bound(pseudo_thresholds_.begin(), pseudo_thresholds_.end(), p);
+  if ((above != pseudo_thresholds_.end() && *above - p < kPseudoAngleTie) ||
+      (above != pseudo_thresholds_.begin() && p - above[-1] < kPseudoAngleTie))
+    return quantizer_.Quantize(std::atan2(y, x));
+  return static_cast<int>(above - pseudo_thresholds_.begin());
 }
 
 namespace {
@@ -97,12 +151,25 @@ bool OrderedNeighbors(const std::vector<cv::Point2f> &points, int index, int n,
   grid.Nearest(index, n, &scratch);
   if (static_cast<int>(scratch.size()) < n) return false;
   const cv::Point2f p = points[index];
-  std::array<std::pair<float, int>, kMaxN> by_angle;
+  std::array<std::pair<double, int>, kMaxN> by_angle;
+  bool exact = true;  // no duplicate point, no near tie: the pseudo-angle orders as atan2
   for (int i = 0; i < n; ++i) {
     const cv::Point2f d = points[scratch[i]] - p;
-    by_angle[i] = {std::atan2(d.y, d.x), scratch[i]};
+    exact = exact && (d.x != 0 || d.y != 0);
+    by_angle[i] = {exact ? PseudoAngle(d.y, d.x) : 0.0, scratch[i]};
   }
-  std::sort(by_angle.begin(), by_angle.begin() + n);
+  if (exact) {
+    std::sort(by_angle.begin(), by_angle.begin() + n);
+    for (int i = 1; i < n && exact; ++i)
+      exact = by_angle[i].first - by_angle[i - 1].first >= kPseudoAngleTie;
+  }
+  if (!exact) {
+    for (int i = 0; i < n; ++i) {
+      const cv::Point2f d = points[scratch[i]] - p;
+      by_angle[i] = {std::atan2(d.y, d.x), scratch[i]};
+    }
+    std::sort(by_angle.begin(), by_angle.begin() + n);
+  }
   for (int i = 0; i < n; ++i) ordered[i] = points[by_angle[i].second];
   return true;
 }
@@ -125,34 +192,46 @@ void LlahDescriber::DescribePoint(const std::vector<cv::Point2f> &points, int in
   int8_t table[kMaxN * kMaxN * kMaxN * kMaxN];
   float margin[kMaxN * kMaxN * kMaxN * kMaxN];
   int8_t other[kMaxN * kMaxN * kMaxN * kMaxN];  // the level across the nearest boundary
-  std::memset(table, -1, sizeof(int8_t) * n * n * n * n);
   const std::vector<float> &t = quantizer_.thresholds();
   const int k = options_.k;
-  auto slot_of = [&](int a, int b, int c, int d) { return ((a * n + b) * n + c) * n + d; };
-  auto level = [&](int slot, int a, int b, int c, int d) -> int {
-    int8_t &l = table[slot];
-    if (l < 0) {
-      const float v = AffineInvariant(q[a], q[b], q[c], q[d]);
-      const int lv = quantizer_.Quantize(v);
-      l = static_cast<int8_t>(lv);
-      if (probes > 0 && !t.empty()) {
-        // The invariant is an angle: level 0 and level k-1 meet at +-pi.
-        const float below = lv > 0 ? v - t[lv - 1] : v + static_cast<float>(CV_PI);
-        const float above = lv < k - 1 ? t[lv] - v : static_cast<float>(CV_PI) - v;
-        margin[slot] = std::min(below, above);
-        other[slot] = static_cast<int8_t>(below < above ? (lv + k - 1) % k : (lv + 1) % k);
-      }
+  for (const Quad &u : quads_) {
+    if (probes == 0) {
+      table[u.slot] = static_cast<int8_t>(QuantizedInvariant(q[u.a], q[u.b], q[u.c], q[u.d]));
+      continue;
     }
-    return l;
-  };
+    const float v = AffineInvariant(q[u.a], q[u.b], q[u.c], q[u.d]);
+    const int lv = quantizer_.Quantize(v);
+    table[u.slot] = static_cast<int8_t>(lv);
+    if (!t.empty()) {
+      // The invariant is an angle: level 0 and level k-1 meet at +-pi.
+      const float below = lv > 0 ? v - t[lv - 1] : v + static_cast<float>(CV_PI);
+      const float above = lv < k - 1 ? t[lv] - v : static_cast<float>(CV_PI) - v;
+      margin[u.slot] = std::min(below, above);
+      other[u.slot] = static_cast<int8_t>(below < above ? (lv + k - 1) % k : (lv + 1) % k);
+    }
+  }
   const int dims = static_cast<int>(subsets_4_.size());
-  int slots[kMaxN][256];  // slot of each (rotation, 4-subset) of the current m-subset
+  const int *slots = nullptr;  // slots[r * dims + j]: of rotation r, 4-subset j
   int best_rotation = 0;
   auto canonical_hash = [&]() {
+    if (packed_keys_) {
+      uint64_t best = 0;
+      for (int r = 0; r < m; ++r) {
+        uint64_t key = 0;
+        for (int j = 0; j < dims; ++j)
+          key = key * static_cast<uint64_t>(k) + static_cast<uint8_t>(table[slots[r * dims + j]]);
+        if (r == 0 || key < best) {
+          best = key;
+          best_rotation = r;
+        }
+      }
+      const uint64_t h = Mix64(best ^ (static_cast<uint64_t>(dims) << 58));
+      return h == 0 ? uint64_t{1} : h;
+    }
     std::array<uint8_t, 256> best{}, cur{};
     bool have_best = false;
     for (int r = 0; r < m; ++r) {
-      for (int j = 0; j < dims; ++j) cur[j] = static_cast<uint8_t>(table[slots[r][j]]);
+      for (int j = 0; j < dims; ++j) cur[j] = static_cast<uint8_t>(table[slots[r * dims + j]]);
       if (!have_best || std::lexicographical_compare(cur.begin(), cur.begin() + dims, best.begin(),
                                                      best.begin() + dims)) {
         best = cur;
@@ -166,16 +245,7 @@ void LlahDescriber::DescribePoint(const std::vector<cv::Point2f> &points, int in
     return h == 0 ? uint64_t{1} : h;
   };
   for (int s = 0; s < per; ++s) {
-    const std::vector<int> &sub = subsets_m_[s];
-    for (int r = 0; r < m; ++r) {
-      for (int j = 0; j < dims; ++j) {
-        const auto &f = subsets_4_[j];
-        const int a = sub[(f[0] + r) % m], b = sub[(f[1] + r) % m], c = sub[(f[2] + r) % m],
-                  d = sub[(f[3] + r) % m];
-        slots[r][j] = slot_of(a, b, c, d);
-        level(slots[r][j], a, b, c, d);
-      }
-    }
+    slots = rotation_slots_.data() + static_cast<size_t>(s) * m * dims;
     uint64_t *dst = out + s * variants;
     dst[0] = canonical_hash();
     if (variants == 1) continue;
@@ -189,7 +259,7 @@ void LlahDescriber::DescribePoint(const std::vector<cv::Point2f> &points, int in
     {
       const int r = best_rotation;
       for (int j = 0; j < dims; ++j) {
-        const int slot = slots[r][j];
+        const int slot = slots[r * dims + j];
         bool seen = false;
         for (int u = 0; u < found; ++u) seen |= uncertain[u] == slot;
         if (seen) continue;

@@ -94,11 +94,21 @@ class LlahDescriber {
  private:
   void DescribePoint(const std::vector<cv::Point2f> &points, int index, const NeighborGrid &grid,
                      int probes, std::vector<int> &scratch, uint64_t *out) const;
+  // quantizer_.Quantize(AffineInvariant(a, b, c, d)), without the atan2.
+  int QuantizedInvariant(const cv::Point2f &a, const cv::Point2f &b, const cv::Point2f &c,
+                         const cv::Point2f &d) const;
 
   LlahOptions options_;
   InvariantQuantizer quantizer_;
   std::vector<std::vector<int>> subsets_m_;    // C(n, m) increasing index lists
   std::vector<std::array<int, 4>> subsets_4_;  // C(m, 4) increasing position lists
+  struct Quad {
+    int slot, a, b, c, d;  // slot in the level table; neighbour positions
+  };
+  std::vector<int> rotation_slots_;        // per m-subset, rotation, 4-subset: its slot
+  std::vector<Quad> quads_;                // every distinct quadruple those read
+  std::vector<double> pseudo_thresholds_;  // the quantizer's, as pseudo-angles
+  bool packed_keys_ = true;                // k^C(m, 4) fits in 64 bits
 };
 
 }  // namespace texfree

@@ -484,5 +484,43 @@ TEST_F(LlahDescriberTest, CollectInvariantsCountsAndRange) {
   EXPECT_TRUE(few.empty());
 }
 
+// Registered pages keep their descriptor hashes in the database (setting
+// llah.hash_version): any change to the hash function, however it is computed,
+// must change that version. The fingerprints below were taken from the
+// reference implementation (atan2 invariants, lexicographic canonical rotation).
+// The point sets include the hard cases: points sharing a direction from their
+// centre, collinear quadruples (zero areas) and invariants on the learned
+// thresholds themselves (the quantiser's training points described again).
+uint64_t Fingerprint(const std::vector<uint64_t> &hashes) {
+  uint64_t f = 1469598103934665603ull;  // FNV-1a over the hashes in order
+  for (uint64_t h : hashes) f = (f ^ h) * 1099511628211ull;
+  return f;
+}
+
+TEST(LlahHashStabilityTest, HashesAreThoseStoredByEarlierVersions) {
+  LlahOptions options;
+  // Random points, then a regular grid (many equal angles and zero areas), then a
+  // jittered grid quantised to quarter pixels (near-equal angles).
+  std::vector<cv::Point2f> pts = RandomPoints(2024, 1500);
+  for (int y = 0; y < 20; ++y)
+    for (int x = 0; x < 20; ++x) pts.emplace_back(2000 + 30.0f * x, 40.0f * y);
+  std::mt19937 rng(5);
+  std::uniform_int_distribution<int> jitter(-6, 6);
+  for (int y = 0; y < 20; ++y)
+    for (int x = 0; x < 20; ++x)
+      pts.emplace_back(3000 + 25.0f * x + jitter(rng) * 0.25f, 30.0f * y + jitter(rng) * 0.25f);
+  LlahDescriber sampler(options, InvariantQuantizer());
+  std::vector<float> samples;
+  sampler.CollectInvariants(pts, &samples);
+  auto quantizer = InvariantQuantizer::Learn(samples, options.k);
+  ASSERT_TRUE(quantizer.ok());
+  const LlahDescriber describer(options, *quantizer);
+  std::vector<uint64_t> hashes;
+  describer.Describe(pts, &hashes);
+  EXPECT_EQ(Fingerprint(hashes), 11476328182685511305ull);
+  describer.DescribeWithProbes(pts, 2, &hashes);
+  EXPECT_EQ(Fingerprint(hashes), 18434784175329760127ull);
+}
+
 }  // namespace
 }  // namespace texfree
