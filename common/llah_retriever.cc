@@ -99,7 +99,7 @@ float NeighbourRadius(const std::vector<cv::Point2f> &points, int k) {
 double WeakMatchLog10Nfa(int correspondences, int inliers, double threshold_px, double area_px2) {
   const int n = correspondences, k = inliers;
   if (n < 4 || k <= 4 || k > n || !(area_px2 > 0)) return 0;
-  const double p = std::min(1.0, M_PI * threshold_px * threshold_px / area_px2);
+  const double p = std::min(1.0, CV_PI * threshold_px * threshold_px / area_px2);
   if (p >= 1) return 0;
   auto log_choose = [](int a, int b) {
     return std::lgamma(a + 1.0) - std::lgamma(b + 1.0) - std::lgamma(a - b + 1.0);
