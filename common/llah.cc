@@ -296,7 +296,8 @@ void LlahDescriber::Describe(const std::vector<cv::Point2f> &points,
 }
 
 void LlahDescriber::DescribeWithProbes(const std::vector<cv::Point2f> &points, int probes,
-                                       std::vector<uint64_t> *hashes) const {
+                                       std::vector<uint64_t> *hashes,
+                                       const std::vector<char> *skip) const {
   probes = std::clamp(probes, 0, kMaxProbes);
   const size_t per = subsets_m_.size() << probes;
   hashes->assign(points.size() * per, 0);
@@ -304,7 +305,8 @@ void LlahDescriber::DescribeWithProbes(const std::vector<cv::Point2f> &points, i
   NeighborGrid grid(points);
   std::vector<int> scratch;
   for (int i = 0; i < static_cast<int>(points.size()); ++i)
-    DescribePoint(points, i, grid, probes, scratch, hashes->data() + i * per);
+    if (skip == nullptr || !(*skip)[i])
+      DescribePoint(points, i, grid, probes, scratch, hashes->data() + i * per);
 }
 
 void LlahDescriber::DescribeSubset(const std::vector<cv::Point2f> &points,

@@ -73,9 +73,11 @@ class LlahDescriber {
   // per point as [subset 0: exact, probe 1, ...][subset 1: ...]. probes is
   // clamped to [0, kMaxProbes]. Index memory is unchanged; quantisation noise
   // in the query is forgiven.
+  // Points with skip[i] set are not described (hashes 0), though still neighbours.
   static constexpr int kMaxProbes = 3;
   void DescribeWithProbes(const std::vector<cv::Point2f> &points, int probes,
-                          std::vector<uint64_t> *hashes) const;
+                          std::vector<uint64_t> *hashes,
+                          const std::vector<char> *skip = nullptr) const;
 
   // Describes only the points with indices in `which`, into hashes laid out as
   // Describe's (other slots untouched). Neighbours are still searched among all

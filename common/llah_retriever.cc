@@ -55,6 +55,16 @@ absl::Status RetrievalOptions::Validate() const {
     return absl::InvalidArgumentError(absl::StrCat(
         "min_layout_ratio must be in (0.25, 1] (chance alignments of text reach ~0.2), got ",
         min_layout_ratio));
+  if (min_significant_layout_ratio <= 0 || min_significant_layout_ratio > min_layout_ratio)
+    return absl::InvalidArgumentError(
+        absl::StrCat("min_significant_layout_ratio must be in (0, min_layout_ratio], got ",
+                     min_significant_layout_ratio));
+  if (max_weak_nfa < 0 || max_weak_nfa > 1)
+    return absl::InvalidArgumentError(
+        absl::StrCat("max_weak_nfa must be in [0, 1] (0: off), got ", max_weak_nfa));
+  if (!(max_border_lost >= 0))
+    return absl::InvalidArgumentError(
+        absl::StrCat("max_border_lost must be >= 0 (0: off), got ", max_border_lost));
   if (max_results < 0) return absl::InvalidArgumentError("max_results must be >= 0");
   if (rectify_perspective) {
     absl::Status status = perspective.Validate();
@@ -85,6 +95,27 @@ float NeighbourRadius(const std::vector<cv::Point2f> &points, int k) {
 }
 
 }  // namespace
+
+double WeakMatchLog10Nfa(int correspondences, int inliers, double threshold_px, double area_px2) {
+  const int n = correspondences, k = inliers;
+  if (n < 4 || k <= 4 || k > n || !(area_px2 > 0)) return 0;
+  const double p = std::min(1.0, CV_PI * threshold_px * threshold_px / area_px2);
+  if (p >= 1) return 0;
+  auto log_choose = [](int a, int b) {
+    return std::lgamma(a + 1.0) - std::lgamma(b + 1.0) - std::lgamma(a - b + 1.0);
+  };
+  // Binomial tail P[X >= k - 4], X ~ B(n - 4, p), summed in log space from its largest term.
+  const int m = n - 4, first = k - 4;
+  const double lp = std::log(p), lq = std::log1p(-p);
+  const double top = log_choose(m, first) + first * lp + (m - first) * lq;
+  double sum = 0;
+  for (int j = first; j <= m; ++j) {
+    const double term = std::exp(log_choose(m, j) + j * lp + (m - j) * lq - top);
+    sum += term;
+    if (term < 1e-12 * sum) break;
+  }
+  return (log_choose(n, 4) + top + std::log(sum)) / std::log(10.0);
+}
 
 LlahRetriever::LlahRetriever(LlahOptions options, InvariantQuantizer quantizer, int log2_buckets)
     : describer_(options, std::move(quantizer)), index_(log2_buckets) {}
@@ -329,7 +360,7 @@ class VoteTally {
 // (`matched`, from the guided refinement).
 bool LayoutConfirms(const std::vector<cv::Point2f> &reference, const cv::Matx33d &H,
                     const std::vector<cv::Point2f> &query_hull, int matched,
-                    const RetrievalOptions &o) {
+                    const RetrievalOptions &o, double min_ratio) {
   if (matched < o.min_layout_matches || query_hull.size() < 3) return false;
   int inside = 0;
   for (const cv::Point2f &r : reference) {
@@ -339,10 +370,36 @@ bool LayoutConfirms(const std::vector<cv::Point2f> &reference, const cv::Matx33d
             query_hull, cv::Point2f(static_cast<float>(p.x), static_cast<float>(p.y)), false) >= 0)
       ++inside;
   }
-  return matched >= o.min_layout_ratio * inside;
+  return matched >= min_ratio * inside;
 }
 
 }  // namespace
+
+double NeighboursLostToFrame(const cv::Point2f &p, float radius, int n, const cv::Size &frame) {
+  if (!(radius > 0)) return 0;
+  // Share of a disk beyond a line at distance d from its centre (a circular segment); the
+  // edges are taken one at a time (at a corner the overlap is small).
+  auto beyond = [&](double d) {
+    const double c = std::clamp(d / radius, -1.0, 1.0);
+    return (std::acos(c) - c * std::sqrt(1 - c * c)) / CV_PI;
+  };
+  const double share =
+      beyond(p.x) + beyond(p.y) + beyond(frame.width - p.x) + beyond(frame.height - p.y);
+  return n * std::min(1.0, share);
+}
+
+std::vector<char> CutByFrame(const std::vector<cv::Point2f> &points, const NeighborGrid &grid,
+                             int n, const cv::Size &frame, double max_lost) {
+  std::vector<char> cut(points.size(), 0);
+  std::vector<int> nearest;
+  for (size_t i = 0; i < points.size(); ++i) {
+    grid.Nearest(static_cast<int>(i), n, &nearest);
+    if (nearest.size() < static_cast<size_t>(n)) continue;
+    const float r = static_cast<float>(cv::norm(points[i] - points[nearest.back()]));
+    cut[i] = NeighboursLostToFrame(points[i], r, n, frame) >= max_lost;
+  }
+  return cut;
+}
 
 std::vector<DocumentHit> LlahRetriever::Retrieve(const std::vector<cv::Point2f> &query,
                                                  double query_char_height,
@@ -379,15 +436,18 @@ std::vector<DocumentHit> LlahRetriever::RetrieveDescribed(const std::vector<cv::
   std::vector<DocumentHit> results;
   if (trace) trace->query_keypoints = static_cast<int>(query.size());
   if (query.size() < 8) return results;
+  NeighborGrid query_grid(query);
+  std::vector<char> cut;
+  if (o.max_border_lost > 0 && !o.frame.empty())
+    cut = CutByFrame(query, query_grid, describer_.options().n, o.frame, o.max_border_lost);
   std::vector<uint64_t> hashes;
-  describer_.DescribeWithProbes(described, o.query_probes, &hashes);
+  describer_.DescribeWithProbes(described, o.query_probes, &hashes, cut.empty() ? nullptr : &cut);
   const int per = static_cast<int>(hashes.size() / query.size());
 
   std::unordered_map<uint32_t, std::shared_ptr<const Model>> candidates_models;
   // Per (document, query keypoint): the reference keypoint it hit most often, and how often.
   thread_local std::vector<Correspondence> best;
   best.clear();
-  NeighborGrid query_grid(query);
   std::vector<Candidate> ranked;
   {
     std::shared_lock lock(mutex_);
@@ -672,7 +732,20 @@ std::vector<DocumentHit> LlahRetriever::RetrieveDescribed(const std::vector<cv::
     if (inliers < o.min_weak_inliers) continue;
     if (inliers < o.min_inliers) {
       if (query_hull.empty()) cv::convexHull(query, query_hull);
-      if (!LayoutConfirms(model.keypoints, H, query_hull, static_cast<int>(guided.size()), o))
+      // The a-contrario test counts the inliers of both homographies (RANSAC's, from the
+      // correspondences alone, and the guided refit's), whichever is fewer, and every
+      // candidate verified as a separate chance. The homography must also put more of the
+      // page's keypoints onto query keypoints than chance does: few inliers in one corner
+      // can be the right page under a homography wrong elsewhere.
+      const int agreed = std::min(inliers, static_cast<int>(inlier_pairs.size()));
+      const int matched = static_cast<int>(guided.size());
+      const bool significant = o.max_weak_nfa > 0 && agreed >= o.min_weak_inliers &&
+                               WeakMatchLog10Nfa(static_cast<int>(pairs.size()), agreed, threshold,
+                                                 cv::contourArea(query_hull)) +
+                                       std::log10(static_cast<double>(o.max_candidates)) <=
+                                   std::log10(o.max_weak_nfa);
+      if (!LayoutConfirms(model.keypoints, H, query_hull, matched, o,
+                          significant ? o.min_significant_layout_ratio : o.min_layout_ratio))
         continue;
     }
     if (traced) trace->accepted = true;

@@ -67,6 +67,24 @@ struct RetrievalOptions {
   int min_weak_inliers = 6;
   int min_layout_matches = 16;
   double min_layout_ratio = 0.45;
+  // ...or, when the query's keypoints repeat the page's too poorly for the layout check
+  // (blur merging words, a steep view splitting them), the LLAH inliers themselves decide
+  // when chance could hardly have produced them: the expected number of candidates with as
+  // many inliers among their correspondences, were those random (a-contrario, see
+  // WeakMatchLog10Nfa), must be at most max_weak_nfa. Wrong pages measure 10^0.7 and more;
+  // 0 turns the test off. Such a page still needs min_significant_layout_ratio of the
+  // layout: a few inliers in one corner can be the right page under a homography wrong
+  // elsewhere, which puts few of its keypoints on query keypoints.
+  double max_weak_nfa = 1e-3;
+  double min_significant_layout_ratio = 0.25;
+  // The query image's size (set per query; empty: unknown). A keypoint whose n nearest
+  // neighbours reach past the frame has lost some of them to it, and intruders from
+  // further out took their place: when the share of its neighbourhood disk outside the
+  // frame holds max_border_lost of its n neighbours or more, its descriptors cannot match
+  // (LLAH forgives n - m = 1) and it is not described: its lookups would only add chance
+  // votes. It stays a neighbour of the others. 0 describes every keypoint.
+  cv::Size frame;
+  double max_border_lost = 1.5;
   // 0 = every visible document.
   int max_results = 0;
   // Query descriptors are computed on keypoints rectified to an affine image of the page
@@ -80,6 +98,20 @@ struct RetrievalOptions {
 
   absl::Status Validate() const;
 };
+
+// log10 of the number of false alarms of `inliers` of `correspondences` agreeing with one
+// homography within `threshold_px`, were the correspondences random over a query region of
+// `area_px2`: C(n, 4) hypotheses from minimal samples, each explaining k - 4 of the other
+// n - 4 correspondences with probability p = pi threshold^2 / area each (binomial tail).
+// Very negative: the agreement is no coincidence.
+double WeakMatchLog10Nfa(int correspondences, int inliers, double threshold_px, double area_px2);
+
+// How many of a keypoint's n nearest neighbours (the farthest at `radius`) are expected
+// beyond the frame's edges, for neighbours spread evenly over the disk.
+double NeighboursLostToFrame(const cv::Point2f &p, float radius, int n, const cv::Size &frame);
+// Per point: whether max_lost or more of its n neighbours are expected beyond the frame.
+std::vector<char> CutByFrame(const std::vector<cv::Point2f> &points, const NeighborGrid &grid,
+                             int n, const cv::Size &frame, double max_lost);
 
 struct DocumentHit {
   uint32_t document = 0;

@@ -21,6 +21,10 @@ absl::Status TextPerspectiveOptions::Validate() const {
         absl::StrCat("need 1 <= min_depth_ratio < max_depth_ratio, got ", min_depth_ratio, " and ",
                      max_depth_ratio));
   if (iterations < 1) return absl::InvalidArgumentError("iterations must be >= 1");
+  if (!(focal_px >= 0))
+    return absl::InvalidArgumentError(absl::StrCat("focal_px must be >= 0, got ", focal_px));
+  if (!(max_stretch >= 1))
+    return absl::InvalidArgumentError(absl::StrCat("max_stretch must be >= 1, got ", max_stretch));
   return absl::OkStatus();
 }
 
@@ -97,7 +101,24 @@ std::optional<cv::Matx33d> EstimateTextPerspective(const std::vector<cv::Point2f
   const cv::Matx33d T(1 / s, 0, -cx / s, 0, 1 / s, -cy / s, 0, 0, 1);
   const cv::Matx33d Ti(s, 0, cx, 0, s, cy, 0, 0, 1);
   const cv::Matx33d Pn(1, 0, 0, 0, 1, 0, ga, gb, 1);
-  return Ti * Pn * T;
+  const cv::Matx33d P = Ti * Pn * T;
+  if (!(o.focal_px > 0) || n < static_cast<size_t>(o.min_points_metric)) return P;
+  // 1/depth is affine in the image, w = 1 + gx (x - cx) + gy (y - cy) up to scale; for a plane
+  // N.X = d seen by a pinhole it equals (N.(x - pp, y - pp, f)) / (f d), so the plane's normal
+  // is N ~ (f gx, f gy, w(pp)). Around the keypoints' centre (fixed by P) the affine image is
+  // squeezed along the slope by the cosine between N and the ray there; stretch it back.
+  const double f = o.focal_px, gx = ga / s, gy = gb / s;
+  const double w_pp = 1 + gx * (o.principal_point.x - cx) + gy * (o.principal_point.y - cy);
+  const cv::Vec3d normal(f * gx, f * gy, w_pp);
+  const cv::Vec3d ray((cx - o.principal_point.x) / f, (cy - o.principal_point.y) / f, 1);
+  // normal . ray = w(centre) = 1.
+  const double stretch = cv::norm(normal) * cv::norm(ray);
+  const double g = std::hypot(gx, gy);
+  if (!(stretch > 1) || !(g > 0) || stretch > o.max_stretch) return P;
+  const double dx = gx / g, dy = gy / g, e = stretch - 1;
+  const cv::Matx33d S(1 + e * dx * dx, e * dx * dy, 0, e * dx * dy, 1 + e * dy * dy, 0, 0, 0, 1);
+  const cv::Matx33d to_centre(1, 0, -cx, 0, 1, -cy, 0, 0, 1), back(1, 0, cx, 0, 1, cy, 0, 0, 1);
+  return back * S * to_centre * P;
 }
 
 std::vector<cv::Point2f> ApplyPerspective(const cv::Matx33d &P,

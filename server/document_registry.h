@@ -43,6 +43,10 @@ struct DocumentRegistryOptions {
   // with.
   LlahOptions llah;
   RetrievalOptions retrieval;
+  // Queries without intrinsics: the camera's horizontal field of view assumed when
+  // rectifying a steep view (RetrievalOptions::perspective.focal_px), a phone's main camera
+  // (60-75 degrees). 0: the rectification stays affine unless intrinsics are given.
+  double assumed_horizontal_fov_deg = 65;
   // A page with fewer word keypoints cannot be recognised reliably.
   int min_keypoints = 30;
   // Registering a page that retrieves a registered one with this many inliers

@@ -152,7 +152,14 @@ void PrintMiss(const DocumentRegistry &registry, const Query &q, const cv::Mat &
                                  registry.retriever()->describer());
     texfree::RetrievalTrace t;
     t.watch = record->index_id;
-    registry.retriever()->Retrieve(kp.points, kp.char_height, registry.options().retrieval, &t);
+    texfree::RetrievalOptions ro = registry.options().retrieval;
+    ro.frame = gray.size();  // as the registry sets them per query
+    if (registry.options().assumed_horizontal_fov_deg > 0) {
+      ro.perspective.focal_px =
+          gray.cols / 2.0 / std::tan(registry.options().assumed_horizontal_fov_deg * CV_PI / 360);
+      ro.perspective.principal_point = {gray.cols / 2.0, gray.rows / 2.0};
+    }
+    registry.retriever()->Retrieve(kp.points, kp.char_height, ro, &t);
     char line[200];
     std::snprintf(line, sizeof(line),
                   " [%sstop %d, hits %d/%d, votes %d/%d/%d rank %d, candidate %d of %d, ransac %d "
@@ -210,6 +217,12 @@ int main(int argc, char **argv) {
                  "fewer keypoints than this are described as seen");
   app.add_option("--depth-ratio", registry_options.retrieval.perspective.min_depth_ratio,
                  "rectify when the fitted depth varies over the keypoints by at least this ratio");
+  app.add_option("--assumed-fov", registry_options.assumed_horizontal_fov_deg,
+                 "horizontal field of view assumed to undo a steep view's foreshortening "
+                 "(0: affine rectification only)");
+  app.add_option("--max-border-lost", registry_options.retrieval.max_border_lost,
+                 "keypoints expected to lose this many neighbours to the frame are not "
+                 "described (0: all are)");
   app.add_option("--min-coherent", registry_options.retrieval.min_coherent_votes,
                  "...of which have a neighbouring correspondence near on the page");
   app.add_option("--coherence-radius", registry_options.retrieval.coherence_radius,

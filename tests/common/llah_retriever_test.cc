@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <cmath>
 #include <memory>
+#include <opencv2/imgproc.hpp>
 #include <ostream>
 #include <random>
 #include <set>
@@ -329,6 +330,106 @@ TEST_P(LlahRetrieverTest, LayoutCheckConfirmsWeaklyMatchedWindowsAndNoWrongDocum
   EXPECT_GT(with_layout, without_layout);
   std::printf("layout check: %d of %d windows found (LLAH inliers alone: %d)\n", with_layout,
               trials, without_layout);
+}
+
+// Where the query's keypoints repeat the page's too poorly for the layout check, the LLAH
+// inliers decide when chance could hardly have made them agree (a-contrario): windows the
+// layout check cannot confirm are found, and neither a wrong document nor an unknown one.
+TEST_P(LlahRetrieverTest, ImprobableInlierAgreementConfirmsWeakMatchesAndNoWrongDocument) {
+  constexpr Disturbance kSevere{25, 0.7, 0.25, 0.15};
+  RetrievalOptions options;
+  options.rectify_perspective = false;
+  options.min_layout_ratio = 1.0;  // the layout check (practically) never confirms
+  RetrievalOptions without = options;
+  without.max_weak_nfa = 0;
+  std::mt19937 rng(GetParam() == Layout::kUniform ? 81 : 82);
+  int with_nfa = 0, without_nfa = 0, trials = 0;
+  for (int d = 0; d < kDocuments; d += 2) {
+    ++trials;
+    const Query q = MakeQuery(db().documents[d], rng, kSevere);
+    const auto hits = db().retriever->Retrieve(q.points, kQueryCharHeight, options);
+    for (const DocumentHit& h : hits) {
+      ASSERT_EQ(h.document, DocumentId(d)) << "document " << d << ": " << Describe(hits);
+      EXPECT_LT(MaxHomographyError(h.homography, q), 3.0) << "document " << d;
+    }
+    with_nfa += !hits.empty();
+    without_nfa += !db().retriever->Retrieve(q.points, kQueryCharHeight, without).empty();
+  }
+  EXPECT_GT(with_nfa, without_nfa);
+  std::printf("a-contrario: %d of %d windows found (%d with %d+ inliers only)\n", with_nfa, trials,
+              without_nfa, RetrievalOptions().min_inliers);
+  // Documents never registered, seen alike, are found in none.
+  std::mt19937 unknown_rng(GetParam() == Layout::kUniform ? 91 : 92);
+  for (int i = 0; i < 20; ++i) {
+    const Query q = MakeQuery(MakeDocument(GetParam(), unknown_rng), unknown_rng, kSevere);
+    EXPECT_TRUE(db().retriever->Retrieve(q.points, kQueryCharHeight, options).empty())
+        << "unknown document " << i;
+  }
+}
+
+TEST(NeighboursLostToFrameTest, ShareOfTheNeighbourhoodDiskBeyondTheEdges) {
+  const cv::Size frame(640, 480);
+  EXPECT_DOUBLE_EQ(NeighboursLostToFrame({320, 240}, 50, 7, frame), 0);
+  EXPECT_DOUBLE_EQ(NeighboursLostToFrame({50, 240}, 50, 7, frame), 0);    // touches the edge
+  EXPECT_NEAR(NeighboursLostToFrame({0, 240}, 50, 7, frame), 3.5, 1e-9);  // half the disk
+  // A third of the radius from the edge: a 0.2 segment, about 1.4 of 7 neighbours.
+  EXPECT_NEAR(NeighboursLostToFrame({640 - 25, 240}, 50, 7, frame), 7 * 0.1955, 1e-3);
+  EXPECT_NEAR(NeighboursLostToFrame({0, 0}, 50, 7, frame), 7, 1e-9);
+}
+
+// A view cut by the frame: the keypoints along its edges lost neighbours to it. Leaving them
+// undescribed keeps every window found as accurately while their chance hits are gone.
+TEST_P(LlahRetrieverTest, KeypointsCutByTheFrameAreNotDescribed) {
+  std::mt19937 rng(GetParam() == Layout::kUniform ? 61 : 62);
+  RetrievalOptions seen_all;
+  seen_all.max_border_lost = 0;
+  int found_all = 0, found_cut = 0, hits_all = 0, hits_cut = 0;
+  for (int d = 0; d < kDocuments; d += 5) {
+    const Query window = MakeQuery(db().documents[d], rng, kModerate);
+    // The frame: the middle of the view, as a camera closer to the page would see it.
+    cv::Rect2f box = cv::boundingRect(window.points);
+    const cv::Rect2f frame(box.x + box.width * 0.15f, box.y + box.height * 0.15f, box.width * 0.7f,
+                           box.height * 0.7f);
+    Query q = window;
+    q.points.clear();
+    for (const cv::Point2f& p : window.points)
+      if (frame.contains(p)) q.points.push_back(p - frame.tl());
+    q.homography = Translation(-frame.x, -frame.y) * window.homography;
+    RetrievalOptions cut;
+    cut.frame = cv::Size(static_cast<int>(frame.width), static_cast<int>(frame.height));
+    RetrievalTrace trace_all, trace_cut;
+    trace_all.watch = trace_cut.watch = DocumentId(d);
+    const auto all = db().retriever->Retrieve(q.points, kQueryCharHeight, seen_all, &trace_all);
+    const auto kept = db().retriever->Retrieve(q.points, kQueryCharHeight, cut, &trace_cut);
+    const DocumentHit* hit = FindHit(kept, DocumentId(d));
+    if (hit != nullptr) {
+      EXPECT_LT(MaxHomographyError(hit->homography, q), 2.0) << "document " << d;
+    }
+    for (const DocumentHit& h : kept) {
+      EXPECT_EQ(h.document, DocumentId(d));
+    }
+    found_all += FindHit(all, DocumentId(d)) != nullptr;
+    found_cut += hit != nullptr;
+    hits_all += trace_all.total_hits;
+    hits_cut += trace_cut.total_hits;
+  }
+  EXPECT_GE(found_cut, found_all);
+  EXPECT_LT(hits_cut, hits_all);
+}
+
+TEST(WeakMatchLog10NfaTest, ChanceAgreementIsNotSignificantAndRareAgreementIs) {
+  const double area = 640.0 * 480.0;
+  // Six of hundreds of correspondences: a chance homography explains that many.
+  EXPECT_GT(WeakMatchLog10Nfa(300, 6, 4.5, area), 0);
+  // Nine of forty: no coincidence.
+  EXPECT_LT(WeakMatchLog10Nfa(40, 9, 4.5, area), -5);
+  // More inliers are less likely; more correspondences, or a looser threshold, more so.
+  EXPECT_LT(WeakMatchLog10Nfa(40, 10, 4.5, area), WeakMatchLog10Nfa(40, 9, 4.5, area));
+  EXPECT_GT(WeakMatchLog10Nfa(400, 9, 4.5, area), WeakMatchLog10Nfa(40, 9, 4.5, area));
+  EXPECT_GT(WeakMatchLog10Nfa(40, 9, 12, area), WeakMatchLog10Nfa(40, 9, 4.5, area));
+  // Degenerate input is never significant.
+  EXPECT_EQ(WeakMatchLog10Nfa(3, 3, 4.5, area), 0);
+  EXPECT_EQ(WeakMatchLog10Nfa(40, 9, 4.5, 0), 0);
 }
 
 TEST_P(LlahRetrieverTest, FindsBothDocumentsSideBySide) {

@@ -37,6 +37,7 @@ std::vector<cv::Point2f> PageWords(uint64_t seed, const cv::Size &page) {
 struct ProjectedView {
   std::vector<cv::Point2f> image;  // keypoints inside the image
   std::vector<cv::Point2f> page;   // their page positions
+  cv::Matx33d camera_matrix;
 };
 
 ProjectedView Project(const std::vector<cv::Point2f> &words, const cv::Size &page_size,
@@ -48,6 +49,7 @@ ProjectedView Project(const std::vector<cv::Point2f> &words, const cv::Size &pag
   o.scale = scale;
   const testdata::CameraView view = testdata::ComputeCameraGeometry(page_size, o);
   ProjectedView out;
+  out.camera_matrix = view.camera_matrix;
   for (const cv::Point2f &w : words) {
     const cv::Vec3d p = view.homography * cv::Vec3d(w.x, w.y, 1);
     const cv::Point2f q(static_cast<float>(p[0] / p[2]), static_cast<float>(p[1] / p[2]));
@@ -94,6 +96,49 @@ TEST(TextPerspectiveTest, SteepViewsBecomeAlmostAffine) {
       EXPECT_LT(after, 0.3 * before)
           << "tilt " << tilt << " azimuth " << azimuth << ": " << before << " -> " << after;
     }
+  }
+}
+
+// Smaller over larger singular value of the least-squares affine map from -> to: 1 for a
+// similarity, cos(tilt) for a page foreshortened by a tilt.
+double Anisotropy(const std::vector<cv::Point2f> &from, const std::vector<cv::Point2f> &to) {
+  cv::Mat A(static_cast<int>(from.size()), 3, CV_64F), b(static_cast<int>(from.size()), 2, CV_64F);
+  for (int i = 0; i < A.rows; ++i) {
+    A.at<double>(i, 0) = from[i].x;
+    A.at<double>(i, 1) = from[i].y;
+    A.at<double>(i, 2) = 1;
+    b.at<double>(i, 0) = to[i].x;
+    b.at<double>(i, 1) = to[i].y;
+  }
+  cv::Mat x;
+  cv::solve(A, b, x, cv::DECOMP_SVD);
+  cv::Mat w;
+  cv::SVD::compute(x.rowRange(0, 2), w);
+  return w.at<double>(1) / w.at<double>(0);
+}
+
+// With the focal length the rectified keypoints are close to a similarity image of the page,
+// so LLAH's nearest neighbours are the page's; without it they stay squeezed by cos(tilt).
+TEST(TextPerspectiveTest, FocalLengthAlsoUndoesTheForeshortening) {
+  const cv::Size page(1000, 1414);
+  const auto words = PageWords(7, page);
+  for (double azimuth : {0.0, 70.0, 160.0, 250.0}) {
+    const ProjectedView view = Project(words, page, 40, azimuth, 0.8);
+    ASSERT_GT(view.image.size(), 100u);
+    TextPerspectiveOptions o;
+    const auto affine = EstimateTextPerspective(view.image, o);
+    o.focal_px = view.camera_matrix(0, 0);
+    o.principal_point = {view.camera_matrix(0, 2), view.camera_matrix(1, 2)};
+    const auto metric = EstimateTextPerspective(view.image, o);
+    ASSERT_TRUE(affine.has_value() && metric.has_value()) << "azimuth " << azimuth;
+    const double squeezed = Anisotropy(view.page, ApplyPerspective(*affine, view.image));
+    const double restored = Anisotropy(view.page, ApplyPerspective(*metric, view.image));
+    EXPECT_LT(squeezed, 0.85) << "azimuth " << azimuth;
+    EXPECT_GT(restored, 0.93) << "azimuth " << azimuth << ": affine only " << squeezed;
+    // Still an affine image of the page: the projective part stays removed.
+    EXPECT_LT(AffineResidual(view.page, ApplyPerspective(*metric, view.image)),
+              0.3 * AffineResidual(view.page, view.image))
+        << "azimuth " << azimuth;
   }
 }
 
