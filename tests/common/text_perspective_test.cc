@@ -60,20 +60,32 @@ ProjectedView Project(const std::vector<cv::Point2f> &words, const cv::Size &pag
   return out;
 }
 
+// The least-squares affine map from -> to: x (3x2) minimising |A x - b| with the rows of A
+// = (from, 1) and of b = to.
+struct AffineFit {
+  cv::Mat A, b, x;
+};
+AffineFit FitAffine(const std::vector<cv::Point2f> &from, const std::vector<cv::Point2f> &to) {
+  AffineFit f;
+  f.A.create(static_cast<int>(from.size()), 3, CV_64F);
+  f.b.create(static_cast<int>(from.size()), 2, CV_64F);
+  for (int i = 0; i < f.A.rows; ++i) {
+    f.A.at<double>(i, 0) = from[i].x;
+    f.A.at<double>(i, 1) = from[i].y;
+    f.A.at<double>(i, 2) = 1;
+    f.b.at<double>(i, 0) = to[i].x;
+    f.b.at<double>(i, 1) = to[i].y;
+  }
+  cv::solve(f.A, f.b, f.x, cv::DECOMP_SVD);
+  return f;
+}
+
 // How far `from` -> `to` is from affine: RMS residual of the least-squares affine map,
 // relative to the RMS spread of `to`.
 double AffineResidual(const std::vector<cv::Point2f> &from, const std::vector<cv::Point2f> &to) {
-  cv::Mat A(static_cast<int>(from.size()), 3, CV_64F), b(static_cast<int>(from.size()), 2, CV_64F);
-  for (int i = 0; i < A.rows; ++i) {
-    A.at<double>(i, 0) = from[i].x;
-    A.at<double>(i, 1) = from[i].y;
-    A.at<double>(i, 2) = 1;
-    b.at<double>(i, 0) = to[i].x;
-    b.at<double>(i, 1) = to[i].y;
-  }
-  cv::Mat x;
-  cv::solve(A, b, x, cv::DECOMP_SVD);
-  const cv::Mat r = A * x - b;
+  const AffineFit f = FitAffine(from, to);
+  const cv::Mat &b = f.b;
+  const cv::Mat r = f.A * f.x - b;
   cv::Scalar mean = cv::mean(b);
   double spread = 0;
   for (int i = 0; i < b.rows; ++i)
@@ -102,18 +114,8 @@ TEST(TextPerspectiveTest, SteepViewsBecomeAlmostAffine) {
 // Smaller over larger singular value of the least-squares affine map from -> to: 1 for a
 // similarity, cos(tilt) for a page foreshortened by a tilt.
 double Anisotropy(const std::vector<cv::Point2f> &from, const std::vector<cv::Point2f> &to) {
-  cv::Mat A(static_cast<int>(from.size()), 3, CV_64F), b(static_cast<int>(from.size()), 2, CV_64F);
-  for (int i = 0; i < A.rows; ++i) {
-    A.at<double>(i, 0) = from[i].x;
-    A.at<double>(i, 1) = from[i].y;
-    A.at<double>(i, 2) = 1;
-    b.at<double>(i, 0) = to[i].x;
-    b.at<double>(i, 1) = to[i].y;
-  }
-  cv::Mat x;
-  cv::solve(A, b, x, cv::DECOMP_SVD);
   cv::Mat w;
-  cv::SVD::compute(x.rowRange(0, 2), w);
+  cv::SVD::compute(FitAffine(from, to).x.rowRange(0, 2), w);
   return w.at<double>(1) / w.at<double>(0);
 }
 
