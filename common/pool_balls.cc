@@ -30,8 +30,9 @@ void HueSaturation(const cv::Vec3f& bgr, double* hue, double* saturation, double
 
 // The ball-ness of every pixel in `roi` (0 = cloth, 1 = ball), soft around the
 // thresholds so that sub-pixel fitting sees a continuous image.
+// `dark_counts` false: by colour alone (a shadow on the cloth is dark, never coloured).
 cv::Mat BallnessMap(const cv::Mat& bgr, const cv::Rect& roi, const cv::Vec3f& cloth,
-                    const PoolBallOptions& o) {
+                    const PoolBallOptions& o, bool dark_counts = true) {
   cv::Mat out(roi.size(), CV_32FC1);
   const double lo = (o.ball_angle_deg - o.ball_angle_soft_deg) * kPi / 180;
   const double hi = (o.ball_angle_deg + o.ball_angle_soft_deg) * kPi / 180;
@@ -87,7 +88,7 @@ cv::Mat BallnessMap(const cv::Mat& bgr, const cv::Rect& roi, const cv::Vec3f& cl
                          : (sum <= dark_lo ? 1.f
                                            : static_cast<float>(SmoothStep((dark_hi - sum) /
                                                                            (dark_hi - dark_lo))));
-      q[x] = std::max(colour, dark);
+      q[x] = dark_counts ? std::max(colour, dark) : colour;
     }
   }
   return out;
@@ -762,6 +763,61 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
         if (alone) continue;  // the first pass already saw no other ball
       }
       claim(seeds, i, pass == 0 ? i : seeds.size());
+      if (pass == 0) {
+        // The farther balls of a blob are not fitted yet: the pixels nearer to another
+        // seed of the same blob than to this one are left to it, so that a touching ball's
+        // pixels do not count against this ball's silhouette (which would pull it
+        // towards the pair's middle). Seeds closer than 1.5r may be one ball lengthened
+        // by its shadow (they are merged below): those share their pixels.
+        const cv::Point2d own = ProjectIdeal(pose, K, {seeds[i].x, seeds[i].y, r});
+        const auto blob_at = [&](const cv::Point2d& pixel) {
+          const cv::Point at(cvRound(pixel.x) - roi.x, cvRound(pixel.y) - roi.y);
+          return at.inside(cv::Rect(0, 0, roi.width, roi.height)) ? labels.at<int>(at) : 0;
+        };
+        // A seed on a ball has colour about it; one on the shadow that lengthens a ball's
+        // blob has none (the black 8 neither: its touching balls share pixels as before).
+        const auto coloured = [&](const cv::Point2d& pixel, const cv::Point2d& xy) {
+          const double r_px = K(0, 0) * r / cv::norm(pose.R * cv::Vec3d(xy.x, xy.y, r) + pose.t);
+          const int reach = std::max(1, cvRound(0.5 * r_px));
+          const cv::Rect disc = cv::Rect(cvRound(pixel.x) - reach, cvRound(pixel.y) - reach,
+                                         2 * reach + 1, 2 * reach + 1) &
+                                image_rect;
+          if (disc.area() <= 0) return false;
+          const cv::Mat colour = BallnessMap(bgr, disc, cloth, options, /*dark_counts=*/false);
+          double sum = 0;
+          int count = 0;
+          for (int v = 0; v < disc.height; ++v)
+            for (int u = 0; u < disc.width; ++u) {
+              const double du = u + disc.x - pixel.x, dv = v + disc.y - pixel.y;
+              if (du * du + dv * dv > reach * reach) continue;
+              sum += colour.at<float>(v, u);
+              ++count;
+            }
+          return count > 0 && sum >= 0.5 * count;
+        };
+        const int blob = blob_at(own);
+        std::vector<cv::Point2d> neighbours;
+        for (size_t j = 0; j < seeds.size() && blob > 0; ++j) {
+          if (j == i || cv::norm(seeds[j] - seeds[i]) < 1.5 * r) continue;
+          const cv::Point2d other = ProjectIdeal(pose, K, {seeds[j].x, seeds[j].y, r});
+          if (blob_at(other) == blob && coloured(other, seeds[j])) neighbours.push_back(other);
+        }
+        if (!neighbours.empty() && !coloured(own, seeds[i])) neighbours.clear();
+        if (!neighbours.empty()) {
+          SilhouetteScorer boxer(ballness_in_region, roi, claimed, K, pose, profile);
+          const cv::Rect box = boxer.Box(cv::Vec3d(seeds[i].x, seeds[i].y, r));
+          for (int v = box.y; v < box.y + box.height; ++v)
+            for (int u = box.x; u < box.x + box.width; ++u) {
+              const cv::Point2d p(u, v);
+              const double d_own = cv::norm(p - own);
+              for (const cv::Point2d& n : neighbours)
+                if (cv::norm(p - n) < d_own) {
+                  claimed.at<float>(v - roi.y, u - roi.x) = 1;
+                  break;
+                }
+            }
+        }
+      }
       SilhouetteScorer scorer(ballness_in_region, roi, claimed, K, pose, profile);
       seeds[i] = scorer.Fit(seeds[i], 0.35 * r);
     }

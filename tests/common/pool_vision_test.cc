@@ -379,6 +379,30 @@ TEST(PoolHardBalls, DarkBallsAreFittedOnTheirRimNotTheirHighlight) {
   }
 }
 
+// Touching balls split into seeds of one blob: the fit of the nearer ball used to count
+// the other ball's pixels against its own silhouette and slid to the pair's middle, where
+// both seeds met and one was dropped. Benchmark frames (seed 7): frame 23's purple 4 and
+// the 9 beside it (the 4 was lost, the 9 found 17 mm off with the split seed), and frame
+// 53's 7 frozen on the cushion beside a side pocket (not found).
+TEST(PoolTouchingBalls, EachBallOfABlobIsFittedOnItsOwnPixels) {
+  const testdata::PoolTableSpec spec = testdata::PoolTableSpec::Bench();
+  std::mt19937_64 rng(7);
+  for (int frame = 0; frame <= 53; ++frame) {
+    const PoolScene scene = testdata::RandomPoolScene(rng, spec);
+    if (frame != 23 && frame != 53) continue;
+    const PoolView view = testdata::RenderPoolView(scene, 7 * 100003 + frame);
+    auto scored = AnalyzeAndScore(scene, view);
+    ASSERT_TRUE(scored.ok()) << scored.status();
+    const testdata::PoolScore& score = scored->score;
+    EXPECT_EQ(score.position_errors_mm.size(), view.balls.size()) << "frame " << frame;
+    for (const auto& m : score.matches) {
+      EXPECT_GE(m.error_mm, 0) << "ball " << m.truth_number << " not found, frame " << frame;
+      EXPECT_LT(m.error_mm, 10.0) << "ball " << m.truth_number << ", frame " << frame;
+    }
+    EXPECT_EQ(score.separated_identified, score.separated) << "frame " << frame;
+  }
+}
+
 // Benchmark frame 24 (seed 7): the far cushion is seen at a grazing angle, its top only
 // 2 px wide beyond a shaded cushion face as dark as the rail. Taken on brightness, the
 // far side's edge fell on the face and the corners were 3.9 px off, which moved three
