@@ -30,8 +30,9 @@ void HueSaturation(const cv::Vec3f& bgr, double* hue, double* saturation, double
 
 // The ball-ness of every pixel in `roi` (0 = cloth, 1 = ball), soft around the
 // thresholds so that sub-pixel fitting sees a continuous image.
+// `dark_counts` false: by colour alone (a shadow on the cloth is dark, never coloured).
 cv::Mat BallnessMap(const cv::Mat& bgr, const cv::Rect& roi, const cv::Vec3f& cloth,
-                    const PoolBallOptions& o) {
+                    const PoolBallOptions& o, bool dark_counts = true) {
   cv::Mat out(roi.size(), CV_32FC1);
   const double lo = (o.ball_angle_deg - o.ball_angle_soft_deg) * kPi / 180;
   const double hi = (o.ball_angle_deg + o.ball_angle_soft_deg) * kPi / 180;
@@ -87,7 +88,7 @@ cv::Mat BallnessMap(const cv::Mat& bgr, const cv::Rect& roi, const cv::Vec3f& cl
                          : (sum <= dark_lo ? 1.f
                                            : static_cast<float>(SmoothStep((dark_hi - sum) /
                                                                            (dark_hi - dark_lo))));
-      q[x] = std::max(colour, dark);
+      q[x] = dark_counts ? std::max(colour, dark) : colour;
     }
   }
   return out;
@@ -340,26 +341,47 @@ class EdgeFitter {
   }
 
   // Rim points: along each outline point's normal, from the cloth outside inwards, the
-  // first place where `distance` (over `area_`) reaches `threshold` (sub-pixel). The
-  // outermost step is the rim; the ball's own inner edges (a highlight, a lit cap) lie
+  // first place where `distance` (over `area_`) reaches the point's threshold (sub-pixel).
+  // The outermost step is the rim; the ball's own inner edges (a highlight, a lit cap) lie
   // beyond it and are never reached. Points whose scan meets another ball are left out.
+  // A point's threshold is half-way up its own step (cloth 1.5-3 px outside the outline,
+  // ball 1 px to half the reach inside) when that is lower than `threshold`, the ball's
+  // overall half-way level, but never below `floor_level`: the green 6's lit cap is much
+  // nearer the cloth than its dark lower half, and at the level of the whole ball its top
+  // rim was only met inside the cap, which moved the ball towards the camera.
   std::vector<cv::Point2d> RimPoints(const cv::Point2d& xy, const cv::Mat& distance,
-                                     double threshold, double reach_px) const {
+                                     double threshold, double floor_level, double reach_px) const {
     std::vector<cv::Point2d> rim;
+    const auto inside_area = [this](double x, double y) {
+      return x >= area_.x && y >= area_.y && x <= area_.x + area_.width - 2 &&
+             y <= area_.y + area_.height - 2;
+    };
     ForEachOutlinePoint(xy, [&](double u, double v, double nx, double ny) {
+      std::vector<double> in, out;
+      for (double s = 1.5; s <= 3.01; s += 0.5)
+        if (inside_area(u + s * nx, v + s * ny))
+          out.push_back(Sample(distance, u + s * nx, v + s * ny));
+      for (double s = -1; s >= -std::max(1.5, 0.5 * reach_px); s -= 0.5)
+        if (inside_area(u + s * nx, v + s * ny))
+          in.push_back(Sample(distance, u + s * nx, v + s * ny));
+      double level = threshold;
+      if (!in.empty() && !out.empty()) {
+        std::nth_element(in.begin(), in.begin() + in.size() / 2, in.end());
+        std::nth_element(out.begin(), out.begin() + out.size() / 2, out.end());
+        const double i = in[in.size() / 2], o = out[out.size() / 2];
+        if (i > o) level = std::max(floor_level, std::min(threshold, o + 0.5 * (i - o)));
+      }
       constexpr double kStep = 0.25;
       double previous = -1;
       for (double s = reach_px; s >= -reach_px; s -= kStep) {
         const double x = u + s * nx, y = v + s * ny;
-        if (x < area_.x || y < area_.y || x > area_.x + area_.width - 2 ||
-            y > area_.y + area_.height - 2)
-          return;
+        if (!inside_area(x, y)) return;
         const int ix = static_cast<int>(x), iy = static_cast<int>(y);
         if (!roi_.contains({ix, iy}) || claimed_.at<float>(iy - roi_.y, ix - roi_.x) > 0.01) return;
         const double d = Sample(distance, x, y);
-        if (d >= threshold) {
+        if (d >= level) {
           if (previous < 0) return;  // already over it outside: no cloth to start from
-          const double f = (threshold - previous) / std::max(1e-9, d - previous);
+          const double f = (level - previous) / std::max(1e-9, d - previous);
           const double at = s + kStep * (1 - f);
           rim.emplace_back(u + at * nx, v + at * ny);
           return;
@@ -373,10 +395,11 @@ class EdgeFitter {
   // Fits the sphere's outline to rim points (least squares on the signed pixel distance,
   // with points more than kRimHuberPx off given a constant pull), the rim found again from
   // each new position.
-  cv::Point2d FitToRim(cv::Point2d xy, const cv::Mat& distance, double threshold, double reach_px,
-                       int* used = nullptr) const {
+  cv::Point2d FitToRim(cv::Point2d xy, const cv::Mat& distance, double threshold,
+                       double floor_level, double reach_px, int* used = nullptr) const {
     for (int round = 0; round < 3; ++round) {
-      const std::vector<cv::Point2d> rim = RimPoints(xy, distance, threshold, reach_px);
+      const std::vector<cv::Point2d> rim =
+          RimPoints(xy, distance, threshold, floor_level, reach_px);
       if (used) *used = static_cast<int>(rim.size());
       if (static_cast<int>(rim.size()) < kMinRimPoints) return xy;
       const cv::Point2d start = xy;
@@ -448,12 +471,13 @@ class EdgeFitter {
 };
 
 // The level of a ball's rim step in `distance` (over `area`) for a ball at `xy`: half-way
-// from the median just outside its outline (1.5-3.5 px out) to the median inside it (at
-// least 1 px in), leaving out other balls' pixels and the dark zone under it. 0 when
-// either side has too few pixels.
+// from the median just outside its outline (1.5-3.5 px out; `outside_level`) to the median
+// inside it (at least 1 px in), leaving out other balls' pixels and the dark zone under
+// it. 0 when either side has too few pixels.
 double RimThreshold(const cv::Mat& distance, const cv::Rect& area, const cv::Mat& claimed,
                     const cv::Rect& roi, const SilhouetteScorer& scorer, const PlanarPose& pose,
-                    const cv::Matx33d& K, const cv::Point2d& xy, double radius) {
+                    const cv::Matx33d& K, const cv::Point2d& xy, double radius,
+                    double* outside_level = nullptr) {
   const cv::Vec3d centre(xy.x, xy.y, radius);
   const cv::Matx33d Q = SphereSilhouetteConic(pose, K, centre, radius);
   const cv::Rect box = scorer.Box(centre);
@@ -475,6 +499,7 @@ double RimThreshold(const cv::Mat& distance, const cv::Rect& area, const cv::Mat
   std::nth_element(inside.begin(), inside.begin() + inside.size() / 2, inside.end());
   std::nth_element(outside.begin(), outside.begin() + outside.size() / 2, outside.end());
   const double in = inside[inside.size() / 2], out = outside[outside.size() / 2];
+  if (outside_level) *outside_level = out;
   return in > out ? out + 0.5 * (in - out) : 0;
 }
 
@@ -762,6 +787,61 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
         if (alone) continue;  // the first pass already saw no other ball
       }
       claim(seeds, i, pass == 0 ? i : seeds.size());
+      if (pass == 0) {
+        // The farther balls of a blob are not fitted yet: the pixels nearer to another
+        // seed of the same blob than to this one are left to it, so that a touching ball's
+        // pixels do not count against this ball's silhouette (which would pull it
+        // towards the pair's middle). Seeds closer than 1.5r may be one ball lengthened
+        // by its shadow (they are merged below): those share their pixels.
+        const cv::Point2d own = ProjectIdeal(pose, K, {seeds[i].x, seeds[i].y, r});
+        const auto blob_at = [&](const cv::Point2d& pixel) {
+          const cv::Point at(cvRound(pixel.x) - roi.x, cvRound(pixel.y) - roi.y);
+          return at.inside(cv::Rect(0, 0, roi.width, roi.height)) ? labels.at<int>(at) : 0;
+        };
+        // A seed on a ball has colour about it; one on the shadow that lengthens a ball's
+        // blob has none (the black 8 neither: its touching balls share pixels as before).
+        const auto coloured = [&](const cv::Point2d& pixel, const cv::Point2d& xy) {
+          const double r_px = K(0, 0) * r / cv::norm(pose.R * cv::Vec3d(xy.x, xy.y, r) + pose.t);
+          const int reach = std::max(1, cvRound(0.5 * r_px));
+          const cv::Rect disc = cv::Rect(cvRound(pixel.x) - reach, cvRound(pixel.y) - reach,
+                                         2 * reach + 1, 2 * reach + 1) &
+                                image_rect;
+          if (disc.area() <= 0) return false;
+          const cv::Mat colour = BallnessMap(bgr, disc, cloth, options, /*dark_counts=*/false);
+          double sum = 0;
+          int count = 0;
+          for (int v = 0; v < disc.height; ++v)
+            for (int u = 0; u < disc.width; ++u) {
+              const double du = u + disc.x - pixel.x, dv = v + disc.y - pixel.y;
+              if (du * du + dv * dv > reach * reach) continue;
+              sum += colour.at<float>(v, u);
+              ++count;
+            }
+          return count > 0 && sum >= 0.5 * count;
+        };
+        const int blob = blob_at(own);
+        std::vector<cv::Point2d> neighbours;
+        for (size_t j = 0; j < seeds.size() && blob > 0; ++j) {
+          if (j == i || cv::norm(seeds[j] - seeds[i]) < 1.5 * r) continue;
+          const cv::Point2d other = ProjectIdeal(pose, K, {seeds[j].x, seeds[j].y, r});
+          if (blob_at(other) == blob && coloured(other, seeds[j])) neighbours.push_back(other);
+        }
+        if (!neighbours.empty() && !coloured(own, seeds[i])) neighbours.clear();
+        if (!neighbours.empty()) {
+          SilhouetteScorer boxer(ballness_in_region, roi, claimed, K, pose, profile);
+          const cv::Rect box = boxer.Box(cv::Vec3d(seeds[i].x, seeds[i].y, r));
+          for (int v = box.y; v < box.y + box.height; ++v)
+            for (int u = box.x; u < box.x + box.width; ++u) {
+              const cv::Point2d p(u, v);
+              const double d_own = cv::norm(p - own);
+              for (const cv::Point2d& n : neighbours)
+                if (cv::norm(p - n) < d_own) {
+                  claimed.at<float>(v - roi.y, u - roi.x) = 1;
+                  break;
+                }
+            }
+        }
+      }
       SilhouetteScorer scorer(ballness_in_region, roi, claimed, K, pose, profile);
       seeds[i] = scorer.Fit(seeds[i], 0.35 * r);
     }
@@ -866,14 +946,18 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
       // fall above can settle on one of them, which moves the ball towards the camera.
       // Its rim is the outermost step instead: half-way from the cloth just outside to
       // the ball's median inside, met first when coming in from the cloth.
+      double outside = 0;
       const double threshold =
-          RimThreshold(distance, grown, claimed, roi, scorer, pose, K, seeds[i], r);
+          RimThreshold(distance, grown, claimed, roi, scorer, pose, K, seeds[i], r, &outside);
       if (threshold > 0) {
         const cv::Vec3d now(seeds[i].x, seeds[i].y, r);
         const double r_px = K(0, 0) * r / cv::norm(pose.R * now + pose.t);
         int used = 0;
+        // A point's own step may lower its level down to a fifth of the ball's step (not
+        // to the noise of the cloth).
         const cv::Point2d on_rim =
-            edge.FitToRim(seeds[i], distance, threshold, std::max(3.0, 0.6 * r_px), &used);
+            edge.FitToRim(seeds[i], distance, threshold, outside + 0.4 * (threshold - outside),
+                          std::max(3.0, 0.6 * r_px), &used);
         if (used >= kMinRimPoints) seeds[i] = on_rim;  // else too little rim was found
       }
     }

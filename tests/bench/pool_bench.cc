@@ -217,6 +217,10 @@ int main(int argc, char** argv) {
   std::printf("| position error mean | %.2f mm |\n", Mean(errors));
   std::printf("| position error p95 / max | %.2f / %.2f mm |\n", Percentile(errors, 0.95),
               errors.empty() ? 0.0 : *std::max_element(errors.begin(), errors.end()));
+  std::printf("| balls over 10 mm | %d / %zu |\n",
+              static_cast<int>(
+                  std::count_if(errors.begin(), errors.end(), [](double e) { return e > 10; })),
+              errors.size());
   std::printf("| position error, separated balls: mean / max | %.2f / %.2f mm |\n",
               Mean(separated_errors),
               separated_errors.empty()
