@@ -60,6 +60,21 @@ absl::StatusOr<ScoredAnalysis> AnalyzeAndScore(const PoolScene& scene, const Poo
   return ScoredAnalysis{std::move(*analysis), std::move(score)};
 }
 
+// Frame `frame` of the benchmark's seed-7 set (texfree-bench-pool --frames 60), rendered
+// as the benchmark does.
+struct BenchFrame {
+  PoolScene scene;
+  PoolView view;
+};
+BenchFrame RenderBenchFrame(int frame) {
+  const testdata::PoolTableSpec spec = testdata::PoolTableSpec::Bench();
+  std::mt19937_64 rng(7);
+  BenchFrame out;
+  for (int i = 0; i <= frame; ++i) out.scene = testdata::RandomPoolScene(rng, spec);
+  out.view = testdata::RenderPoolView(out.scene, 7 * 100003 + frame);
+  return out;
+}
+
 // A fixed, well-spread layout of all ten balls (none touching).
 std::vector<testdata::PoolBallPlacement> SpreadLayout() {
   return {{0, 300, 350}, {1, 520, 200}, {2, 700, 520}, {3, 900, 180},  {4, 1050, 450},
@@ -386,11 +401,7 @@ TEST(PoolHardBalls, DarkBallsAreFittedOnTheirRimNotTheirHighlight) {
 // both seeds met and one was dropped. Benchmark frame 23 (seed 7): the purple 4 and the
 // 9 touching beside it; the 4 was lost and the 9 found 17 mm off.
 TEST(PoolTouchingBalls, EachBallOfABlobIsFittedOnItsOwnPixels) {
-  const testdata::PoolTableSpec spec = testdata::PoolTableSpec::Bench();
-  std::mt19937_64 rng(7);
-  PoolScene scene;
-  for (int frame = 0; frame <= 23; ++frame) scene = testdata::RandomPoolScene(rng, spec);
-  const PoolView view = testdata::RenderPoolView(scene, 7 * 100003 + 23);
+  const auto [scene, view] = RenderBenchFrame(23);
   auto scored = AnalyzeAndScore(scene, view);
   ASSERT_TRUE(scored.ok()) << scored.status();
   const testdata::PoolScore& score = scored->score;
@@ -408,11 +419,7 @@ TEST(PoolTouchingBalls, EachBallOfABlobIsFittedOnItsOwnPixels) {
 // separated balls 14-20 mm and lost the 3. On the hue (the face is cloth in shade) the
 // side is the top's outer edge.
 TEST(PoolTablePose, FarCushionSeenAtAGrazingAngleIsTakenAtItsTop) {
-  const testdata::PoolTableSpec spec = testdata::PoolTableSpec::Bench();
-  std::mt19937_64 rng(7);
-  PoolScene scene;
-  for (int frame = 0; frame <= 24; ++frame) scene = testdata::RandomPoolScene(rng, spec);
-  const PoolView view = testdata::RenderPoolView(scene, 7 * 100003 + 24);
+  const auto [scene, view] = RenderBenchFrame(24);
   auto scored = AnalyzeAndScore(scene, view);
   ASSERT_TRUE(scored.ok()) << scored.status();
   const PoolAnalysis& analysis = scored->analysis;
