@@ -121,7 +121,7 @@ void VideoKeypointExtractor::Reset() {
 WordKeypoints VideoKeypointExtractor::Measure(const cv::Mat& gray) {
   WordKeypoints result = measuring_.Extract(gray);
   // The first measurement of a stream sets its phase in the cycle.
-  frames_since_measure_ = known_ ? 0 : options_.measure_phase % options_.measure_every_frames;
+  frames_since_measure_ = known_ ? 0 : options_.PhaseInCycle();
   measured_keypoints_ = result.points.size();
   if (result.char_height > 0)
     known_ = TextGeometry{result.char_height, result.text_angle_rad};
@@ -311,7 +311,7 @@ bool VideoKeypointExtractor::ExtractRectified(const cv::Mat& gray, const PageInV
       if (plausible(words.char_height, target * scale / wanted)) {
         text.heights.assign(1, words.char_height / scale);
         text.known = TextGeometry{words.char_height / scale, words.text_angle_rad};
-        text.frames_since_measure = options_.measure_phase % options_.measure_every_frames;
+        text.frames_since_measure = options_.PhaseInCycle();
         text.measured_keypoints = static_cast<size_t>(1e4 * words.points.size() / image.total());
       } else if (!(words.char_height > 0)) {
         return false;

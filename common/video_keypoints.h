@@ -31,6 +31,8 @@ struct VideoKeypointOptions {
   // that their measuring frames, several times dearer than the others, do not fall on the
   // same moment when the streams start together.
   int measure_phase = 0;
+  // Frames counted as already past the measurement when a stream first measures a text.
+  int PhaseInCycle() const { return measure_phase % measure_every_frames; }
   // A frame that reuses the measurement and finds fewer than this share of the keypoints
   // of the last measured frame is extracted again with a fresh measurement (the camera
   // came much closer or moved away fast).

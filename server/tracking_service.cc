@@ -136,11 +136,8 @@ grpc::Status TrackingServiceImpl::Track(
   spdlog::info(
       "tracking session {} closed ({}): {} frames in {:.1f} s, {} results, {} dropped, {} "
       "errors, {:.2f} ms server time per frame ({} active)",
-      id,
-      watchdog.fired() ? "idle"
-      : cancelled      ? "cancelled"
-                       : "client done",
-      stats.frames, seconds, stats.results, stats.dropped, stats.errors,
+      id, watchdog.fired() ? "idle" : cancelled ? "cancelled" : "client done", stats.frames,
+      seconds, stats.results, stats.dropped, stats.errors,
       stats.results ? stats.server_ms / stats.results : 0.0, active_.load() - 1);
   if (watchdog.fired()) return idle_status();
   return grpc::Status::OK;

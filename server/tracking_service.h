@@ -50,9 +50,9 @@ class TrackingServiceImpl final : public v1::TrackingService::Service {
   TrackingServiceImpl(const DocumentRegistry* registry, TrackingServiceOptions options)
       : registry_(registry), options_(std::move(options)) {}
 
-  grpc::Status Track(
-      grpc::ServerContext* context,
-      grpc::ServerReaderWriter<v1::TrackResponse, v1::TrackRequest>* stream) override;
+  grpc::Status Track(grpc::ServerContext* context,
+                     grpc::ServerReaderWriter<v1::TrackResponse, v1::TrackRequest>* stream)
+      override;
 
   // Streams with a live session (for logs, tests and shutdown).
   int active_sessions() const { return active_.load(); }

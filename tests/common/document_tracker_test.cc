@@ -4,6 +4,7 @@
 // session (the shared index is untouched, another tracker sees none) and within budget;
 // a mirrored page is not drawn; two pages in one view are both followed.
 #include "common/document_tracker.h"
+#include "common/video_keypoints.h"
 
 #include <gtest/gtest.h>
 
@@ -12,7 +13,6 @@
 #include <vector>
 
 #include "common/llah_retriever.h"
-#include "common/video_keypoints.h"
 #include "common/word_keypoints.h"
 #include "tests/data/camera_sequence.h"
 #include "tests/data/camera_view.h"
