@@ -580,8 +580,14 @@ std::array<double, 10> PoolNumberScores(const PoolVotes& votes, const PoolBallOp
   s[0] = group * std::clamp((w - mid) / (1 - mid), 0.0, 1.0);
   s[1] = group * std::clamp((mid - w) / half, 0.0, 1.0);
   // The 9 shows anything from its stripe alone to mostly white, depending on how it
-  // lies: never ruled out, preferred in the middle band.
-  s[9] = group * (0.35 + 0.65 * std::clamp(1 - std::abs(w - mid) / (1.5 * half), 0.0, 1.0));
+  // lies: never ruled out, preferred from the middle band up, and less likely only towards
+  // all white (the cue's). A score peaked at the middle made a yellow 1 whose highlight
+  // reads as white (share 0.38) a better 9 than the real 9 beside it (share 0.75), which
+  // was then left unnamed: with each number used once, the whiter of two yellow balls
+  // must stay the better 9.
+  const double rise = std::clamp(1 - (mid - w) / (1.5 * half), 0.0, 1.0);
+  const double fall = std::clamp((1 - w) / (1 - o.cue_white_share), 0.0, 1.0);
+  s[9] = group * (0.35 + 0.65 * rise * fall);
   return s;
 }
 
@@ -963,6 +969,85 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
     }
   }
 
+  // Two balls cannot be closer than 2r, yet two fits may end up closer than 1.6r (real
+  // touching balls, each fitted within a few millimetres, stay well apart of that). Either
+  // the worse fit is a ball's shaded lower half and shadow fitted as a ball of its own,
+  // just beyond the seeds' merging distance (it has the other's colour, or none: it is
+  // dropped; nearer to the camera than the real ball, it would take the real ball's lower
+  // half from its votes: frame 13's yellow 1 was left with its highlight and read as the
+  // 9), or it is a touching ball of another colour whose fit slid into its neighbour (it
+  // is moved straight out to touch it: frame 58's 4, in front of the 1 on the line of
+  // sight, was 21 mm into it).
+  const float cloth_sum = cloth[0] + cloth[1] + cloth[2];
+  // Median chromaticity (opponent chroma over intensity) of a fit's lit ball pixels that
+  // the other balls (painted in `claimed`) leave to it; false when it has too few of them.
+  const auto fit_chroma = [&](const cv::Point2d& xy, cv::Point2d* chroma) {
+    const cv::Vec3d centre(xy.x, xy.y, r);
+    const cv::Matx33d Q = SphereSilhouetteConic(pose, K, centre, r);
+    SilhouetteScorer boxer(ballness_in_region, roi, claimed, K, pose, profile);
+    const cv::Rect box = boxer.Box(centre);
+    std::vector<float> cx, cy;
+    for (int v = box.y; v < box.y + box.height; ++v)
+      for (int u = box.x; u < box.x + box.width; ++u) {
+        if (SilhouetteScorer::Coverage(Q, u, v) < 0.99) continue;
+        if (claimed.at<float>(v - roi.y, u - roi.x) > 0.5) continue;
+        if (ballness_in_region.at<float>(v - roi.y, u - roi.x) < 0.5) continue;
+        const cv::Vec3b& p = bgr.at<cv::Vec3b>(v, u);
+        const float sum = static_cast<float>(p[0] + p[1] + p[2]);
+        // Dark pixels (a shadow, the 8) have no chromaticity to speak of.
+        if (sum < 0.45f * cloth_sum) continue;
+        cx.push_back((p[2] - 0.5f * (p[1] + p[0])) * 3 / sum);
+        cy.push_back(0.8660254f * (p[1] - p[0]) * 3 / sum);
+      }
+    constexpr size_t kMinColoured = 8;
+    if (cx.size() < kMinColoured) return false;
+    std::nth_element(cx.begin(), cx.begin() + cx.size() / 2, cx.end());
+    std::nth_element(cy.begin(), cy.begin() + cy.size() / 2, cy.end());
+    *chroma = {cx[cx.size() / 2], cy[cy.size() / 2]};
+    return true;
+  };
+  // Each round drops a seed or moves one out of another; a moved ball may land in a third
+  // one, so the rounds are capped rather than run until nothing overlaps.
+  const size_t max_rounds = 2 * seeds.size();
+  bool changed = true;
+  for (size_t round = 0; changed && round < max_rounds; ++round) {
+    changed = false;
+    for (size_t i = 0; i < seeds.size() && !changed; ++i)
+      for (size_t j = i + 1; j < seeds.size() && !changed; ++j) {
+        const cv::Point2d apart = seeds[j] - seeds[i];
+        const double gap = cv::norm(apart);
+        if (gap >= 1.6 * r) continue;
+        double fit[2];
+        cv::Point2d chroma[2];
+        bool coloured[2];
+        for (int k = 0; k < 2; ++k) {
+          const size_t self = k == 0 ? i : j;
+          std::vector<cv::Point2d> rest;
+          for (size_t m = 0; m < seeds.size(); ++m)
+            if (m != self) rest.push_back(seeds[m]);
+          claim(rest, rest.size(), rest.size());
+          coloured[k] = fit_chroma(seeds[self], &chroma[k]);
+          // Its fit against the pixels left when only the balls other than the pair are
+          // painted: each of the two may claim the pixels they share.
+          rest.erase(std::remove(rest.begin(), rest.end(), seeds[k == 0 ? j : i]), rest.end());
+          claim(rest, rest.size(), rest.size());
+          SilhouetteScorer scorer(ballness_in_region, roi, claimed, K, pose, profile);
+          scorer.Score(seeds[self], &fit[k]);
+        }
+        const size_t worse = fit[0] >= fit[1] ? j : i, better = worse == i ? j : i;
+        const int w = worse == i ? 0 : 1;
+        const bool other_colour =
+            coloured[w] && (!coloured[1 - w] ||
+                            cv::norm(chroma[w] - chroma[1 - w]) > options.ball_chroma_distance);
+        if (other_colour) {
+          const cv::Point2d out = worse == j ? apart : -apart;
+          seeds[worse] = seeds[better] + out * (2 * r / std::max(1e-6, gap));
+        } else {
+          seeds.erase(seeds.begin() + static_cast<std::ptrdiff_t>(worse));
+        }
+        changed = true;
+      }
+  }
   // Keep distinct, well-supported balls on the table.
   std::vector<cv::Point2d> kept;
   for (size_t i = 0; i < seeds.size(); ++i) {
