@@ -47,8 +47,13 @@ cv::Mat BallnessMap(const cv::Mat& bgr, const cv::Rect& roi, const cv::Vec3f& cl
   constexpr double kChromaSoft = 0.08;
   const float chroma_lo2 = static_cast<float>(std::pow(o.ball_chroma_distance - kChromaSoft, 2));
   const float chroma_hi2 = static_cast<float>(std::pow(o.ball_chroma_distance + kChromaSoft, 2));
-  // Below this brightness, chromaticity is mostly noise (the dark test takes over).
-  const float chroma_min_sum = static_cast<float>(0.45 * cloth_sum);
+  // Chromaticity is noise over intensity: below chroma_full_sum the distance it must reach
+  // grows as the pixel darkens, and below chroma_min_sum it is mostly noise (the dark
+  // test takes over). A dark green 6 on green cloth is 0.35-0.5 of the cloth's brightness
+  // and far from its chromaticity; with a hard cut at 0.45 the far 6 of benchmark frame
+  // 49 broke into fragments too small for a ball.
+  const float chroma_full_sum = static_cast<float>(0.45 * cloth_sum);
+  const float chroma_min_sum = static_cast<float>(0.25 * cloth_sum);
   for (int y = 0; y < roi.height; ++y) {
     const cv::Vec3b* p = bgr.ptr<cv::Vec3b>(y + roi.y) + roi.x;
     float* q = out.ptr<float>(y);
@@ -73,7 +78,8 @@ cv::Mat BallnessMap(const cv::Mat& bgr, const cv::Rect& roi, const cv::Vec3f& cl
         const float inv_i = 3.f / sum;
         const float cx = (r - 0.5f * (g + b)) * inv_i - cloth_cx;
         const float cy = 0.8660254f * (g - b) * inv_i - cloth_cy;
-        const float d2 = cx * cx + cy * cy;
+        const float noise_scale = sum < chroma_full_sum ? chroma_full_sum / sum : 1.f;
+        const float d2 = (cx * cx + cy * cy) / (noise_scale * noise_scale);
         if (d2 >= chroma_hi2) {
           colour = 1;
         } else if (d2 > chroma_lo2) {
@@ -700,6 +706,49 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
   cv::Mat ballness_in_region;
   ballness.copyTo(ballness_in_region);
   ballness_in_region.setTo(0, region == 0);
+  {
+    // A ball's highlight or lit cap can come close to the cloth's colour (the far dark
+    // green 6 of benchmark frame 49 is a ring of ball pixels around a lit cap that
+    // looks like cloth): holes in the ball mask that are enclosed by ball pixels, inside
+    // the playing surface and smaller than half a ball there are ball. The gap between
+    // three touching balls is a twentieth of a ball.
+    // The ring is taken where the pixels are ball at all (over 0.1): the lit cap's edge
+    // is part cloth-coloured on one side (where the ring would have a gap).
+    cv::Mat hole_labels, hole_stats, hole_centroids;
+    const int holes = cv::connectedComponentsWithStats(ballness <= 0.1, hole_labels, hole_stats,
+                                                       hole_centroids, 4, CV_32S);
+    std::vector<uchar> fill(holes, 0);
+    for (int h = 1; h < holes; ++h) {
+      const int left = hole_stats.at<int>(h, cv::CC_STAT_LEFT);
+      const int top = hole_stats.at<int>(h, cv::CC_STAT_TOP);
+      if (left == 0 || top == 0 || left + hole_stats.at<int>(h, cv::CC_STAT_WIDTH) >= roi.width ||
+          top + hole_stats.at<int>(h, cv::CC_STAT_HEIGHT) >= roi.height)
+        continue;
+      const cv::Point2d c(hole_centroids.at<double>(h, 0) + roi.x,
+                          hole_centroids.at<double>(h, 1) + roi.y);
+      cv::Point2d xy;
+      if (!BackProjectToPlane(pose, K, c, r, &xy)) continue;
+      const double r_px = K(0, 0) * r / cv::norm(pose.R * cv::Vec3d(xy.x, xy.y, r) + pose.t);
+      fill[h] = hole_stats.at<int>(h, cv::CC_STAT_AREA) <= 0.5 * kPi * r_px * r_px;
+    }
+    // Not the pockets (outside the region), which the mask leaves out as well.
+    for (int y = 0; y < roi.height; ++y) {
+      const int* l = hole_labels.ptr<int>(y);
+      const uchar* in = region.ptr<uchar>(y);
+      for (int x = 0; x < roi.width; ++x)
+        if (l[x] > 0 && fill[l[x]] && !in[x]) fill[l[x]] = 0;
+    }
+    for (int y = 0; y < roi.height; ++y) {
+      const int* l = hole_labels.ptr<int>(y);
+      uchar* m = mask.ptr<uchar>(y);
+      float* b = ballness_in_region.ptr<float>(y);
+      for (int x = 0; x < roi.width; ++x)
+        if (l[x] > 0 && fill[l[x]]) {
+          m[x] = 255;
+          b[x] = 1;
+        }
+    }
+  }
 
   // Blobs -> seeds (one per expected ball; touching balls split at distance maxima).
   cv::Mat labels, stats, centroids;
