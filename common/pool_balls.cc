@@ -721,10 +721,11 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
     // A ball's highlight or lit cap can come close to the cloth's colour (the far dark
     // green 6 of benchmark frame 49 is a ring of ball pixels around a lit cap that
     // looks like cloth): holes in the ball mask that are enclosed by ball pixels, inside
-    // the playing surface and smaller than half a ball there are ball. The gap between
-    // three touching balls is a twentieth of a ball.
-    // The ring is taken where the pixels are ball at all (over 0.1): the lit cap's edge
-    // is part cloth-coloured on one side (where the ring would have a gap).
+    // the playing surface and smaller than half a ball there are ball. (The gap between
+    // three touching balls, a twentieth of a ball, is filled as well; it lies outside
+    // every fitted silhouette, where it weighs as little as the blur around it.) The ring
+    // is taken where the pixels are ball at all (over 0.1): the lit cap's edge is partly
+    // of the cloth's colour on one side, where a ring of clear ball pixels has a gap.
     cv::Mat hole_labels, hole_stats, hole_centroids;
     const int holes = cv::connectedComponentsWithStats(ballness <= 0.1, hole_labels, hole_stats,
                                                        hole_centroids, 4, CV_32S);
