@@ -173,8 +173,8 @@ absl::Status LlahRetriever::AddDocument(DocumentKeypoints document) {
                                                    " keypoints; at most 65535 are indexed"));
   const int64_t base = BaseLayerSize(document.keypoints.size(), document.extra_layers);
   if (base < 0)
-    return absl::InvalidArgumentError(absl::StrCat(
-        "document's extra layers hold more than its ", document.keypoints.size(), " keypoints"));
+    return absl::InvalidArgumentError(absl::StrCat("document's extra layers hold more than its ",
+                                                   document.keypoints.size(), " keypoints"));
   std::vector<uint64_t> hashes = std::move(document.hashes);
   if (hashes.size() != document.keypoints.size() * describer_.descriptors_per_point())
     DescribeLayers(document.keypoints, document.extra_layers, &hashes);
@@ -219,8 +219,7 @@ absl::Status LlahRetriever::AddDocuments(
       const size_t i = next.fetch_add(1);
       if (i >= total) return;
       DocumentKeypoints &d = documents[i];
-      const auto base_end =
-          d.keypoints.begin() + BaseLayerSize(d.keypoints.size(), d.extra_layers);
+      const auto base_end = d.keypoints.begin() + BaseLayerSize(d.keypoints.size(), d.extra_layers);
       radius[i] = NeighbourRadius(std::vector<cv::Point2f>(d.keypoints.begin(), base_end),
                                   describer_.options().n);
       if (d.hashes.size() != d.keypoints.size() * per) {

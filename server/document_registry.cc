@@ -203,8 +203,8 @@ absl::Status DocumentRegistry::LoadIndex() {
         summaries_[s.index_id] = s;
         if (!hashes_valid) k.hashes.clear();
         k.keypoints.insert(k.keypoints.end(), k.layer_keypoints.begin(), k.layer_keypoints.end());
-        documents.push_back({s.index_id, std::move(k.keypoints), s.size,
-                             std::move(k.layer_sizes), std::move(k.hashes)});
+        documents.push_back({s.index_id, std::move(k.keypoints), s.size, std::move(k.layer_sizes),
+                             std::move(k.hashes)});
       }));
   const double read_ms = MillisecondsSince(t0);
   const size_t n = documents.size();
@@ -350,7 +350,8 @@ void DocumentRegistry::ExtractLayers(const cv::Mat &gray, size_t base_keypoints,
   std::vector<int> nearest;
   for (size_t i = 0; i < base.size(); i += std::max<size_t>(1, base.size() / 64)) {
     base_grid.Nearest(static_cast<int>(i), 1, &nearest);
-    if (!nearest.empty()) spacing.push_back(static_cast<float>(cv::norm(base[i] - base[nearest[0]])));
+    if (!nearest.empty())
+      spacing.push_back(static_cast<float>(cv::norm(base[i] - base[nearest[0]])));
   }
   float same = 0;
   if (!spacing.empty()) {

@@ -94,10 +94,10 @@ absl::Status UnpackLayers(const std::string& blob, std::vector<cv::Point2f>* poi
   uint32_t count = 0;
   if (blob.size() >= sizeof(count)) std::memcpy(&count, blob.data(), sizeof(count));
   const size_t header = sizeof(uint32_t) * (1 + static_cast<size_t>(count));
-  if (blob.size() < header)
-    return absl::DataLossError("stored keypoint layers are truncated");
+  if (blob.size() < header) return absl::DataLossError("stored keypoint layers are truncated");
   sizes->resize(count);
-  if (count > 0) std::memcpy(sizes->data(), blob.data() + sizeof(uint32_t), count * sizeof(uint32_t));
+  if (count > 0)
+    std::memcpy(sizes->data(), blob.data() + sizeof(uint32_t), count * sizeof(uint32_t));
   *points = UnpackPoints(blob.substr(header));
   uint64_t total = 0;
   for (uint32_t n : *sizes) total += n;
@@ -380,8 +380,7 @@ absl::Status DocumentStore::ForEachKeypoints(
     k.hashes = UnpackHashes(s.ColumnBlob(8));
     if (absl::Status status = UnpackLayers(s.ColumnBlob(9), &k.layer_keypoints, &k.layer_sizes);
         !status.ok())
-      return absl::DataLossError(
-          absl::StrCat("document ", d.id, ": ", status.message()));
+      return absl::DataLossError(absl::StrCat("document ", d.id, ": ", status.message()));
     f(d, std::move(k));
   }
   return absl::OkStatus();

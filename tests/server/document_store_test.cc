@@ -81,15 +81,15 @@ TEST_F(DocumentStoreTest, InsertGetSurvivesReopen) {
   EXPECT_EQ(*(*store)->Count(), 2);
 
   int seen = 0;
-  ASSERT_TRUE((*store)
-                  ->ForEachKeypoints([&](const DocumentSummary& s,
-                                         DocumentStore::StoredKeypoints k) {
-                    EXPECT_EQ(static_cast<int>(k.keypoints.size()), s.keypoints);
-                    EXPECT_TRUE(k.hashes.empty()) << "none were stored";
-                    EXPECT_TRUE(k.layer_sizes.empty() && k.layer_keypoints.empty());
-                    ++seen;
-                  })
-                  .ok());
+  ASSERT_TRUE(
+      (*store)
+          ->ForEachKeypoints([&](const DocumentSummary& s, DocumentStore::StoredKeypoints k) {
+            EXPECT_EQ(static_cast<int>(k.keypoints.size()), s.keypoints);
+            EXPECT_TRUE(k.hashes.empty()) << "none were stored";
+            EXPECT_TRUE(k.layer_sizes.empty() && k.layer_keypoints.empty());
+            ++seen;
+          })
+          .ok());
   EXPECT_EQ(seen, 2);
 }
 
@@ -112,12 +112,12 @@ TEST_F(DocumentStoreTest, HashesAreStoredAndUpdated) {
   auto store = DocumentStore::Open(path_);
   ASSERT_TRUE(store.ok());
   std::map<uint32_t, std::vector<uint64_t>> seen;
-  ASSERT_TRUE((*store)
-                  ->ForEachKeypoints([&](const DocumentSummary& s,
-                                         DocumentStore::StoredKeypoints k) {
-                    seen[s.index_id] = std::move(k.hashes);
-                  })
-                  .ok());
+  ASSERT_TRUE(
+      (*store)
+          ->ForEachKeypoints([&](const DocumentSummary& s, DocumentStore::StoredKeypoints k) {
+            seen[s.index_id] = std::move(k.hashes);
+          })
+          .ok());
   EXPECT_EQ(seen[with_hashes],
             (std::vector<uint64_t>{1, 0xFFFFFFFFFFFFFFFFull, 42, 0x8000000000000000ull}));
   EXPECT_EQ(seen[without], (std::vector<uint64_t>{7, 8, 9}));
@@ -141,19 +141,19 @@ TEST_F(DocumentStoreTest, KeypointLayersAreStored) {
   auto store = DocumentStore::Open(path_);
   ASSERT_TRUE(store.ok());
   int seen = 0;
-  ASSERT_TRUE((*store)
-                  ->ForEachKeypoints([&](const DocumentSummary& s,
-                                         DocumentStore::StoredKeypoints k) {
-                    ASSERT_EQ(s.index_id, layered);
-                    EXPECT_EQ(k.keypoints.size(), 3u);
-                    EXPECT_EQ(k.layer_sizes, (std::vector<uint32_t>{2, 0, 3}));
-                    ASSERT_EQ(k.layer_keypoints.size(), 5u);
-                    EXPECT_FLOAT_EQ(k.layer_keypoints[0].x, 1.5f);
-                    EXPECT_FLOAT_EQ(k.layer_keypoints[3].x, 7.25f);
-                    EXPECT_FLOAT_EQ(k.layer_keypoints[4].y, 10.f);
-                    ++seen;
-                  })
-                  .ok());
+  ASSERT_TRUE(
+      (*store)
+          ->ForEachKeypoints([&](const DocumentSummary& s, DocumentStore::StoredKeypoints k) {
+            ASSERT_EQ(s.index_id, layered);
+            EXPECT_EQ(k.keypoints.size(), 3u);
+            EXPECT_EQ(k.layer_sizes, (std::vector<uint32_t>{2, 0, 3}));
+            ASSERT_EQ(k.layer_keypoints.size(), 5u);
+            EXPECT_FLOAT_EQ(k.layer_keypoints[0].x, 1.5f);
+            EXPECT_FLOAT_EQ(k.layer_keypoints[3].x, 7.25f);
+            EXPECT_FLOAT_EQ(k.layer_keypoints[4].y, 10.f);
+            ++seen;
+          })
+          .ok());
   EXPECT_EQ(seen, 1);
 }
 
