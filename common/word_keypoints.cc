@@ -98,7 +98,7 @@ double Quantile(std::vector<float> v, double q) {
 double AreaWeightedShortSide(const std::vector<Blob> &blobs, double q) {
   std::vector<float> areas;
   for (const Blob &b : blobs) areas.push_back(b.short_side * b.long_side);
-  const double cap = Quantile(areas, 0.9);
+  const double cap = 0.5 * Quantile(areas, 0.9);
   std::vector<std::pair<float, double>> v;  // short side, weight
   double total = 0;
   for (const Blob &b : blobs) {
