@@ -196,18 +196,12 @@ absl::Status LlahRetriever::AddDocuments(
     const std::function<void(size_t, size_t)> &progress,
     const std::function<void(uint32_t, const std::vector<uint64_t> &)> &computed) {
   const size_t total = documents.size();
-  size_t total_points = 0;
   for (const auto &d : documents) {
     if (d.keypoints.size() > 65535)
       return absl::InvalidArgumentError(absl::StrCat("document ", d.id, " has too many keypoints"));
     if (BaseLayerSize(d.keypoints.size(), d.extra_layers) < 0)
       return absl::InvalidArgumentError(
           absl::StrCat("document ", d.id, "'s extra layers hold more than its keypoints"));
-    total_points += d.keypoints.size();
-  }
-  {
-    std::unique_lock lock(mutex_);
-    index_.Reserve(index_.entries() + total_points * describer_.descriptors_per_point());
   }
   // Workers compute the descriptors that are not stored; then one bucket-ordered load.
   std::atomic<size_t> next{0}, done{0};
@@ -241,7 +235,13 @@ absl::Status LlahRetriever::AddDocuments(
   work();
   for (auto &t : pool) t.join();
 
+  // Room for exactly the entries to add: extra layers leave many descriptor slots empty
+  // (their duplicates of earlier layers), which a reserve by slots would pay for.
+  size_t new_entries = 0;
+  for (const DocumentKeypoints &d : documents)
+    new_entries += d.hashes.size() - std::count(d.hashes.begin(), d.hashes.end(), uint64_t{0});
   std::unique_lock lock(mutex_);
+  index_.Reserve(index_.entries() + new_entries);
   // A known id is reported; the other documents are still added.
   absl::Status status;
   std::vector<InvertedIndex::Batch> batch;
