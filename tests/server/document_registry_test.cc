@@ -138,6 +138,21 @@ TEST_F(DocumentRegistryTest, RegistrationLayerHoldsThePagesWordsAndSurvivesResta
   EXPECT_EQ(result->documents[0].document.id, id);
 }
 
+TEST(DocumentRegistryOptionsTest, RegistrationLayersAreValidated) {
+  DocumentRegistryOptions options;
+  EXPECT_TRUE(options.Validate().ok());
+  options.registration_layers = {};
+  EXPECT_TRUE(options.Validate().ok()) << "no layers: the page as given only";
+  for (const auto& [scale, blur] : {std::pair{0.0, 1.0}, {1.5, 1.0}, {0.5, -1.0}}) {
+    options.registration_layers = {RegistrationLayer{}};
+    options.registration_layers[0].scale = scale;
+    options.registration_layers[0].blur_sigma = blur;
+    const absl::Status s = options.Validate();
+    EXPECT_EQ(s.code(), absl::StatusCode::kInvalidArgument) << scale << " " << blur;
+    EXPECT_NE(s.message().find("registration_layers[0]"), absl::string_view::npos) << s;
+  }
+}
+
 TEST_F(DocumentRegistryTest, NewDatabaseKeepsItsGroupingWhateverTheServerIsConfiguredWith) {
   const auto page = testdata::RenderTextPage(11);
   std::string id;
