@@ -120,15 +120,68 @@ double WeakMatchLog10Nfa(int correspondences, int inliers, double threshold_px, 
 LlahRetriever::LlahRetriever(LlahOptions options, InvariantQuantizer quantizer, int log2_buckets)
     : describer_(options, std::move(quantizer)), index_(log2_buckets) {}
 
+int64_t LlahRetriever::BaseLayerSize(size_t points, const std::vector<uint32_t> &extra_layers) {
+  uint64_t extra = 0;
+  for (uint32_t n : extra_layers) extra += n;
+  return extra > points ? -1 : static_cast<int64_t>(points - extra);
+}
+
+std::shared_ptr<LlahRetriever::Model> LlahRetriever::MakeModel(DocumentKeypoints *document,
+                                                               float radius) {
+  auto model = std::make_shared<Model>();
+  model->base =
+      static_cast<uint32_t>(BaseLayerSize(document->keypoints.size(), document->extra_layers));
+  model->keypoints = std::move(document->keypoints);
+  model->size = document->size;
+  model->neighbour_radius = radius;
+  model->extra_layers = std::move(document->extra_layers);
+  return model;
+}
+
+bool LlahRetriever::DescribeLayers(const std::vector<cv::Point2f> &points,
+                                   const std::vector<uint32_t> &extra_layers,
+                                   std::vector<uint64_t> *hashes) const {
+  const int64_t base = BaseLayerSize(points.size(), extra_layers);
+  if (base < 0) return false;
+  if (extra_layers.empty()) {
+    describer_.Describe(points, hashes);
+    return true;
+  }
+  const size_t per = static_cast<size_t>(describer_.descriptors_per_point());
+  hashes->assign(points.size() * per, 0);
+  std::unordered_set<uint64_t> earlier;  // hashes of the layers described so far
+  std::vector<cv::Point2f> layer;
+  std::vector<uint64_t> layer_hashes;
+  size_t begin = 0;
+  for (size_t l = 0; l <= extra_layers.size(); ++l) {
+    const size_t count = l == 0 ? static_cast<size_t>(base) : extra_layers[l - 1];
+    layer.assign(points.begin() + begin, points.begin() + begin + count);
+    describer_.Describe(layer, &layer_hashes);
+    for (size_t i = 0; i < layer_hashes.size(); ++i) {
+      const uint64_t h = layer_hashes[i];
+      if (h != 0 && (l == 0 || !earlier.count(h))) (*hashes)[begin * per + i] = h;
+    }
+    earlier.insert(layer_hashes.begin(), layer_hashes.end());
+    begin += count;
+  }
+  return true;
+}
+
 absl::Status LlahRetriever::AddDocument(DocumentKeypoints document) {
   if (document.keypoints.size() > 65535)
     return absl::InvalidArgumentError(absl::StrCat("document has ", document.keypoints.size(),
                                                    " keypoints; at most 65535 are indexed"));
+  const int64_t base = BaseLayerSize(document.keypoints.size(), document.extra_layers);
+  if (base < 0)
+    return absl::InvalidArgumentError(absl::StrCat("document's extra layers hold more than its ",
+                                                   document.keypoints.size(), " keypoints"));
   std::vector<uint64_t> hashes = std::move(document.hashes);
   if (hashes.size() != document.keypoints.size() * describer_.descriptors_per_point())
-    describer_.Describe(document.keypoints, &hashes);
-  const float radius = NeighbourRadius(document.keypoints, describer_.options().n);
-  auto model = std::make_shared<Model>(Model{std::move(document.keypoints), document.size, radius});
+    DescribeLayers(document.keypoints, document.extra_layers, &hashes);
+  const float radius = NeighbourRadius(
+      std::vector<cv::Point2f>(document.keypoints.begin(), document.keypoints.begin() + base),
+      describer_.options().n);
+  auto model = MakeModel(&document, radius);
   std::unique_lock lock(mutex_);
   if (models_.count(document.id))
     return absl::AlreadyExistsError(absl::StrCat("document ", document.id, " is already indexed"));
@@ -143,15 +196,12 @@ absl::Status LlahRetriever::AddDocuments(
     const std::function<void(size_t, size_t)> &progress,
     const std::function<void(uint32_t, const std::vector<uint64_t> &)> &computed) {
   const size_t total = documents.size();
-  size_t total_points = 0;
   for (const auto &d : documents) {
     if (d.keypoints.size() > 65535)
       return absl::InvalidArgumentError(absl::StrCat("document ", d.id, " has too many keypoints"));
-    total_points += d.keypoints.size();
-  }
-  {
-    std::unique_lock lock(mutex_);
-    index_.Reserve(index_.entries() + total_points * describer_.descriptors_per_point());
+    if (BaseLayerSize(d.keypoints.size(), d.extra_layers) < 0)
+      return absl::InvalidArgumentError(
+          absl::StrCat("document ", d.id, "'s extra layers hold more than its keypoints"));
   }
   // Workers compute the descriptors that are not stored; then one bucket-ordered load.
   std::atomic<size_t> next{0}, done{0};
@@ -163,9 +213,11 @@ absl::Status LlahRetriever::AddDocuments(
       const size_t i = next.fetch_add(1);
       if (i >= total) return;
       DocumentKeypoints &d = documents[i];
-      radius[i] = NeighbourRadius(d.keypoints, describer_.options().n);
+      const auto base_end = d.keypoints.begin() + BaseLayerSize(d.keypoints.size(), d.extra_layers);
+      radius[i] = NeighbourRadius(std::vector<cv::Point2f>(d.keypoints.begin(), base_end),
+                                  describer_.options().n);
       if (d.hashes.size() != d.keypoints.size() * per) {
-        describer_.Describe(d.keypoints, &d.hashes);
+        DescribeLayers(d.keypoints, d.extra_layers, &d.hashes);
         if (computed) {
           std::lock_guard g(callback_mutex);
           computed(d.id, d.hashes);
@@ -183,7 +235,13 @@ absl::Status LlahRetriever::AddDocuments(
   work();
   for (auto &t : pool) t.join();
 
+  // Room for exactly the entries to add: extra layers leave many descriptor slots empty
+  // (their duplicates of earlier layers), which a reserve by slots would pay for.
+  size_t new_entries = 0;
+  for (const DocumentKeypoints &d : documents)
+    new_entries += d.hashes.size() - std::count(d.hashes.begin(), d.hashes.end(), uint64_t{0});
   std::unique_lock lock(mutex_);
+  index_.Reserve(index_.entries() + new_entries);
   // A known id is reported; the other documents are still added.
   absl::Status status;
   std::vector<InvertedIndex::Batch> batch;
@@ -203,7 +261,7 @@ absl::Status LlahRetriever::AddDocuments(
   for (size_t i = 0; i < documents.size(); ++i) {
     if (!added[i]) continue;
     DocumentKeypoints &d = documents[i];
-    auto model = std::make_shared<Model>(Model{std::move(d.keypoints), d.size, radius[i]});
+    auto model = MakeModel(&d, radius[i]);
     SetDenseModel(d.id, model.get());
     models_.emplace(d.id, std::move(model));
   }
@@ -219,7 +277,7 @@ bool LlahRetriever::RemoveDocument(uint32_t id) {
     model = it->second;
   }
   std::vector<uint64_t> hashes;  // deterministic: the same hashes Add() inserted
-  describer_.Describe(model->keypoints, &hashes);
+  DescribeLayers(model->keypoints, model->extra_layers, &hashes);
   std::unique_lock lock(mutex_);
   if (!models_.erase(id)) return false;
   SetDenseModel(id, nullptr);
@@ -250,7 +308,9 @@ bool LlahRetriever::Contains(uint32_t id) const {
 std::vector<cv::Point2f> LlahRetriever::Keypoints(uint32_t id) const {
   std::shared_lock lock(mutex_);
   auto it = models_.find(id);
-  return it == models_.end() ? std::vector<cv::Point2f>{} : it->second->keypoints;
+  if (it == models_.end()) return {};
+  const Model &m = *it->second;
+  return std::vector<cv::Point2f>(m.keypoints.begin(), m.keypoints.begin() + m.base);
 }
 
 size_t LlahRetriever::documents() const {
@@ -358,12 +418,14 @@ class VoteTally {
 // The layout check for documents with few LLAH inliers: the share of the reference
 // keypoints that H puts inside the query keypoints' hull which found a query keypoint
 // (`matched`, from the guided refinement).
-bool LayoutConfirms(const std::vector<cv::Point2f> &reference, const cv::Matx33d &H,
+// Only the first `count` reference keypoints (the base layer) count.
+bool LayoutConfirms(const std::vector<cv::Point2f> &reference, size_t count, const cv::Matx33d &H,
                     const std::vector<cv::Point2f> &query_hull, int matched,
                     const RetrievalOptions &o, double min_ratio) {
   if (matched < o.min_layout_matches || query_hull.size() < 3) return false;
   int inside = 0;
-  for (const cv::Point2f &r : reference) {
+  for (size_t i = 0; i < count && i < reference.size(); ++i) {
+    const cv::Point2f &r = reference[i];
     const cv::Point2d p = ApplyHomography(H, r);
     if (!std::isfinite(p.x) || !std::isfinite(p.y)) continue;
     if (cv::pointPolygonTest(
@@ -682,7 +744,7 @@ std::vector<DocumentHit> LlahRetriever::RetrieveDescribed(const std::vector<cv::
     for (int round = 0; round < 3; ++round) {
       std::vector<int> owner(query.size(), -1);
       std::vector<float> owner_d(query.size(), 0.f);
-      for (int r = 0; r < static_cast<int>(model.keypoints.size()); ++r) {
+      for (int r = 0; r < static_cast<int>(model.base); ++r) {
         const cv::Point2d p = ApplyHomography(H, model.keypoints[r]);
         if (!std::isfinite(p.x) || !std::isfinite(p.y)) continue;
         query_grid.NearestTo(cv::Point2f(static_cast<float>(p.x), static_cast<float>(p.y)), 1, -1,
@@ -744,7 +806,7 @@ std::vector<DocumentHit> LlahRetriever::RetrieveDescribed(const std::vector<cv::
                                                  cv::contourArea(query_hull)) +
                                        std::log10(static_cast<double>(o.max_candidates)) <=
                                    std::log10(o.max_weak_nfa);
-      if (!LayoutConfirms(model.keypoints, H, query_hull, matched, o,
+      if (!LayoutConfirms(model.keypoints, model.base, H, query_hull, matched, o,
                           significant ? o.min_significant_layout_ratio : o.min_layout_ratio))
         continue;
     }

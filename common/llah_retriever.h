@@ -25,8 +25,11 @@ struct RetrievalOptions {
   // max_hits_per_1000_documents * documents / 1000) are too common to vote (stop words).
   // The limit grows with the database: text is regular, so informative descriptors also
   // recur on many pages of a large one (at 10,000 pages a fixed limit of 24 loses most).
-  int max_hits_per_descriptor = 12;
-  int max_hits_per_1000_documents = 30;
+  // Registration layers put ~1.7 times as many entries under a descriptor as one cut of
+  // each page did; 16 and 40 (12 and 30 before the layers) found 2 more views of 200 at
+  // 10,000 pages and 1 more at 1,000 for the same median time (50: 2 more, 4 ms slower).
+  int max_hits_per_descriptor = 16;
+  int max_hits_per_1000_documents = 40;
   // Only the documents with most hits (this many) are voted for; 0 keeps all. Bounds the
   // query time of large databases.
   int prefilter_documents = 256;
@@ -119,7 +122,8 @@ struct DocumentHit {
   int inliers = 0;         // LLAH correspondences consistent with the homography
   int votes = 0;
   // Inlier pairs (query keypoint index, reference keypoint index), after guided
-  // matching.
+  // matching: indices into the base layer (Keypoints()), but for the rare hit whose guided
+  // matching fell back to its LLAH inliers, which may index extra layers' keypoints too.
   std::vector<std::pair<int, int>> matches;
 };
 
@@ -145,10 +149,15 @@ struct RetrievalTrace {
 
 struct DocumentKeypoints {
   uint32_t id = 0;
+  // Every layer's keypoints, in page coordinates: the base layer (the page as registered)
+  // first, then the extra layers (the page cut into words as a camera would see it, e.g.
+  // smaller and blurred: queries repeat those cuts better than the sharp page's).
   std::vector<cv::Point2f> keypoints;
   cv::Size size;
-  // Descriptor hashes as LlahDescriber::Describe lays them out, when already known (stored);
-  // computed when empty or of the wrong size.
+  // Keypoints of each extra layer, in order; the base layer holds the rest. Empty: one layer.
+  std::vector<uint32_t> extra_layers;
+  // Descriptor hashes as LlahRetriever::DescribeLayers lays them out, when already known
+  // (stored); computed when empty or of the wrong size.
   std::vector<uint64_t> hashes;
 };
 
@@ -179,8 +188,19 @@ class LlahRetriever {
                                     const RetrievalOptions &options,
                                     RetrievalTrace *trace = nullptr) const;
 
-  // Reference keypoints of a document (empty if unknown).
+  // Reference keypoints of a document's base layer (empty if unknown): DocumentHit::matches
+  // index them (guided matching is on the base layer).
   std::vector<cv::Point2f> Keypoints(uint32_t id) const;
+
+  // Descriptor hashes of a document's keypoints (layout of LlahDescriber::Describe over all
+  // of them): each layer is described within itself (a keypoint's neighbours are those of
+  // its own cut of the page), and an extra layer's descriptor that an earlier layer of the
+  // document already holds is dropped (hash 0): it would add an index entry that votes for
+  // the same page again. Deterministic, so removal recomputes what was added.
+  // `extra_layers` as DocumentKeypoints's; false when the layer sizes exceed `points`.
+  bool DescribeLayers(const std::vector<cv::Point2f> &points,
+                      const std::vector<uint32_t> &extra_layers,
+                      std::vector<uint64_t> *hashes) const;
 
   const LlahDescriber &describer() const { return describer_; }
   size_t documents() const;
@@ -190,10 +210,17 @@ class LlahRetriever {
 
  private:
   struct Model {
-    std::vector<cv::Point2f> keypoints;
+    std::vector<cv::Point2f> keypoints;  // every layer's, the base layer first
     cv::Size size;
-    float neighbour_radius = 0;  // median distance to the n-th nearest keypoint
+    float neighbour_radius = 0;  // median distance to the n-th nearest base keypoint
+    std::vector<uint32_t> extra_layers;
+    // The base layer is keypoints[0, base): the layout check and guided matching count
+    // the page's words once, not once per layer.
+    uint32_t base = 0;
   };
+  static std::shared_ptr<Model> MakeModel(DocumentKeypoints *document, float radius);
+  // The base layer's size, or -1 when extra_layers do not fit in `points`.
+  static int64_t BaseLayerSize(size_t points, const std::vector<uint32_t> &extra_layers);
   // Retrieve() with the query's descriptors computed on `described` (the query's keypoints,
   // or the same rectified), everything else on `query`.
   std::vector<DocumentHit> RetrieveDescribed(const std::vector<cv::Point2f> &query,

@@ -91,6 +91,31 @@ double Quantile(std::vector<float> v, double q) {
   return v[i];
 }
 
+// The q-quantile of the blobs' short sides, each blob weighted by its rectangle's area:
+// noise and JPEG specks, which outnumber the letters of large text under noise, weigh little.
+// Weights are capped at the 90th percentile area, so that the few large blobs (the dark
+// surroundings of the page, figures) do not decide either.
+double AreaWeightedShortSide(const std::vector<Blob> &blobs, double q) {
+  std::vector<float> areas;
+  for (const Blob &b : blobs) areas.push_back(b.short_side * b.long_side);
+  const double cap = 0.5 * Quantile(areas, 0.9);
+  std::vector<std::pair<float, double>> v;  // short side, weight
+  double total = 0;
+  for (const Blob &b : blobs) {
+    const double w = std::min<double>(cap, static_cast<double>(b.short_side) * b.long_side);
+    v.emplace_back(b.short_side, w);
+    total += w;
+  }
+  if (v.empty() || !(total > 0)) return 0;
+  std::sort(v.begin(), v.end());
+  double seen = 0;
+  for (const auto &[side, w] : v) {
+    seen += w;
+    if (seen >= q * total) return side;
+  }
+  return v.back().first;
+}
+
 // Short side of elongated blobs (words, or letters fused into words): a text
 // size that is the same whether or not letters touch at this resolution.
 bool WordHeight(const std::vector<Blob> &blobs, double elongation, double *height) {
@@ -449,11 +474,9 @@ WordKeypoints WordKeypointExtractor::Extract(const cv::Mat &gray) const {
   const cv::Mat ink1 = InkMask(smooth, block1, o.threshold_offset);
   std::vector<Blob> blobs = Blobs(ink1, o.min_char_height * 0.5);
   if (blobs.size() < 8) return result;
-  std::vector<float> sides;
-  for (const Blob &b : blobs) sides.push_back(b.short_side);
   // Letters (short side ~ letter width) or fused words (short side ~ word
   // height).
-  const double s0 = std::max(o.min_char_height, Quantile(sides, 0.5));
+  const double s0 = std::max(o.min_char_height, AreaWeightedShortSide(blobs, 0.5));
   double angle = NeighborDirection(blobs, s0);
   // Provisional words: close gaps of 0.45 s0 along the line, then measure word
   // height.

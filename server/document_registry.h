@@ -30,6 +30,21 @@ WordKeypointOptions DefaultKeypointOptions();
 // closing along the text lines (copes better with blur), then a wider closing.
 std::vector<WordKeypointOptions> DefaultFallbackKeypointOptions();
 
+// An extra keypoint layer registered with every page (generative learning, as Kise's group
+// trained LLAH on degraded renditions): the page downscaled by `scale` and blurred by
+// `blur_sigma`, cut into words by `keypoints`, mapped back to page pixels. A camera sees
+// small, soft text, which joins and splits letters differently than the sharp page does;
+// the layer's descriptors are those a query cut alike produces.
+struct RegistrationLayer {
+  double scale = 0.6;       // image pixels per page pixel, (0, 1]
+  double blur_sigma = 1.2;  // Gaussian blur after downscaling, pixels (0: none)
+  WordKeypointOptions keypoints = DefaultKeypointOptions();
+
+  absl::Status Validate() const;
+};
+// The layers new pages get.
+std::vector<RegistrationLayer> DefaultRegistrationLayers();
+
 struct DocumentRegistryOptions {
   // A database keeps the grouping it was built with (setting keypoints.grouping): pages
   // must be registered alike, and queries try that grouping first.
@@ -47,6 +62,9 @@ struct DocumentRegistryOptions {
   // rectifying a steep view (RetrievalOptions::perspective.focal_px), a phone's main camera
   // (60-75 degrees). 0: the rectification stays affine unless intrinsics are given.
   double assumed_horizontal_fov_deg = 65;
+  // Extra keypoint layers of every page registered (pages registered earlier keep the
+  // layers they were registered with). Empty: the page as given only.
+  std::vector<RegistrationLayer> registration_layers = DefaultRegistrationLayers();
   // A page with fewer word keypoints cannot be recognised reliably.
   int min_keypoints = 30;
   // Registering a page that retrieves a registered one with this many inliers
@@ -116,6 +134,8 @@ class DocumentRegistry {
  private:
   DocumentRegistry(std::unique_ptr<DocumentStore> store, DocumentRegistryOptions options);
   absl::Status LoadIndex();
+  // The extra keypoint layers of a page (options_.registration_layers) into `record`.
+  void ExtractLayers(const cv::Mat &gray, size_t base_keypoints, DocumentRecord *record) const;
   // Makes `grouping` the registration and first query extractor (the database's own).
   void UseRegistrationGrouping(WordGrouping grouping);
   absl::Status CreateRetriever(const std::vector<cv::Point2f> &training_points);
@@ -125,6 +145,7 @@ class DocumentRegistry {
   std::unique_ptr<DocumentStore> store_;
   WordKeypointExtractor extractor_;
   std::vector<WordKeypointExtractor> fallback_extractors_;
+  std::vector<WordKeypointExtractor> layer_extractors_;  // per registration layer
   std::mutex register_mutex_;
   mutable std::shared_mutex mutex_;  // guards retriever_ (pointer) and summaries_
   std::shared_ptr<LlahRetriever> retriever_;

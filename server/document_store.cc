@@ -51,6 +51,11 @@ CREATE INDEX annotations_by_document ON annotations(document);
     R"sql(
 ALTER TABLE documents ADD COLUMN hashes BLOB;
 )sql",
+    // v3: extra keypoint layers (the page cut into words as a camera sees it): the sizes
+    // of the layers, as 32-bit counts, then their points (NULL: none).
+    R"sql(
+ALTER TABLE documents ADD COLUMN layers BLOB;
+)sql",
 };
 
 int64_t NowUnixMs() {
@@ -69,6 +74,37 @@ std::vector<cv::Point2f> UnpackPoints(const std::string& blob) {
   std::vector<cv::Point2f> points(blob.size() / (2 * sizeof(float)));
   if (!points.empty()) std::memcpy(points.data(), blob.data(), points.size() * 2 * sizeof(float));
   return points;
+}
+
+// Layer sizes (uint32 each) after their count (uint32), then the points.
+std::string PackLayers(const std::vector<cv::Point2f>& points, const std::vector<uint32_t>& sizes) {
+  const uint32_t count = static_cast<uint32_t>(sizes.size());
+  std::string out(sizeof(uint32_t), '\0');
+  std::memcpy(out.data(), &count, sizeof(count));
+  if (!sizes.empty())
+    out.append(reinterpret_cast<const char*>(sizes.data()), sizes.size() * sizeof(uint32_t));
+  return out + PackPoints(points);
+}
+
+absl::Status UnpackLayers(const std::string& blob, std::vector<cv::Point2f>* points,
+                          std::vector<uint32_t>* sizes) {
+  points->clear();
+  sizes->clear();
+  if (blob.empty()) return absl::OkStatus();
+  uint32_t count = 0;
+  if (blob.size() >= sizeof(count)) std::memcpy(&count, blob.data(), sizeof(count));
+  const size_t header = sizeof(uint32_t) * (1 + static_cast<size_t>(count));
+  if (blob.size() < header) return absl::DataLossError("stored keypoint layers are truncated");
+  sizes->resize(count);
+  if (count > 0)
+    std::memcpy(sizes->data(), blob.data() + sizeof(uint32_t), count * sizeof(uint32_t));
+  *points = UnpackPoints(blob.substr(header));
+  uint64_t total = 0;
+  for (uint32_t n : *sizes) total += n;
+  if (total != points->size())
+    return absl::DataLossError(absl::StrCat("stored keypoint layers hold ", points->size(),
+                                            " points, their sizes add up to ", total));
+  return absl::OkStatus();
 }
 
 std::string PackHashes(const std::vector<uint64_t>& hashes) {
@@ -169,8 +205,8 @@ absl::StatusOr<DocumentRecord> DocumentStore::Insert(DocumentRecord record) {
   RETURN_IF_ERROR(tx.Begin());
   {
     ASSIGN_OR_RETURN(auto s, db_->Prepare("INSERT INTO documents (public_id, title, width, height, "
-                                          "created_unix_ms, keypoint_count, keypoints, hashes) "
-                                          "VALUES (?,?,?,?,?,?,?,?)"));
+                                          "created_unix_ms, keypoint_count, keypoints, hashes, "
+                                          "layers) VALUES (?,?,?,?,?,?,?,?,?)"));
     const std::string blob = PackPoints(record.keypoints);
     const std::string hashes = PackHashes(record.hashes);
     RETURN_IF_ERROR(s.BindText(1, record.id));
@@ -184,6 +220,12 @@ absl::StatusOr<DocumentRecord> DocumentStore::Insert(DocumentRecord record) {
       RETURN_IF_ERROR(s.BindNull(8));
     } else {
       RETURN_IF_ERROR(s.BindBlob(8, hashes.data(), hashes.size()));
+    }
+    if (record.layer_sizes.empty()) {
+      RETURN_IF_ERROR(s.BindNull(9));
+    } else {
+      const std::string layers = PackLayers(record.layer_keypoints, record.layer_sizes);
+      RETURN_IF_ERROR(s.BindBlob(9, layers.data(), layers.size()));
     }
     RETURN_IF_ERROR(s.Run());
   }
@@ -319,12 +361,11 @@ absl::Status DocumentStore::DeleteAnnotation(const std::string& document_id,
 }
 
 absl::Status DocumentStore::ForEachKeypoints(
-    const std::function<void(const DocumentSummary&, std::vector<cv::Point2f>,
-                             std::vector<uint64_t>)>& f) {
+    const std::function<void(const DocumentSummary&, StoredKeypoints)>& f) {
   std::lock_guard lock(mutex_);
-  ASSIGN_OR_RETURN(
-      auto s, db_->Prepare("SELECT index_id, public_id, title, width, height, keypoint_count, "
-                           "created_unix_ms, keypoints, hashes FROM documents ORDER BY index_id"));
+  ASSIGN_OR_RETURN(auto s, db_->Prepare("SELECT index_id, public_id, title, width, height, "
+                                        "keypoint_count, created_unix_ms, keypoints, hashes, "
+                                        "layers FROM documents ORDER BY index_id"));
   while (true) {
     ASSIGN_OR_RETURN(auto row, s.Step());
     if (!row) break;
@@ -334,7 +375,13 @@ absl::Status DocumentStore::ForEachKeypoints(
                       cv::Size(static_cast<int>(s.ColumnInt(3)), static_cast<int>(s.ColumnInt(4))),
                       static_cast<int>(s.ColumnInt(5)),
                       s.ColumnInt(6)};
-    f(d, UnpackPoints(s.ColumnBlob(7)), UnpackHashes(s.ColumnBlob(8)));
+    StoredKeypoints k;
+    k.keypoints = UnpackPoints(s.ColumnBlob(7));
+    k.hashes = UnpackHashes(s.ColumnBlob(8));
+    if (absl::Status status = UnpackLayers(s.ColumnBlob(9), &k.layer_keypoints, &k.layer_sizes);
+        !status.ok())
+      return absl::DataLossError(absl::StrCat("document ", d.id, ": ", status.message()));
+    f(d, std::move(k));
   }
   return absl::OkStatus();
 }

@@ -28,7 +28,7 @@ struct DocumentSummary {
 class DocumentStore {
  public:
   // Current schema version; Open() migrates older files forward, refuses newer ones.
-  static constexpr int kSchemaVersion = 2;
+  static constexpr int kSchemaVersion = 3;
 
   static absl::StatusOr<std::unique_ptr<DocumentStore>> Open(const std::string& path);
 
@@ -47,11 +47,16 @@ class DocumentStore {
                                                  AnnotationRecord annotation);
   absl::Status DeleteAnnotation(const std::string& document_id, const std::string& annotation_id);
 
-  // Streams every document's summary, keypoints and stored descriptor hashes (empty when
-  // none are stored) for the start-up index rebuild.
+  // A document's keypoints as the start-up index rebuild reads them.
+  struct StoredKeypoints {
+    std::vector<cv::Point2f> keypoints;
+    std::vector<cv::Point2f> layer_keypoints;  // DocumentRecord's
+    std::vector<uint32_t> layer_sizes;
+    std::vector<uint64_t> hashes;  // empty when none are stored
+  };
+  // Streams every document's summary and keypoints for the start-up index rebuild.
   absl::Status ForEachKeypoints(
-      const std::function<void(const DocumentSummary&, std::vector<cv::Point2f>,
-                               std::vector<uint64_t>)>& f);
+      const std::function<void(const DocumentSummary&, StoredKeypoints)>& f);
 
   // Stores descriptor hashes of documents (index_id -> hashes), in one transaction.
   absl::Status PutHashes(const std::vector<std::pair<uint32_t, std::vector<uint64_t>>>& hashes);

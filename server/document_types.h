@@ -41,8 +41,13 @@ struct DocumentRecord {
   int64_t created_unix_ms = 0;
   int keypoint_count = 0;  // stored count (keypoints may be left unloaded)
   std::vector<cv::Point2f> keypoints;
-  // LLAH descriptor hashes of the keypoints (LlahDescriber::Describe layout); stored so
-  // that start-up need not recompute them. May be empty.
+  // Extra keypoint layers (LlahRetriever's DocumentKeypoints::extra_layers): the page cut
+  // into words as a camera sees it, in registration-image pixels, layer after layer, and
+  // each layer's size. Empty in pages registered without them.
+  std::vector<cv::Point2f> layer_keypoints;
+  std::vector<uint32_t> layer_sizes;
+  // LLAH descriptor hashes of keypoints then layer_keypoints (LlahRetriever::DescribeLayers
+  // layout); stored so that start-up need not recompute them. May be empty.
   std::vector<uint64_t> hashes;
   std::vector<AnnotationRecord> annotations;
 };

@@ -20,6 +20,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <random>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -208,6 +209,10 @@ int main(int argc, char **argv) {
                  "query keypoints voting for a document before it is verified");
   app.add_option("--prefilter", registry_options.retrieval.prefilter_documents,
                  "documents (most hits) that are voted for (0: all)");
+  std::string layers = "default";
+  app.add_option("--layers", layers,
+                 "extra keypoint layers of registered pages: 'default', 'none', or "
+                 "SCALE:BLUR[:closing],... (new pages only)");
   bool no_rectify = false;
   app.add_flag("--no-rectify", no_rectify,
                "describe steep views' keypoints as seen (no perspective rectification)");
@@ -248,6 +253,23 @@ int main(int argc, char **argv) {
   app.add_flag("--misses", misses, "print why each missed query failed (keypoint repeatability)");
   app.add_flag("--no-fallback", no_fallback, "query with the registration extractor only");
   CLI11_PARSE(app, argc, argv);
+  if (layers != "default") {
+    registry_options.registration_layers.clear();
+    std::stringstream list(layers == "none" ? "" : layers);
+    std::string item;
+    while (std::getline(list, item, ',')) {
+      texfree::server::RegistrationLayer layer;
+      char grouping[16] = "";
+      if (std::sscanf(item.c_str(), "%lf:%lf:%15s", &layer.scale, &layer.blur_sigma, grouping) <
+          2) {
+        std::fprintf(stderr, "--layers: cannot parse '%s'\n", item.c_str());
+        return 1;
+      }
+      if (std::string(grouping) == "closing")
+        layer.keypoints = texfree::server::DefaultFallbackKeypointOptions()[0];
+      registry_options.registration_layers.push_back(layer);
+    }
+  }
   if (no_rectify) registry_options.retrieval.rectify_perspective = false;
   if (line_closing) std::swap(registry_options.keypoints, registry_options.fallback_keypoints[0]);
   if (no_fallback) registry_options.fallback_keypoints.clear();

@@ -624,6 +624,69 @@ TEST_F(LlahRetrieverRegistrationTest, BulkAddEqualsSequentialAdd) {
   EXPECT_EQ(bulk.Keypoints(2), docs_[1]);
 }
 
+// A document registered with an extra layer (another cut of the same page into keypoints) is
+// found from views of either layer, as one document whose Keypoints() are the base layer's;
+// a layer that repeats the base adds no index entry; removal takes every layer's entries.
+TEST_F(LlahRetrieverRegistrationTest, ExtraLayerIsFoundAsTheSameDocument) {
+  LlahRetriever r(options_, quantizer_, 16);
+  const std::vector<cv::Point2f>& base = docs_[0];
+  const std::vector<cv::Point2f>& layer = docs_[1];
+  std::vector<cv::Point2f> all = base;
+  all.insert(all.end(), layer.begin(), layer.end());
+  const std::vector<uint32_t> extra = {static_cast<uint32_t>(layer.size())};
+  ASSERT_TRUE(r.AddDocument({7, all, kPageSize, extra}).ok());
+  ASSERT_TRUE(r.AddDocument({8, docs_[2], kPageSize}).ok());
+  EXPECT_EQ(r.Keypoints(7), base);
+
+  // Each layer is described within itself: the layer's hashes are those it has alone, but
+  // for those the base layer holds already (dropped: 0).
+  std::vector<uint64_t> hashes, alone, base_alone;
+  ASSERT_TRUE(r.DescribeLayers(all, extra, &hashes));
+  r.describer().Describe(layer, &alone);
+  r.describer().Describe(base, &base_alone);
+  const size_t per = static_cast<size_t>(r.describer().descriptors_per_point());
+  ASSERT_EQ(hashes.size(), all.size() * per);
+  EXPECT_TRUE(std::equal(base_alone.begin(), base_alone.end(), hashes.begin()));
+  const std::set<uint64_t> in_base(base_alone.begin(), base_alone.end());
+  int kept = 0;
+  for (size_t i = 0; i < alone.size(); ++i) {
+    const uint64_t h = hashes[base.size() * per + i];
+    EXPECT_EQ(h, in_base.count(alone[i]) ? 0 : alone[i]) << i;
+    kept += h != 0;
+  }
+  EXPECT_GT(kept, static_cast<int>(alone.size() / 2)) << "two different cuts share few";
+  EXPECT_FALSE(r.DescribeLayers(base, {static_cast<uint32_t>(base.size() + 1)}, &hashes));
+
+  std::mt19937 rng(71);
+  for (const auto* cut : {&base, &layer}) {
+    const Query q = MakeQuery(*cut, rng, kModerate);
+    const auto hits = r.Retrieve(q.points, kQueryCharHeight, RetrievalOptions());
+    ASSERT_FALSE(hits.empty()) << (cut == &base ? "base" : "layer");
+    EXPECT_EQ(hits[0].document, 7u) << Describe(hits);
+    EXPECT_LT(MaxHomographyError(hits[0].homography, q), 1.0);
+    EXPECT_EQ(hits.size(), 1u) << Describe(hits);
+  }
+
+  // A layer identical to the base duplicates every descriptor: no entry is added for it.
+  LlahRetriever single(options_, quantizer_, 16), doubled(options_, quantizer_, 16);
+  ASSERT_TRUE(single.AddDocument({1, base, kPageSize}).ok());
+  std::vector<cv::Point2f> twice = base;
+  twice.insert(twice.end(), base.begin(), base.end());
+  ASSERT_TRUE(
+      doubled.AddDocument({1, twice, kPageSize, {static_cast<uint32_t>(base.size())}}).ok());
+  EXPECT_EQ(doubled.entries(), single.entries());
+
+  const size_t entries_of_8 = r.entries() - single.entries() - [&] {
+    size_t n = 0;
+    for (size_t i = base.size() * per; i < hashes.size(); ++i) n += hashes[i] != 0;
+    return n;
+  }();
+  EXPECT_TRUE(r.RemoveDocument(7));
+  EXPECT_EQ(r.entries(), entries_of_8);
+  EXPECT_EQ(r.AddDocument({9, base, kPageSize, {static_cast<uint32_t>(base.size() + 1)}}).code(),
+            absl::StatusCode::kInvalidArgument);
+}
+
 // ---------------------------------------------------------------- RetrievalOptions
 
 TEST(RetrievalOptionsTest, DefaultsAreValid) { EXPECT_TRUE(RetrievalOptions().Validate().ok()); }

@@ -6,8 +6,10 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <opencv2/imgproc.hpp>
+#include <set>
 
 #include "server/document_store.h"
 #include "server/sqlite_db.h"
@@ -76,6 +78,80 @@ class DocumentRegistryTest : public ::testing::Test {
   fs::path dir_;
   std::string path_;
 };
+
+// A page is registered with its extra keypoint layer (the page as a camera sees it, small
+// and soft): the layer's keypoints are words of the page (against the renderer's word
+// boxes), mapped back to page pixels; the layer survives a restart (stored, same index
+// entries); and a small, blurred, noisy view of the page retrieves it.
+TEST_F(DocumentRegistryTest, RegistrationLayerHoldsThePagesWordsAndSurvivesRestart) {
+  const auto page = testdata::RenderTextPage(31);
+  DocumentRegistryOptions options;
+  ASSERT_EQ(options.registration_layers.size(), 1u);
+  std::string id;
+  size_t entries = 0;
+  {
+    auto registry = Open(options);
+    ASSERT_NE(registry, nullptr);
+    auto record = registry->Register(Gray(page.image), "thirty-one", {});
+    ASSERT_TRUE(record.ok()) << record.status();
+    id = record->id;
+    ASSERT_EQ(record->layer_sizes.size(), 1u);
+    ASSERT_EQ(record->layer_keypoints.size(), record->layer_sizes[0]);
+    // The layer cuts most of the page's words, as the base layer does.
+    EXPECT_GT(record->layer_keypoints.size(), record->keypoints.size() / 2);
+    EXPECT_LT(record->layer_keypoints.size(), 2 * record->keypoints.size());
+    // Layer keypoints are word centroids: within a few pixels of a rendered word's box (two
+    // words joined put theirs in the space between them).
+    int near_word = 0;
+    for (const cv::Point2f& p : record->layer_keypoints) {
+      for (const cv::Rect& box : page.word_boxes) {
+        cv::Rect grown(box.x - 3, box.y - 3, box.width + 6, box.height + 6);
+        if (grown.contains(cv::Point(cvRound(p.x), cvRound(p.y)))) {
+          ++near_word;
+          break;
+        }
+      }
+    }
+    EXPECT_GE(near_word, 0.95 * record->layer_keypoints.size());
+    entries = registry->index_entries();
+    // The layer adds descriptors the base layer lacks.
+    std::vector<uint64_t> base_hashes;
+    registry->retriever()->describer().Describe(record->keypoints, &base_hashes);
+    EXPECT_GT(entries, static_cast<size_t>(std::count_if(base_hashes.begin(), base_hashes.end(),
+                                                         [](uint64_t h) { return h != 0; })));
+  }
+  auto registry = Open(options);
+  ASSERT_NE(registry, nullptr);
+  EXPECT_EQ(registry->index_entries(), entries);
+  ExpectRetrieved(*registry, page.image, id, 9);
+
+  testdata::CameraViewOptions far;
+  far.tilt_deg = 10;
+  far.scale = 0.65;
+  far.blur_sigma = 1.3;
+  far.noise_sigma = 4;
+  far.jpeg_quality = 80;
+  const auto photo = testdata::RenderCameraView(page.image, far, 12);
+  auto result = registry->Retrieve(Gray(photo.image), std::nullopt, 0);
+  ASSERT_TRUE(result.ok()) << result.status();
+  ASSERT_EQ(result->documents.size(), 1u);
+  EXPECT_EQ(result->documents[0].document.id, id);
+}
+
+TEST(DocumentRegistryOptionsTest, RegistrationLayersAreValidated) {
+  DocumentRegistryOptions options;
+  EXPECT_TRUE(options.Validate().ok());
+  options.registration_layers = {};
+  EXPECT_TRUE(options.Validate().ok()) << "no layers: the page as given only";
+  for (const auto& [scale, blur] : {std::pair{0.0, 1.0}, {1.5, 1.0}, {0.5, -1.0}}) {
+    options.registration_layers = {RegistrationLayer{}};
+    options.registration_layers[0].scale = scale;
+    options.registration_layers[0].blur_sigma = blur;
+    const absl::Status s = options.Validate();
+    EXPECT_EQ(s.code(), absl::StatusCode::kInvalidArgument) << scale << " " << blur;
+    EXPECT_NE(s.message().find("registration_layers[0]"), absl::string_view::npos) << s;
+  }
+}
 
 TEST_F(DocumentRegistryTest, NewDatabaseKeepsItsGroupingWhateverTheServerIsConfiguredWith) {
   const auto page = testdata::RenderTextPage(11);

@@ -81,14 +81,15 @@ TEST_F(DocumentStoreTest, InsertGetSurvivesReopen) {
   EXPECT_EQ(*(*store)->Count(), 2);
 
   int seen = 0;
-  ASSERT_TRUE((*store)
-                  ->ForEachKeypoints([&](const DocumentSummary& s, std::vector<cv::Point2f> p,
-                                         std::vector<uint64_t> hashes) {
-                    EXPECT_EQ(static_cast<int>(p.size()), s.keypoints);
-                    EXPECT_TRUE(hashes.empty()) << "none were stored";
-                    ++seen;
-                  })
-                  .ok());
+  ASSERT_TRUE(
+      (*store)
+          ->ForEachKeypoints([&](const DocumentSummary& s, DocumentStore::StoredKeypoints k) {
+            EXPECT_EQ(static_cast<int>(k.keypoints.size()), s.keypoints);
+            EXPECT_TRUE(k.hashes.empty()) << "none were stored";
+            EXPECT_TRUE(k.layer_sizes.empty() && k.layer_keypoints.empty());
+            ++seen;
+          })
+          .ok());
   EXPECT_EQ(seen, 2);
 }
 
@@ -111,14 +112,49 @@ TEST_F(DocumentStoreTest, HashesAreStoredAndUpdated) {
   auto store = DocumentStore::Open(path_);
   ASSERT_TRUE(store.ok());
   std::map<uint32_t, std::vector<uint64_t>> seen;
-  ASSERT_TRUE((*store)
-                  ->ForEachKeypoints(
-                      [&](const DocumentSummary& s, std::vector<cv::Point2f>,
-                          std::vector<uint64_t> hashes) { seen[s.index_id] = std::move(hashes); })
-                  .ok());
+  ASSERT_TRUE(
+      (*store)
+          ->ForEachKeypoints([&](const DocumentSummary& s, DocumentStore::StoredKeypoints k) {
+            seen[s.index_id] = std::move(k.hashes);
+          })
+          .ok());
   EXPECT_EQ(seen[with_hashes],
             (std::vector<uint64_t>{1, 0xFFFFFFFFFFFFFFFFull, 42, 0x8000000000000000ull}));
   EXPECT_EQ(seen[without], (std::vector<uint64_t>{7, 8, 9}));
+}
+
+// Extra keypoint layers are stored with the page and read back bit for bit, apart from its
+// keypoints (which stay the page's own word keypoints).
+TEST_F(DocumentStoreTest, KeypointLayersAreStored) {
+  uint32_t layered = 0;
+  {
+    auto store = DocumentStore::Open(path_);
+    ASSERT_TRUE(store.ok());
+    DocumentRecord r = MakeRecord("layered", 3);
+    r.layer_keypoints = {{1.5f, 2.5f}, {3.f, 4.f}, {5.f, 6.f}, {7.25f, 8.f}, {9.f, 10.f}};
+    r.layer_sizes = {2, 0, 3};
+    auto a = (*store)->Insert(r);
+    ASSERT_TRUE(a.ok());
+    EXPECT_EQ(a->keypoint_count, 3);
+    layered = a->index_id;
+  }
+  auto store = DocumentStore::Open(path_);
+  ASSERT_TRUE(store.ok());
+  int seen = 0;
+  ASSERT_TRUE(
+      (*store)
+          ->ForEachKeypoints([&](const DocumentSummary& s, DocumentStore::StoredKeypoints k) {
+            ASSERT_EQ(s.index_id, layered);
+            EXPECT_EQ(k.keypoints.size(), 3u);
+            EXPECT_EQ(k.layer_sizes, (std::vector<uint32_t>{2, 0, 3}));
+            ASSERT_EQ(k.layer_keypoints.size(), 5u);
+            EXPECT_FLOAT_EQ(k.layer_keypoints[0].x, 1.5f);
+            EXPECT_FLOAT_EQ(k.layer_keypoints[3].x, 7.25f);
+            EXPECT_FLOAT_EQ(k.layer_keypoints[4].y, 10.f);
+            ++seen;
+          })
+          .ok());
+  EXPECT_EQ(seen, 1);
 }
 
 // A database written by schema version 1 (before hashes were stored) is migrated in place
