@@ -54,9 +54,8 @@ class DocumentRegistryTest : public ::testing::Test {
     return value.ok() ? *value : std::nullopt;
   }
 
-  // A tilted, blurred, noisy camera view of the page retrieves it with the right homography.
-  static void ExpectRetrieved(const DocumentRegistry& registry, const cv::Mat& page,
-                              const std::string& id, uint64_t seed) {
+  // A tilted, blurred, noisy camera view.
+  static testdata::CameraViewOptions TiltedView() {
     testdata::CameraViewOptions view;
     view.tilt_deg = 25;
     view.tilt_azimuth_deg = 30;
@@ -65,6 +64,13 @@ class DocumentRegistryTest : public ::testing::Test {
     view.blur_sigma = 0.8;
     view.noise_sigma = 3;
     view.jpeg_quality = 85;
+    return view;
+  }
+
+  // `view` of the page retrieves it, alone, with the right homography.
+  static void ExpectRetrieved(const DocumentRegistry& registry, const cv::Mat& page,
+                              const std::string& id, uint64_t seed,
+                              const testdata::CameraViewOptions& view = TiltedView()) {
     const auto photo = testdata::RenderCameraView(page, view, seed);
     auto result = registry.Retrieve(Gray(photo.image), std::nullopt, 0);
     ASSERT_TRUE(result.ok()) << result.status();
@@ -131,11 +137,7 @@ TEST_F(DocumentRegistryTest, RegistrationLayerHoldsThePagesWordsAndSurvivesResta
   far.blur_sigma = 1.3;
   far.noise_sigma = 4;
   far.jpeg_quality = 80;
-  const auto photo = testdata::RenderCameraView(page.image, far, 12);
-  auto result = registry->Retrieve(Gray(photo.image), std::nullopt, 0);
-  ASSERT_TRUE(result.ok()) << result.status();
-  ASSERT_EQ(result->documents.size(), 1u);
-  EXPECT_EQ(result->documents[0].document.id, id);
+  ExpectRetrieved(*registry, page.image, id, 12, far);
 }
 
 TEST(DocumentRegistryOptionsTest, RegistrationLayersAreValidated) {
