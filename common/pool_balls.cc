@@ -1086,7 +1086,15 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
         const cv::Point2d on_rim =
             edge.FitToRim(seeds[i], distance, threshold, outside + 0.4 * (threshold - outside),
                           std::max(3.0, 0.6 * r_px), &used);
-        if (used >= kMinRimPoints) seeds[i] = on_rim;  // else too little rim was found
+        // Kept when enough rim was found, unless it leaves the silhouette half cloth where
+        // the edge pass's was not: the ball would then be dropped as not a ball at all
+        // (on the 9-ft set two separated balls were lost that way).
+        double rim_ballness = 0, edge_ballness = 0;
+        if (used >= kMinRimPoints) {
+          scorer.Score(on_rim, &rim_ballness);
+          scorer.Score(seeds[i], &edge_ballness);
+          if (rim_ballness >= 0.5 || edge_ballness < 0.5) seeds[i] = on_rim;
+        }
       }
     }
   }
