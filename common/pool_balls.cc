@@ -284,10 +284,29 @@ class EdgeFitter {
   // For a ball darker than the cloth, the outline next to its own shadow on the cloth has
   // no edge to speak of (dark against dark): those outline points are left out.
   void SkipShadowedOutline(bool skip) { skip_shadowed_ = skip; }
+  // How much farther out than its reach a rim scan that starts inside the ball goes on
+  // looking for the cloth, on the outline's far side (0: not at all).
+  void SetOutwardReach(double px) { outward_reach_px_ = px; }
+  // Rim points only on the outline's far side: a ball darker than the cloth has its own
+  // shadow, as dark as it, joined to its near side (a camera looking steeply down sees it
+  // beside the whole lower half), so only the far rim is against clean cloth. With the
+  // near side in, seed 11's frame 0 8 stayed 4-5 px down in its shadow (17 mm off).
+  void FarSideOnly(bool far_only) { far_only_ = far_only; }
+  // The other balls' image centres and apparent radii (x, y, radius): a scan going outwards
+  // stops short of them, since a fit that is off by a pixel or two does not cover all of
+  // a touching ball's pixels, and a scan that crosses them finds no cloth of this ball's.
+  void SetNeighbours(std::vector<cv::Vec3d> neighbours) { neighbours_ = std::move(neighbours); }
+  bool NearNeighbour(double x, double y) const {
+    for (const cv::Vec3d& n : neighbours_)
+      if (std::hypot(x - n[0], y - n[1]) < kNeighbourMargin * n[2]) return true;
+    return false;
+  }
 
-  // Calls visit(u, v, nx, ny) for each usable point of the outline of a ball at `xy`
-  // (ideal pixels, outward unit normal): not in the dark lower part, not beside the ball's
-  // own shadow when so asked, not on another ball, not hidden by a cushion.
+  // Calls visit(u, v, nx, ny, far_side) for each usable point of the outline of a ball at
+  // `xy` (ideal pixels, outward unit normal; `far_side`: the cloth seen just beyond the
+  // outline there lies behind the ball, away from its shadow): not in the dark lower
+  // part, not beside the ball's own shadow when so asked, not on another ball, not hidden
+  // by a cushion.
   template <typename Visit>
   void ForEachOutlinePoint(const cv::Point2d& xy, const Visit& visit) const {
     const cv::Vec3d centre(xy.x, xy.y, radius_);
@@ -310,16 +329,19 @@ class EdgeFitter {
       // Height of the tangent point on the table: skip the dark lower part.
       const cv::Vec3d on_table = to_table * (point - pose_.t);
       if (on_table[2] < radius_ - 0.4 * radius_) continue;
-      if (skip_shadowed_) {
-        // Where the ray grazing the ball here meets the cloth: in the ball's shadow (lamps
-        // above the table: within about a radius of the contact point)?
-        const cv::Vec3d d = on_table - camera_;
-        if (d[2] < 0) {
-          const double t = -camera_[2] / d[2];
-          const double sx = camera_[0] + t * d[0] - xy.x, sy = camera_[1] + t * d[1] - xy.y;
-          if (sx * sx + sy * sy < kShadowReach * kShadowReach * radius_ * radius_) continue;
-        }
+      // Where the ray grazing the ball here meets the cloth: in the ball's shadow (lamps
+      // above the table: within about a radius of the contact point)?
+      // And does it meet the cloth beyond the ball, seen from the camera (the outline's
+      // far side, where the shadow is not)?
+      bool shadowed = false, far_side = false;
+      const cv::Vec3d d = on_table - camera_;
+      if (d[2] < 0) {
+        const double t = -camera_[2] / d[2];
+        const double sx = camera_[0] + t * d[0] - xy.x, sy = camera_[1] + t * d[1] - xy.y;
+        shadowed = sx * sx + sy * sy < kShadowReach * kShadowReach * radius_ * radius_;
+        far_side = sx * (xy.x - camera_[0]) + sy * (xy.y - camera_[1]) > 0;
       }
+      if (skip_shadowed_ && shadowed) continue;
       const cv::Vec3d m = K_ * point;
       const double u = m[0] / m[2], v = m[1] / m[2];
       if (u < area_.x + 1 || v < area_.y + 1 || u > area_.x + area_.width - 2 ||
@@ -334,7 +356,7 @@ class EdgeFitter {
       const double qy = Q(1, 0) * u + Q(1, 1) * v + Q(1, 2);
       const double norm = std::hypot(qx, qy);
       if (norm <= 0) continue;
-      visit(u, v, -qx / norm, -qy / norm);
+      visit(u, v, -qx / norm, -qy / norm, far_side);
     }
   }
 
@@ -342,7 +364,7 @@ class EdgeFitter {
   double Score(const cv::Point2d& xy, int* used = nullptr) const {
     double sum = 0;
     int n = 0;
-    ForEachOutlinePoint(xy, [&](double u, double v, double nx, double ny) {
+    ForEachOutlinePoint(xy, [&](double u, double v, double nx, double ny, bool) {
       sum += -(Sample(gx_, u, v) * nx + Sample(gy_, u, v) * ny);
       ++n;
     });
@@ -366,7 +388,7 @@ class EdgeFitter {
       return x >= area_.x && y >= area_.y && x <= area_.x + area_.width - 2 &&
              y <= area_.y + area_.height - 2;
     };
-    ForEachOutlinePoint(xy, [&](double u, double v, double nx, double ny) {
+    ForEachOutlinePoint(xy, [&](double u, double v, double nx, double ny, bool far_side) {
       std::vector<double> in, out;
       for (double s = 1.5; s <= 3.01; s += 0.5)
         if (inside_area(u + s * nx, v + s * ny))
@@ -382,18 +404,36 @@ class EdgeFitter {
         if (i > o) level = std::max(floor_level, std::min(threshold, o + 0.5 * (i - o)));
       }
       constexpr double kStep = 0.25;
-      double previous = -1;
-      for (double s = reach_px; s >= -reach_px; s -= kStep) {
+      // Usable sample `s` px out along the normal: in the area, not on another ball.
+      const auto usable = [&](double s) {
         const double x = u + s * nx, y = v + s * ny;
-        if (!inside_area(x, y)) return;
+        if (!inside_area(x, y)) return false;
         const int ix = static_cast<int>(x), iy = static_cast<int>(y);
-        if (!roi_.contains({ix, iy}) || claimed_.at<float>(iy - roi_.y, ix - roi_.x) > 0.01) return;
+        return roi_.contains({ix, iy}) && claimed_.at<float>(iy - roi_.y, ix - roi_.x) <= 0.01;
+      };
+      double start = reach_px;
+      if (outward_reach_px_ > 0 && far_side && usable(start) &&
+          Sample(distance, u + start * nx, v + start * ny) >= level) {
+        // The outline lies inside the ball here, farther than the reach: on the far side
+        // the cloth beyond the ball is clean (no shadow of its own), so the scan goes on
+        // outwards to the cloth and starts from there (a dark ball that the edge pass
+        // pulled down into its shadow is brought back by its far rim).
+        for (start += kStep; start <= reach_px + outward_reach_px_; start += kStep) {
+          if (!usable(start) || NearNeighbour(u + start * nx, v + start * ny)) return;
+          if (Sample(distance, u + start * nx, v + start * ny) < level) break;
+        }
+        if (start > reach_px + outward_reach_px_) return;
+      }
+      double previous = -1;
+      for (double s = start; s >= -reach_px; s -= kStep) {
+        const double x = u + s * nx, y = v + s * ny;
+        if (!usable(s)) return;
         const double d = Sample(distance, x, y);
         if (d >= level) {
           if (previous < 0) return;  // already over it outside: no cloth to start from
           const double f = (level - previous) / std::max(1e-9, d - previous);
           const double at = s + kStep * (1 - f);
-          rim.emplace_back(u + at * nx, v + at * ny);
+          if (!far_only_ || far_side) rim.emplace_back(u + at * nx, v + at * ny);
           return;
         }
         previous = d;
@@ -476,6 +516,10 @@ class EdgeFitter {
   double radius_;
   cv::Vec3d camera_;
   bool skip_shadowed_ = false;
+  double outward_reach_px_ = 0;
+  bool far_only_ = false;
+  std::vector<cv::Vec3d> neighbours_;
+  static constexpr double kNeighbourMargin = 1.3;  // apparent radii
   static constexpr double kShadowReach = 1.3;  // radii
   static constexpr double kRimHuberPx = 1.0;
 };
@@ -549,6 +593,8 @@ absl::Status PoolBallOptions::Validate() const {
     return absl::InvalidArgumentError("need 0 < one_white_share < cue_white_share < 1");
   if (!(five_orange_share > 0 && five_orange_share < 0.5))
     return absl::InvalidArgumentError("five_orange_share must be in (0, 0.5)");
+  if (!(rim_outward_reach >= 0 && rim_outward_reach <= 2))
+    return absl::InvalidArgumentError("rim_outward_reach must be in [0, 2]");
   return absl::OkStatus();
 }
 
@@ -1023,12 +1069,32 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
         const cv::Vec3d now(seeds[i].x, seeds[i].y, r);
         const double r_px = K(0, 0) * r / cv::norm(pose.R * now + pose.t);
         int used = 0;
+        {
+          std::vector<cv::Vec3d> neighbours;
+          for (size_t j = 0; j < seeds.size(); ++j) {
+            if (j == i || cv::norm(seeds[j] - seeds[i]) > 4 * r) continue;
+            const cv::Vec3d other(seeds[j].x, seeds[j].y, r);
+            const cv::Point2d at = ProjectIdeal(pose, K, other);
+            neighbours.emplace_back(at.x, at.y, K(0, 0) * r / cv::norm(pose.R * other + pose.t));
+          }
+          edge.SetNeighbours(std::move(neighbours));
+        }
+        edge.SetOutwardReach(options.rim_outward_reach * r_px);
+        edge.FarSideOnly(options.rim_far_side_only);
         // A point's own step may lower its level down to a fifth of the ball's step (not
         // to the noise of the cloth).
         const cv::Point2d on_rim =
             edge.FitToRim(seeds[i], distance, threshold, outside + 0.4 * (threshold - outside),
                           std::max(3.0, 0.6 * r_px), &used);
-        if (used >= kMinRimPoints) seeds[i] = on_rim;  // else too little rim was found
+        // Kept when enough rim was found, unless it leaves the silhouette half cloth where
+        // the edge pass's was not: the ball would then be dropped as not a ball at all
+        // (on the 9-ft set two separated balls were lost that way).
+        double rim_ballness = 0, edge_ballness = 0;
+        if (used >= kMinRimPoints) {
+          scorer.Score(on_rim, &rim_ballness);
+          scorer.Score(seeds[i], &edge_ballness);
+          if (rim_ballness >= 0.5 || edge_ballness < 0.5) seeds[i] = on_rim;
+        }
       }
     }
   }

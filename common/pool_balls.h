@@ -45,6 +45,16 @@ struct PoolBallOptions {
   // votes (1s and 9s of the benchmark: under 0.05; 5s: 0.42 and up), its yellow votes
   // are taken as a faded 5 (fully from twice this share).
   double five_orange_share = 0.15;
+  // A ball darker than the cloth (the 8, a shaded 6) has its shadow, as dark as itself,
+  // joined to the near side of its outline; the far side, where the cloth seen beyond the
+  // ball lies behind it, is its one clean edge. When set, its rim fit takes rim points on
+  // that side only.
+  bool rim_far_side_only = true;
+  // The rim fit scans each outline normal 0.6 radius (at least 3 px) either side of the
+  // outline. Where a scan on the far side starts inside the ball, it goes on outwards for
+  // up to this many apparent radii more to find the cloth: the edge pass can leave a dark
+  // ball 4-6 px down in its shadow, out of reach of its far rim. 0 turns this off.
+  double rim_outward_reach = 0.6;
 
   absl::Status Validate() const;
 };

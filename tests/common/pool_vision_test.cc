@@ -66,12 +66,12 @@ struct BenchFrame {
   PoolScene scene;
   PoolView view;
 };
-BenchFrame RenderBenchFrame(int frame) {
+BenchFrame RenderBenchFrame(int frame, uint64_t seed = 7) {
   const testdata::PoolTableSpec spec = testdata::PoolTableSpec::Bench();
-  std::mt19937_64 rng(7);
+  std::mt19937_64 rng(seed);
   BenchFrame out;
   for (int i = 0; i <= frame; ++i) out.scene = testdata::RandomPoolScene(rng, spec);
-  out.view = testdata::RenderPoolView(out.scene, 7 * 100003 + frame);
+  out.view = testdata::RenderPoolView(out.scene, seed * 100003 + frame);
   return out;
 }
 
@@ -407,6 +407,69 @@ TEST(PoolHardBalls, DarkBallsAreFittedOnTheirRimNotTheirHighlight) {
       EXPECT_EQ(m.estimated_number, dark_ball) << "frame " << frame;
     }
     EXPECT_TRUE(seen) << "frame " << frame << " has no ball " << dark_ball;
+  }
+}
+
+// A ball darker than the cloth has its own shadow, as dark as itself, joined to the near
+// side of its outline; a camera looking steeply down sees it beside the whole lower half.
+// Benchmark frames (seed 11, --seed 11): frame 0's separated 8 (camera 2 m above the
+// table) was moved 3.5 px down into its shadow by the edge pass, and the rim fit, held by
+// the shadow's edge below and unable to reach the far rim 5 px above its outline, brought
+// it back 1 px: 17.3 mm off. Frame 18's separated 8: 13.9 mm. Fitted on the far side of
+// the outline only, with the scan going on outwards to the cloth there, both are within
+// 10 mm.
+TEST(PoolHardBalls, DarkBallsAreFittedOnTheirFarRimNotTheirShadow) {
+  for (int frame : {0, 18}) {
+    const auto [scene, view] = RenderBenchFrame(frame, 11);
+    auto scored = AnalyzeAndScore(scene, view);
+    ASSERT_TRUE(scored.ok()) << scored.status();
+    bool seen = false;
+    for (const auto& m : scored->score.matches) {
+      if (m.truth_number != 8) continue;
+      seen = true;
+      EXPECT_TRUE(m.separated) << "frame " << frame;
+      EXPECT_GE(m.error_mm, 0) << "frame " << frame << ": the 8 not found";
+      EXPECT_LT(m.error_mm, 10.0) << "frame " << frame;
+      EXPECT_EQ(m.estimated_number, 8) << "frame " << frame;
+    }
+    EXPECT_TRUE(seen) << "frame " << frame << " has no 8";
+  }
+}
+
+// The rim fit of a dark ball can move it where its silhouette is half cloth, and the ball
+// is then dropped as not a ball; the edge pass's fit is kept instead. Benchmark frames 6
+// and 19 of the 9-ft set (--nine-foot, seed 7): a separated far green 6 was not found.
+TEST(PoolHardBalls, RimFitThatLeavesHalfClothKeepsTheEdgeFit) {
+  const testdata::PoolTableSpec spec = testdata::PoolTableSpec::NineFoot();
+  PoolTableProfile profile = NineFootPoolProfile();
+  profile.length_mm = spec.length_mm;
+  profile.width_mm = spec.width_mm;
+  profile.ball_radius_mm = spec.ball_radius_mm;
+  profile.cushion_height_mm = spec.cushion_height_mm;
+  profile.cushion_width_mm = spec.cushion_width_mm;
+  std::mt19937_64 rng(7);
+  for (int frame = 0; frame <= 19; ++frame) {
+    const PoolScene scene = testdata::RandomPoolScene(rng, spec);
+    if (frame != 6 && frame != 19) continue;
+    const PoolView view = testdata::RenderPoolView(scene, 7 * 100003 + frame);
+    auto analyzer = PoolAnalyzer::Create(profile, CameraOf(view));
+    ASSERT_TRUE(analyzer.ok()) << analyzer.status();
+    auto analysis = analyzer->Analyze(view.image);
+    ASSERT_TRUE(analysis.ok()) << analysis.status();
+    std::vector<testdata::EstimatedPoolBall> estimated;
+    for (const auto& b : analysis->balls) estimated.push_back({b.number, b.x_mm, b.y_mm});
+    const testdata::PoolScore score =
+        testdata::ScorePoolAnalysis(scene, view, analysis->cloth_corners, estimated);
+    bool seen = false;
+    for (const auto& m : score.matches) {
+      if (m.truth_number != 6) continue;
+      seen = true;
+      EXPECT_TRUE(m.separated) << "frame " << frame;
+      EXPECT_GE(m.error_mm, 0) << "frame " << frame << ": the 6 not found";
+      EXPECT_LT(m.error_mm, 10.0) << "frame " << frame;
+      EXPECT_EQ(m.estimated_number, 6) << "frame " << frame;
+    }
+    EXPECT_TRUE(seen) << "frame " << frame << " has no 6";
   }
 }
 
