@@ -101,6 +101,9 @@ int main(int argc, char **argv) {
   wide.gap_factor = 0.35;
   extractors.push_back({"line closing 0.35", wide});
 
+  bool per_page = false;
+  app.add_flag("--per-page", per_page,
+               "print each page's sharp counts (which pages a font set's misses come from)");
   std::string fonts = "dejavu";
   app.add_option("--fonts", fonts,
                  "font set of the pages: dejavu (the one the extractors were tuned on), "
@@ -129,6 +132,10 @@ int main(int argc, char **argv) {
       const auto kp = texfree::WordKeypointExtractor(extractors[e].options).Extract(gray);
       const Counts c = Score(page.word_boxes, cv::Matx33d::eye(), gray.size(), kp.points);
       sharp[e].Add(c);
+      if (per_page) {
+        std::printf("page %d %s: %ld/%ld words once, %ld split, %ld/%ld keypoints on one word\n",
+                    p, extractors[e].name.c_str(), c.one, c.words, c.split, c.unique, c.keypoints);
+      }
       if (!dump.empty() && p < 10) {
         cv::Mat vis = page.image.clone();
         for (const cv::Rect &b : page.word_boxes) cv::rectangle(vis, b, cv::Scalar(0, 180, 0), 1);
