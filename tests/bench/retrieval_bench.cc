@@ -6,7 +6,7 @@
 // extract + match + verify), index memory and start-up time.
 //
 //   texfree-bench-retrieval --pages 100,1000,10000 --queries 300 --unregistered
-//   200
+//   200 [--fonts liberation]
 #include <spdlog/spdlog.h>
 
 #include <CLI/CLI.hpp>
@@ -64,14 +64,15 @@ struct Query {
   texfree::testdata::CameraViewOptions view;
 };
 
-std::vector<Query> MakeQueries(int count, int registered, uint64_t seed, bool unregistered) {
+std::vector<Query> MakeQueries(int count, int registered, uint64_t seed, bool unregistered,
+                               const texfree::testdata::PageOptions &page_options) {
   std::vector<Query> out;
   std::mt19937_64 rng(seed);
   for (int i = 0; i < count; ++i) {
     const int page =
         unregistered ? -1 : static_cast<int>((static_cast<int64_t>(i) * 7919) % registered);
     const uint64_t page_seed = unregistered ? 1'000'000 + i : page;
-    auto rendered = texfree::testdata::RenderTextPage(page_seed);
+    auto rendered = texfree::testdata::RenderTextPage(page_seed, page_options);
     auto options = texfree::testdata::RandomViewOptions(rng, rendered.image.size());
     options.jpeg_quality = 0;  // encoded below, decoded by the timed server path
     auto view = texfree::testdata::RenderCameraView(rendered.image, options, seed + i);
@@ -247,6 +248,10 @@ int main(int argc, char **argv) {
   app.add_flag("--line-closing", line_closing,
                "register and query first with the line closing (new database only)");
   app.add_option("--log2-buckets", registry_options.log2_buckets, "index hash table size");
+  std::string fonts = "dejavu";
+  app.add_option("--fonts", fonts,
+                 "font set of the registered and the unregistered pages: dejavu (the one the "
+                 "extractor was tuned on), liberation, freefont or all (held out)");
   bool no_fallback = false, misses = false;
   double slow_ms = 0;
   app.add_option("--slow", slow_ms, "print the stages of queries slower than this (ms)");
@@ -269,6 +274,17 @@ int main(int argc, char **argv) {
         layer.keypoints = texfree::server::DefaultFallbackKeypointOptions()[0];
       registry_options.registration_layers.push_back(layer);
     }
+  }
+  texfree::testdata::PageOptions page_options;
+  if (auto set = texfree::testdata::ParseFontSet(fonts); set.ok()) {
+    page_options.fonts = *set;
+  } else {
+    std::fprintf(stderr, "--fonts: %s\n", std::string(set.status().message()).c_str());
+    return 1;
+  }
+  if (auto available = texfree::testdata::CheckFontSet(page_options.fonts); !available.ok()) {
+    std::fprintf(stderr, "%s\n", available.ToString().c_str());
+    return 1;
   }
   if (no_rectify) registry_options.retrieval.rectify_perspective = false;
   if (line_closing) std::swap(registry_options.keypoints, registry_options.fallback_keypoints[0]);
@@ -303,12 +319,12 @@ int main(int argc, char **argv) {
       "| pages | top-1 | H err px (median) | false matches | median ms | p95 ms | median CPU ms "
       "| p95 CPU ms | index MiB | RSS MiB | start-up s | register ms/page |\n");
   std::printf("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
-  const auto unregistered_queries = MakeQueries(unregistered, 1, 99, true);
+  const auto unregistered_queries = MakeQueries(unregistered, 1, 99, true, page_options);
   for (int target : checkpoints) {
     const auto t_reg = Clock::now();
     const int before = registered;
     for (; registered < target; ++registered) {
-      auto page = texfree::testdata::RenderTextPage(registered);
+      auto page = texfree::testdata::RenderTextPage(registered, page_options);
       cv::Mat gray;
       cv::cvtColor(page.image, gray, cv::COLOR_BGR2GRAY);
       auto record = registry->Register(gray, "page " + std::to_string(registered), {});
@@ -341,8 +357,9 @@ int main(int argc, char **argv) {
     }
 
     const auto queries_now =
-        query_pages > 0 ? MakeQueries(queries, std::min(query_pages, registered), 1234, false)
-                        : MakeQueries(queries, registered, 1234 + target, false);
+        query_pages > 0
+            ? MakeQueries(queries, std::min(query_pages, registered), 1234, false, page_options)
+            : MakeQueries(queries, registered, 1234 + target, false, page_options);
     std::vector<double> times, cpu_times, errors;
     std::map<std::string, double> stage_ms;
     int correct = 0, false_matches = 0;

@@ -5,7 +5,7 @@
 // words, so this is the number retrieval accuracy rests on; the renderer's word boxes are
 // the ground truth.
 //
-//   texfree-bench-words --pages 40 --views 3
+//   texfree-bench-words --pages 40 --views 3 [--fonts liberation]
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <chrono>
@@ -101,18 +101,41 @@ int main(int argc, char **argv) {
   wide.gap_factor = 0.35;
   extractors.push_back({"line closing 0.35", wide});
 
+  bool per_page = false;
+  app.add_flag("--per-page", per_page,
+               "print each page's sharp counts (which pages a font set's misses come from)");
+  std::string fonts = "dejavu";
+  app.add_option("--fonts", fonts,
+                 "font set of the pages: dejavu (the one the extractors were tuned on), "
+                 "liberation, freefont or all (held out)");
+
   CLI11_PARSE(app, argc, argv);
+  texfree::testdata::PageOptions page_options;
+  if (auto set = texfree::testdata::ParseFontSet(fonts); set.ok()) {
+    page_options.fonts = *set;
+  } else {
+    std::fprintf(stderr, "--fonts: %s\n", std::string(set.status().message()).c_str());
+    return 1;
+  }
+  if (auto available = texfree::testdata::CheckFontSet(page_options.fonts); !available.ok()) {
+    std::fprintf(stderr, "%s\n", available.ToString().c_str());
+    return 1;
+  }
   std::vector<Counts> sharp(extractors.size()), photo(extractors.size());
   std::vector<double> view_ms(extractors.size(), 0.0);
   std::mt19937_64 rng(77);
   for (int p = 0; p < pages; ++p) {
-    const auto page = texfree::testdata::RenderTextPage(static_cast<uint64_t>(p));
+    const auto page = texfree::testdata::RenderTextPage(static_cast<uint64_t>(p), page_options);
     cv::Mat gray;
     cv::cvtColor(page.image, gray, cv::COLOR_BGR2GRAY);
     for (size_t e = 0; e < extractors.size(); ++e) {
       const auto kp = texfree::WordKeypointExtractor(extractors[e].options).Extract(gray);
       const Counts c = Score(page.word_boxes, cv::Matx33d::eye(), gray.size(), kp.points);
       sharp[e].Add(c);
+      if (per_page) {
+        std::printf("page %d %s: %ld/%ld words once, %ld split, %ld/%ld keypoints on one word\n",
+                    p, extractors[e].name.c_str(), c.one, c.words, c.split, c.unique, c.keypoints);
+      }
       if (!dump.empty() && p < 10) {
         cv::Mat vis = page.image.clone();
         for (const cv::Rect &b : page.word_boxes) cv::rectangle(vis, b, cv::Scalar(0, 180, 0), 1);

@@ -24,7 +24,7 @@ namespace {
 void Usage() {
   std::cerr << "usage: texfree-gen-pages --out DIR --count N --seed S "
                "[--views V] [--color] [--width W] [--height H] "
-               "[--max-tilt DEG]\n";
+               "[--max-tilt DEG] [--fonts dejavu|liberation|freefont|all]\n";
 }
 
 bool WriteText(const std::filesystem::path& path, const std::string& text) {
@@ -67,6 +67,13 @@ int main(int argc, char** argv) {
       page_options.width = std::atoi(value("--width"));
     } else if (arg == "--height") {
       page_options.height = std::atoi(value("--height"));
+    } else if (arg == "--fonts") {
+      const auto set = texfree::testdata::ParseFontSet(value("--fonts"));
+      if (!set.ok()) {
+        std::cerr << "texfree-gen-pages: " << set.status().message() << "\n";
+        return 2;
+      }
+      page_options.fonts = *set;
     } else if (arg == "--max-tilt") {
       max_tilt = std::strtod(value("--max-tilt"), nullptr);
     } else if (arg == "-h" || arg == "--help") {
@@ -82,6 +89,10 @@ int main(int argc, char** argv) {
       page_options.width < 16 || page_options.height < 16) {
     Usage();
     return 2;
+  }
+  if (const auto available = texfree::testdata::CheckFontSet(page_options.fonts); !available.ok()) {
+    std::cerr << "texfree-gen-pages: " << available.message() << "\n";
+    return 1;
   }
   std::error_code ec;
   std::filesystem::create_directories(out_dir, ec);

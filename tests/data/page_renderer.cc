@@ -1,6 +1,7 @@
 // Seeded synthetic document pages: a small typesetting engine over the DejaVu
-// fonts (cv::freetype) that varies the layout per seed the way real typeset
-// pages vary (columns, fonts, sizes, spacing, headings, figures, tables).
+// fonts, or a held-out font set (cv::freetype), that varies the layout per
+// seed the way real typeset pages vary (columns, fonts, sizes, spacing,
+// headings, figures, tables).
 //
 // Determinism: every random choice comes from a portable generator (raw
 // std::mt19937_64 bits, no std distributions), all pixel operations are
@@ -11,10 +12,12 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <filesystem>
 #include <memory>
 #include <opencv2/freetype.hpp>
 #include <opencv2/imgproc.hpp>
 #include <random>
+#include <stdexcept>
 #include <string>
 #include <unordered_map>
 #include <utility>
@@ -51,32 +54,110 @@ class Rng {
 // Fonts.
 enum Family { kSerif, kSans, kSansCondensed, kSerifCondensed, kMono };
 enum Style { kRegular = 0, kBold = 1, kItalic = 2, kBoldItalic = 3 };
-constexpr int kNumFonts = 5 * 4;
+// Font ids within a set (family * 4 + style); a set's fonts follow each other
+// in the cache (concrete set * kFontsPerSet + id).
+constexpr int kFontsPerSet = 5 * 4;
+constexpr int kConcreteSets = 3;  // DejaVu, Liberation, FreeFont
+constexpr int kNumFonts = kConcreteSets * kFontsPerSet;
 
-const char* FontFile(int font_id) {
-  static const char* kFiles[kNumFonts] = {
-      "DejaVuSerif.ttf",
-      "DejaVuSerif-Bold.ttf",
-      "DejaVuSerif-Italic.ttf",
-      "DejaVuSerif-BoldItalic.ttf",
-      "DejaVuSans.ttf",
-      "DejaVuSans-Bold.ttf",
-      "DejaVuSans-Oblique.ttf",
-      "DejaVuSans-BoldOblique.ttf",
-      "DejaVuSansCondensed.ttf",
-      "DejaVuSansCondensed-Bold.ttf",
-      "DejaVuSansCondensed-Oblique.ttf",
-      "DejaVuSansCondensed-BoldOblique.ttf",
-      "DejaVuSerifCondensed.ttf",
-      "DejaVuSerifCondensed-Bold.ttf",
-      "DejaVuSerifCondensed-Italic.ttf",
-      "DejaVuSerifCondensed-BoldItalic.ttf",
-      "DejaVuSansMono.ttf",
-      "DejaVuSansMono-Bold.ttf",
-      "DejaVuSansMono-Oblique.ttf",
-      "DejaVuSansMono-BoldOblique.ttf",
+struct FontSetFiles {
+  const char* directory;
+  const char* package;
+  const char* files[kFontsPerSet];
+};
+
+const FontSetFiles& SetFiles(int concrete_set) {
+  static const FontSetFiles kSets[kConcreteSets] = {
+      {"/usr/share/fonts/truetype/dejavu/",
+       "fonts-dejavu-core fonts-dejavu-extra",
+       {
+           "DejaVuSerif.ttf",
+           "DejaVuSerif-Bold.ttf",
+           "DejaVuSerif-Italic.ttf",
+           "DejaVuSerif-BoldItalic.ttf",
+           "DejaVuSans.ttf",
+           "DejaVuSans-Bold.ttf",
+           "DejaVuSans-Oblique.ttf",
+           "DejaVuSans-BoldOblique.ttf",
+           "DejaVuSansCondensed.ttf",
+           "DejaVuSansCondensed-Bold.ttf",
+           "DejaVuSansCondensed-Oblique.ttf",
+           "DejaVuSansCondensed-BoldOblique.ttf",
+           "DejaVuSerifCondensed.ttf",
+           "DejaVuSerifCondensed-Bold.ttf",
+           "DejaVuSerifCondensed-Italic.ttf",
+           "DejaVuSerifCondensed-BoldItalic.ttf",
+           "DejaVuSansMono.ttf",
+           "DejaVuSansMono-Bold.ttf",
+           "DejaVuSansMono-Oblique.ttf",
+           "DejaVuSansMono-BoldOblique.ttf",
+       }},
+      // Liberation 2 has no narrow cut: condensed families use the regular.
+      {"/usr/share/fonts/truetype/liberation2/",
+       "fonts-liberation2",
+       {
+           "LiberationSerif-Regular.ttf", "LiberationSerif-Bold.ttf",
+           "LiberationSerif-Italic.ttf",  "LiberationSerif-BoldItalic.ttf",
+           "LiberationSans-Regular.ttf",  "LiberationSans-Bold.ttf",
+           "LiberationSans-Italic.ttf",   "LiberationSans-BoldItalic.ttf",
+           "LiberationSans-Regular.ttf",  "LiberationSans-Bold.ttf",
+           "LiberationSans-Italic.ttf",   "LiberationSans-BoldItalic.ttf",
+           "LiberationSerif-Regular.ttf", "LiberationSerif-Bold.ttf",
+           "LiberationSerif-Italic.ttf",  "LiberationSerif-BoldItalic.ttf",
+           "LiberationMono-Regular.ttf",  "LiberationMono-Bold.ttf",
+           "LiberationMono-Italic.ttf",   "LiberationMono-BoldItalic.ttf",
+       }},
+      // FreeFont has no condensed cut either.
+      {"/usr/share/fonts/truetype/freefont/",
+       "fonts-freefont-ttf",
+       {
+           "FreeSerif.ttf", "FreeSerifBold.ttf", "FreeSerifItalic.ttf", "FreeSerifBoldItalic.ttf",
+           "FreeSans.ttf",  "FreeSansBold.ttf",  "FreeSansOblique.ttf", "FreeSansBoldOblique.ttf",
+           "FreeSans.ttf",  "FreeSansBold.ttf",  "FreeSansOblique.ttf", "FreeSansBoldOblique.ttf",
+           "FreeSerif.ttf", "FreeSerifBold.ttf", "FreeSerifItalic.ttf", "FreeSerifBoldItalic.ttf",
+           "FreeMono.ttf",  "FreeMonoBold.ttf",  "FreeMonoOblique.ttf", "FreeMonoBoldOblique.ttf",
+       }},
   };
-  return kFiles[font_id];
+  return kSets[concrete_set];
+}
+
+std::string FontPath(int font) {
+  const FontSetFiles& set = SetFiles(font / kFontsPerSet);
+  return std::string(set.directory) + set.files[font % kFontsPerSet];
+}
+
+absl::Status CheckConcreteSet(int concrete_set) {
+  const FontSetFiles& set = SetFiles(concrete_set);
+  for (const char* file : set.files) {
+    const std::string path = std::string(set.directory) + file;
+    std::error_code ec;
+    if (!std::filesystem::is_regular_file(path, ec)) {
+      return absl::NotFoundError("font file " + path + " is missing: install " + set.package +
+                                 " (deploy/install-deps.sh)");
+    }
+  }
+  return absl::OkStatus();
+}
+
+// The concrete set a page is typeset in. kAll hashes the seed (SplitMix64
+// finaliser) instead of drawing from the page's generator, so that the
+// layout choices stay those of the seed in every set.
+int ConcreteSet(FontSet set, uint64_t seed) {
+  switch (set) {
+    case FontSet::kDejaVu:
+      return 0;
+    case FontSet::kLiberation:
+      return 1;
+    case FontSet::kFreeFont:
+      return 2;
+    case FontSet::kAll:
+      break;
+  }
+  uint64_t z = seed + 0x9e3779b97f4a7c15ULL;
+  z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
+  z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
+  z ^= z >> 31;
+  return static_cast<int>(z % kConcreteSets);
 }
 
 int FontId(Family family, int style) {
@@ -98,10 +179,11 @@ class FontCache {
   cv::freetype::FreeType2& Font(int font_id) {
     auto& font = fonts_[font_id];
     if (font.empty()) {
+      // cv::freetype only asserts on a missing file; say which package.
+      const absl::Status available = CheckConcreteSet(font_id / kFontsPerSet);
+      if (!available.ok()) throw std::runtime_error(available.ToString());
       font = cv::freetype::createFreeType2();
-      font->loadFontData(
-          std::string("/usr/share/fonts/truetype/dejavu/") + FontFile(font_id),
-          0);
+      font->loadFontData(FontPath(font_id), 0);
     }
     return *font;
   }
@@ -424,8 +506,10 @@ cv::Mat MakePaper(Rng& rng, const PageOptions& options, cv::Scalar* ink) {
 // Typesetting.
 class Typesetter {
  public:
-  Typesetter(cv::Mat* page, std::vector<cv::Rect>* boxes)
-      : page_(page), boxes_(boxes), cache_(Cache()) {}
+  // Font ids passed in are within a set (FontId()); the typesetter maps them
+  // into the page's concrete set.
+  Typesetter(cv::Mat* page, std::vector<cv::Rect>* boxes, int concrete_set)
+      : page_(page), boxes_(boxes), cache_(Cache()), font_base_(concrete_set * kFontsPerSet) {}
 
   struct Measured {
     std::shared_ptr<const WordGlyphs> glyphs;
@@ -433,12 +517,12 @@ class Typesetter {
   };
 
   Measured Measure(int font_id, int size, const std::string& text) {
-    std::shared_ptr<const WordGlyphs> g = cache_.Word(font_id, size, text);
+    std::shared_ptr<const WordGlyphs> g = cache_.Word(font_base_ + font_id, size, text);
     const int width = g->alpha.cols;
     return {std::move(g), width};
   }
 
-  int Space(int font_id, int size) { return cache_.SpaceWidth(font_id, size); }
+  int Space(int font_id, int size) { return cache_.SpaceWidth(font_base_ + font_id, size); }
 
   // Composites a measured word with its ink's left edge at x, on baseline y.
   void Draw(const Measured& word, int x, int baseline, const cv::Scalar& ink) {
@@ -491,6 +575,7 @@ class Typesetter {
   cv::Mat* page_;
   std::vector<cv::Rect>* boxes_;
   FontCache& cache_;
+  int font_base_;
 };
 
 struct Column {
@@ -513,13 +598,9 @@ struct PageStyle {
 
 class PageBuilder {
  public:
-  PageBuilder(Rng* rng, cv::Mat* page, std::vector<cv::Rect>* boxes,
-              const PageStyle& style, double unit)
-      : rng_(*rng),
-        page_(*page),
-        ts_(page, boxes),
-        style_(style),
-        unit_(unit) {}
+  PageBuilder(Rng* rng, cv::Mat* page, std::vector<cv::Rect>* boxes, const PageStyle& style,
+              double unit, int concrete_set)
+      : rng_(*rng), page_(*page), ts_(page, boxes, concrete_set), style_(style), unit_(unit) {}
 
   void SetColumns(std::vector<Column> columns, int top, int bottom) {
     columns_ = std::move(columns);
@@ -874,6 +955,37 @@ Family RandomFamily(Rng& rng) {
 
 }  // namespace
 
+std::string_view FontSetName(FontSet set) {
+  switch (set) {
+    case FontSet::kDejaVu:
+      return "dejavu";
+    case FontSet::kLiberation:
+      return "liberation";
+    case FontSet::kFreeFont:
+      return "freefont";
+    case FontSet::kAll:
+      return "all";
+  }
+  return "?";
+}
+
+absl::StatusOr<FontSet> ParseFontSet(std::string_view name) {
+  for (FontSet set : {FontSet::kDejaVu, FontSet::kLiberation, FontSet::kFreeFont, FontSet::kAll}) {
+    if (name == FontSetName(set)) return set;
+  }
+  return absl::InvalidArgumentError("unknown font set '" + std::string(name) +
+                                    "': expected dejavu, liberation, freefont or all");
+}
+
+absl::Status CheckFontSet(FontSet set) {
+  if (set != FontSet::kAll) return CheckConcreteSet(ConcreteSet(set, 0));
+  for (int s = 0; s < kConcreteSets; ++s) {
+    absl::Status status = CheckConcreteSet(s);
+    if (!status.ok()) return status;
+  }
+  return absl::OkStatus();
+}
+
 RenderedPage RenderTextPage(uint64_t seed, const PageOptions& options) {
   Rng rng(seed);
   RenderedPage result;
@@ -929,7 +1041,7 @@ RenderedPage RenderTextPage(uint64_t seed, const PageOptions& options) {
   }
 
   std::vector<cv::Rect> boxes;
-  PageBuilder builder(&rng, &result.image, &boxes, style, unit);
+  PageBuilder builder(&rng, &result.image, &boxes, style, unit, ConcreteSet(options.fonts, seed));
   Typesetter& ts = builder.ts();
   const std::vector<Column> full = {{margin_left, width - margin_right}};
   builder.SetColumns(full, margin_top, height - margin_bottom);

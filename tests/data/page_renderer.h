@@ -9,15 +9,45 @@
 
 #include <cstdint>
 #include <opencv2/core.hpp>
+#include <string_view>
 #include <vector>
 
+#include "absl/status/status.h"
+#include "absl/status/statusor.h"
+
 namespace texfree::testdata {
+
+// The font families pages are typeset in. The word-keypoint extractor and the
+// LLAH quantisation were tuned on DejaVu pages only; Liberation (metric
+// compatible with Times New Roman / Arial / Courier, tighter letter spacing)
+// and GNU FreeFont are held out to measure whether accuracy carries over to
+// fonts never used in tuning. Neither held-out set has condensed cuts, so a
+// page's condensed family is set in the regular width there.
+enum class FontSet {
+  kDejaVu,      // Debian fonts-dejavu-core + fonts-dejavu-extra
+  kLiberation,  // fonts-liberation2
+  kFreeFont,    // fonts-freefont-ttf
+  kAll,         // one of the three per page, chosen from the seed
+};
+
+// "dejavu", "liberation", "freefont", "all".
+std::string_view FontSetName(FontSet set);
+absl::StatusOr<FontSet> ParseFontSet(std::string_view name);
+
+// NOT_FOUND naming the first missing font file and the Debian package that
+// provides it. RenderTextPage() requires the set to be available (it throws
+// std::runtime_error with the same message otherwise).
+absl::Status CheckFontSet(FontSet set);
 
 struct PageOptions {
   int width = 1000;  // pixels (A4 portrait ratio by default)
   int height = 1414;
   bool color = false;  // BGR output when true (coloured headings, a figure),
                        // else still 8UC3 but gray values
+  // The layout (columns, sizes, words...) still comes from the seed alone, so
+  // a seed gives the same kind of page in every set; line breaks differ with
+  // the fonts' widths.
+  FontSet fonts = FontSet::kDejaVu;
 };
 
 struct RenderedPage {

@@ -140,6 +140,31 @@ TEST_F(DocumentRegistryTest, RegistrationLayerHoldsThePagesWordsAndSurvivesResta
   ExpectRetrieved(*registry, page.image, id, 12, far);
 }
 
+// Pages set in a font family never used to tune the word-keypoint extractor or the LLAH
+// quantisation (Liberation: Times New Roman / Arial metrics, tighter letter spacing than
+// DejaVu) are retrieved from a tilted camera view with the right homography, among other
+// held-out pages. Seed 0's body text is Liberation Serif.
+TEST_F(DocumentRegistryTest, HeldOutFontPageIsRetrievedFromATiltedView) {
+  testdata::PageOptions liberation;
+  liberation.fonts = testdata::FontSet::kLiberation;
+  ASSERT_TRUE(testdata::CheckFontSet(liberation.fonts).ok())
+      << testdata::CheckFontSet(liberation.fonts);
+  auto registry = Open(DocumentRegistryOptions());
+  ASSERT_NE(registry, nullptr);
+  std::string id;
+  cv::Mat serif_page;
+  for (uint64_t seed : {0, 1, 2, 3}) {
+    const auto page = testdata::RenderTextPage(seed, liberation);
+    auto record = registry->Register(Gray(page.image), "page " + std::to_string(seed), {});
+    ASSERT_TRUE(record.ok()) << record.status();
+    if (seed == 0) {
+      id = record->id;
+      serif_page = page.image;
+    }
+  }
+  ExpectRetrieved(*registry, serif_page, id, 3);
+}
+
 TEST(DocumentRegistryOptionsTest, RegistrationLayersAreValidated) {
   DocumentRegistryOptions options;
   EXPECT_TRUE(options.Validate().ok());
