@@ -276,14 +276,10 @@ int main(int argc, char **argv) {
     }
   }
   texfree::testdata::PageOptions page_options;
-  if (auto set = texfree::testdata::ParseFontSet(fonts); set.ok()) {
+  if (auto set = texfree::testdata::AvailableFontSet(fonts); set.ok()) {
     page_options.fonts = *set;
   } else {
-    std::fprintf(stderr, "--fonts: %s\n", std::string(set.status().message()).c_str());
-    return 1;
-  }
-  if (auto available = texfree::testdata::CheckFontSet(page_options.fonts); !available.ok()) {
-    std::fprintf(stderr, "%s\n", available.ToString().c_str());
+    std::fprintf(stderr, "--fonts: %s\n", set.status().ToString().c_str());
     return 1;
   }
   if (no_rectify) registry_options.retrieval.rectify_perspective = false;

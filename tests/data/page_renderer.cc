@@ -986,6 +986,13 @@ absl::Status CheckFontSet(FontSet set) {
   return absl::OkStatus();
 }
 
+absl::StatusOr<FontSet> AvailableFontSet(std::string_view name) {
+  absl::StatusOr<FontSet> set = ParseFontSet(name);
+  if (!set.ok()) return set.status();
+  if (absl::Status available = CheckFontSet(*set); !available.ok()) return available;
+  return set;
+}
+
 RenderedPage RenderTextPage(uint64_t seed, const PageOptions& options) {
   Rng rng(seed);
   RenderedPage result;

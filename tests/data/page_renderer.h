@@ -39,6 +39,9 @@ absl::StatusOr<FontSet> ParseFontSet(std::string_view name);
 // std::runtime_error with the same message otherwise).
 absl::Status CheckFontSet(FontSet set);
 
+// ParseFontSet then CheckFontSet: a command line's --fonts value, ready to render with.
+absl::StatusOr<FontSet> AvailableFontSet(std::string_view name);
+
 struct PageOptions {
   int width = 1000;  // pixels (A4 portrait ratio by default)
   int height = 1414;

@@ -126,6 +126,11 @@ TEST(PageRendererTest, FontSetNamesRoundTripAndUnknownNamesAreRejected) {
   EXPECT_EQ(unknown.status().code(), absl::StatusCode::kInvalidArgument);
   EXPECT_NE(unknown.status().message().find("liberation"), std::string::npos);
   EXPECT_EQ(PageOptions().fonts, FontSet::kDejaVu);
+  // A command line's value: parsed, and its fonts present (install-deps.sh installs them).
+  EXPECT_EQ(AvailableFontSet("times").status().code(), absl::StatusCode::kInvalidArgument);
+  const auto liberation = AvailableFontSet("liberation");
+  ASSERT_TRUE(liberation.ok()) << liberation.status();
+  EXPECT_EQ(*liberation, FontSet::kLiberation);
 }
 
 // The held-out font sets (never used to tune the extractor) typeset real
