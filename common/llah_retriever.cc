@@ -94,6 +94,13 @@ float NeighbourRadius(const std::vector<cv::Point2f> &points, int k) {
   return d[d.size() / 2];
 }
 
+// NeighbourRadius of a document's base layer (its extra layers are other cuts of the same
+// words).
+float BaseLayerRadius(const DocumentKeypoints &d, int k, int64_t base) {
+  return NeighbourRadius(std::vector<cv::Point2f>(d.keypoints.begin(), d.keypoints.begin() + base),
+                         k);
+}
+
 }  // namespace
 
 double WeakMatchLog10Nfa(int correspondences, int inliers, double threshold_px, double area_px2) {
@@ -178,9 +185,7 @@ absl::Status LlahRetriever::AddDocument(DocumentKeypoints document) {
   std::vector<uint64_t> hashes = std::move(document.hashes);
   if (hashes.size() != document.keypoints.size() * describer_.descriptors_per_point())
     DescribeLayers(document.keypoints, document.extra_layers, &hashes);
-  const float radius = NeighbourRadius(
-      std::vector<cv::Point2f>(document.keypoints.begin(), document.keypoints.begin() + base),
-      describer_.options().n);
+  const float radius = BaseLayerRadius(document, describer_.options().n, base);
   auto model = MakeModel(&document, radius);
   std::unique_lock lock(mutex_);
   if (models_.count(document.id))
@@ -213,9 +218,8 @@ absl::Status LlahRetriever::AddDocuments(
       const size_t i = next.fetch_add(1);
       if (i >= total) return;
       DocumentKeypoints &d = documents[i];
-      const auto base_end = d.keypoints.begin() + BaseLayerSize(d.keypoints.size(), d.extra_layers);
-      radius[i] = NeighbourRadius(std::vector<cv::Point2f>(d.keypoints.begin(), base_end),
-                                  describer_.options().n);
+      radius[i] = BaseLayerRadius(d, describer_.options().n,
+                                  BaseLayerSize(d.keypoints.size(), d.extra_layers));
       if (d.hashes.size() != d.keypoints.size() * per) {
         DescribeLayers(d.keypoints, d.extra_layers, &d.hashes);
         if (computed) {
@@ -819,6 +823,13 @@ std::vector<DocumentHit> LlahRetriever::RetrieveDescribed(const std::vector<cv::
     hit.votes = candidate.votes;
     hit.matches = std::move(guided);
     for (const auto &[q, r] : hit.matches) used[q] = 1;
+    // A hit whose guided matching fell back to its LLAH inliers may pair query keypoints
+    // with extra layers' keypoints: they claim their query keypoints (above), but matches
+    // index the base layer only, as Keypoints() returns it.
+    const int base = static_cast<int>(model.base);
+    hit.matches.erase(std::remove_if(hit.matches.begin(), hit.matches.end(),
+                                     [base](const std::pair<int, int> &m) { return m.second >= base; }),
+                      hit.matches.end());
     results.push_back(std::move(hit));
     if (o.max_results > 0 && static_cast<int>(results.size()) >= o.max_results) break;
   }

@@ -122,8 +122,7 @@ struct DocumentHit {
   int inliers = 0;         // LLAH correspondences consistent with the homography
   int votes = 0;
   // Inlier pairs (query keypoint index, reference keypoint index), after guided
-  // matching: indices into the base layer (Keypoints()), but for the rare hit whose guided
-  // matching fell back to its LLAH inliers, which may index extra layers' keypoints too.
+  // matching; reference indices are into the base layer (Keypoints()).
   std::vector<std::pair<int, int>> matches;
 };
 
