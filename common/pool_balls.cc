@@ -13,6 +13,13 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 
+// Apparent radius in pixels of a ball of radius r mm centred at table point (x, y, r):
+// focal length times radius over distance.
+double ApparentRadiusPx(const PlanarPose& pose, const cv::Matx33d& K, const cv::Point2d& xy,
+                        double r) {
+  return K(0, 0) * r / cv::norm(pose.R * cv::Vec3d(xy.x, xy.y, r) + pose.t);
+}
+
 double SmoothStep(double x) {
   x = std::clamp(x, 0.0, 1.0);
   return x * x * (3 - 2 * x);
@@ -786,7 +793,7 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
                           hole_centroids.at<double>(h, 1) + roi.y);
       cv::Point2d xy;
       if (!BackProjectToPlane(pose, K, c, r, &xy)) continue;
-      const double r_px = K(0, 0) * r / cv::norm(pose.R * cv::Vec3d(xy.x, xy.y, r) + pose.t);
+      const double r_px = ApparentRadiusPx(pose, K, xy, r);
       fill[h] = hole_stats.at<int>(h, cv::CC_STAT_AREA) <= 0.5 * kPi * r_px * r_px;
     }
     // Not the pockets (outside the region), which the mask leaves out as well.
@@ -914,7 +921,7 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
         // A seed on a ball has colour about it; one on the shadow that lengthens a ball's
         // blob has none (the black 8 neither: its touching balls share pixels as before).
         const auto coloured = [&](const cv::Point2d& pixel, const cv::Point2d& xy) {
-          const double r_px = K(0, 0) * r / cv::norm(pose.R * cv::Vec3d(xy.x, xy.y, r) + pose.t);
+          const double r_px = ApparentRadiusPx(pose, K, xy, r);
           const int reach = std::max(1, cvRound(0.5 * r_px));
           const cv::Rect disc = cv::Rect(cvRound(pixel.x) - reach, cvRound(pixel.y) - reach,
                                          2 * reach + 1, 2 * reach + 1) &
@@ -1066,8 +1073,7 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
       const double threshold =
           RimThreshold(distance, grown, claimed, roi, scorer, pose, K, seeds[i], r, &outside);
       if (threshold > 0) {
-        const cv::Vec3d now(seeds[i].x, seeds[i].y, r);
-        const double r_px = K(0, 0) * r / cv::norm(pose.R * now + pose.t);
+        const double r_px = ApparentRadiusPx(pose, K, seeds[i], r);
         int used = 0;
         {
           std::vector<cv::Vec3d> neighbours;
@@ -1075,7 +1081,7 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
             if (j == i || cv::norm(seeds[j] - seeds[i]) > 4 * r) continue;
             const cv::Vec3d other(seeds[j].x, seeds[j].y, r);
             const cv::Point2d at = ProjectIdeal(pose, K, other);
-            neighbours.emplace_back(at.x, at.y, K(0, 0) * r / cv::norm(pose.R * other + pose.t));
+            neighbours.emplace_back(at.x, at.y, ApparentRadiusPx(pose, K, seeds[j], r));
           }
           edge.SetNeighbours(std::move(neighbours));
         }
@@ -1210,7 +1216,7 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
     ball.fit_score = mean_ballness;
     const cv::Vec3d centre(xy.x, xy.y, r);
     ball.ideal_pixel = ProjectIdeal(pose, K, centre);
-    ball.radius_px = K(0, 0) * r / cv::norm(pose.R * centre + pose.t);
+    ball.radius_px = ApparentRadiusPx(pose, K, xy, r);
     // Votes over the pixels well inside the silhouette that no nearer ball covers.
     const cv::Matx33d Q = SphereSilhouetteConic(pose, K, centre, r);
     const cv::Rect box = scorer.Box(centre);
