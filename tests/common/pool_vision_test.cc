@@ -561,7 +561,7 @@ TEST(PoolTouchingBalls, BallsNotDarkerThanTheClothAreFittedOnTheirEdgePoints) {
     ASSERT_TRUE(scored.ok()) << scored.status();
     const testdata::PoolScore& score = scored->score;
     for (const auto& m : score.matches) {
-      if (m.error_mm < 0) continue;  // frames 26 and 30 each have a clustered ball not found
+      if (m.error_mm < 0) continue;  // frames 26 and 30 each have a touching ball not found
       EXPECT_LT(m.error_mm, 10.0) << "frame " << frame << ", ball " << m.truth_number;
     }
     if (frame == 46 || frame == 55)
