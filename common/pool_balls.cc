@@ -475,6 +475,76 @@ class EdgeFitter {
     return xy;
   }
 
+  // Edge points of a ball at `xy`: along each outline normal (reach_px either side), the
+  // outermost local maximum of the outward fall that reaches half the largest fall on that
+  // normal and whose outer side (1.5 px beyond) is below `cloth_level` in `distance`:
+  // a ball's outline is its outermost edge, its inner edges (a highlight, the border of a
+  // lit cap) lie inside it, and an edge with no cloth beyond it (a cushion face seen
+  // behind the ball, another ball) is not its outline against the cloth. Scans that meet
+  // another ball's pixels are left out.
+  std::vector<cv::Point2d> EdgePoints(const cv::Point2d& xy, double reach_px,
+                                      const cv::Mat& distance, double cloth_level) const {
+    std::vector<cv::Point2d> points;
+    // A pixel in from the area's border: the Sobel falls there see its reflected border.
+    const auto inside_area = [this](double x, double y) {
+      return x >= area_.x + 1 && y >= area_.y + 1 && x <= area_.x + area_.width - 3 &&
+             y <= area_.y + area_.height - 3;
+    };
+    constexpr double kStep = 0.25;
+    std::vector<double> falls;
+    ForEachOutlinePoint(xy, [&](double u, double v, double nx, double ny, bool) {
+      falls.clear();
+      for (double s = reach_px; s >= -reach_px; s -= kStep) {
+        const double x = u + s * nx, y = v + s * ny;
+        if (!inside_area(x, y)) return;
+        const int ix = static_cast<int>(x), iy = static_cast<int>(y);
+        if (!roi_.contains({ix, iy}) || claimed_.at<float>(iy - roi_.y, ix - roi_.x) > 0.01) return;
+        falls.push_back(-(Sample(gx_, x, y) * nx + Sample(gy_, x, y) * ny));
+      }
+      const double peak = *std::max_element(falls.begin(), falls.end());
+      if (peak <= 0) return;
+      for (size_t k = 1; k + 1 < falls.size(); ++k) {
+        const double f = falls[k];
+        if (f < 0.5 * peak || f < falls[k - 1] || f < falls[k + 1]) continue;
+        // Sub-pixel: the vertex of the parabola through the three samples.
+        const double den = falls[k - 1] - 2 * f + falls[k + 1];
+        const double shift = den < 0 ? 0.5 * (falls[k - 1] - falls[k + 1]) / den : 0;
+        const double at = reach_px - kStep * (k + shift);
+        const double ox = u + (at + 1.5) * nx, oy = v + (at + 1.5) * ny;
+        if (!inside_area(ox, oy) || Sample(distance, ox, oy) > cloth_level) continue;
+        points.emplace_back(u + at * nx, v + at * ny);
+        return;
+      }
+    });
+    return points;
+  }
+
+  // Fits the sphere's outline to its edge points (as FitToRim, the points found again from
+  // each new position), with the start position counting as `prior_points` points on its
+  // outline (a quadratic pull on the image distance from it).
+  cv::Point2d FitToEdgePoints(cv::Point2d xy, const cv::Mat& distance, double cloth_level,
+                              double reach_px, double prior_points) const {
+    const cv::Point2d origin = ProjectIdeal(pose_, K_, {xy.x, xy.y, radius_});
+    for (int round = 0; round < 3; ++round) {
+      const std::vector<cv::Point2d> points = EdgePoints(xy, reach_px, distance, cloth_level);
+      if (static_cast<int>(points.size()) < kMinRimPoints) return xy;
+      const cv::Point2d start = xy;
+      xy = CompassSearch(xy, 0.1 * radius_, radius_, [&](const cv::Point2d& p) {
+        const cv::Vec3d centre(p.x, p.y, radius_);
+        const cv::Matx33d Q = SphereSilhouetteConic(pose_, K_, centre, radius_);
+        const cv::Point2d moved = ProjectIdeal(pose_, K_, centre) - origin;
+        double cost = 0.5 * prior_points * moved.dot(moved);
+        for (const auto& q : points) {
+          const double e = std::abs(SilhouetteScorer::InsideDistance(Q, q.x, q.y));
+          cost += e < kRimHuberPx ? 0.5 * e * e : kRimHuberPx * (e - 0.5 * kRimHuberPx);
+        }
+        return -cost;
+      });
+      if (cv::norm(xy - start) < 0.05 * radius_) break;
+    }
+    return xy;
+  }
+
   // The silhouette fit leans along the line of sight (JPEG's smeared colour grows a
   // bright ball's blob upwards; a dark ball's shadow joins its blob below), so the outline
   // is first scanned along the line of sight, then refined in both directions.
@@ -602,6 +672,10 @@ absl::Status PoolBallOptions::Validate() const {
     return absl::InvalidArgumentError("five_orange_share must be in (0, 0.5)");
   if (!(rim_outward_reach >= 0 && rim_outward_reach <= 2))
     return absl::InvalidArgumentError("rim_outward_reach must be in [0, 2]");
+  if (!(edge_point_reach >= 0 && edge_point_reach <= 2))
+    return absl::InvalidArgumentError("edge_point_reach must be in [0, 2]");
+  if (!(edge_point_prior >= 0 && edge_point_prior <= 100))
+    return absl::InvalidArgumentError("edge_point_prior must be in [0, 100]");
   return absl::OkStatus();
 }
 
@@ -1063,6 +1137,19 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
       if (used < kMinOutlinePoints) edge.SkipShadowedOutline(false);
     }
     seeds[i] = edge.Fit(seeds[i], camera);
+    if (!darker_than_cloth && options.edge_point_reach > 0) {
+      // The edge pass's mean fall is drawn to where the ball's contrast is strongest; its
+      // outline is where the edge is (options.edge_point_reach).
+      double outside = 0;
+      const double threshold =
+          RimThreshold(distance, grown, claimed, roi, scorer, pose, K, seeds[i], r, &outside);
+      if (threshold > 0) {
+        const double reach_px =
+            std::max(2.0, options.edge_point_reach * ApparentRadiusPx(pose, K, seeds[i], r));
+        seeds[i] =
+            edge.FitToEdgePoints(seeds[i], distance, threshold, reach_px, options.edge_point_prior);
+      }
+    }
     if (darker_than_cloth) {
       // A ball darker than the cloth has brighter edges inside it than its rim (the
       // highlight on the 8, the lit cap of the 6 above its dark lower half) and the mean

@@ -55,6 +55,18 @@ struct PoolBallOptions {
   // up to this many apparent radii more to find the cloth: the edge pass can leave a dark
   // ball 4-6 px down in its shadow, out of reach of its far rim. 0 turns this off.
   double rim_outward_reach = 0.6;
+  // A ball not darker than the cloth is refined, after the edge pass, on its edge points:
+  // along each outline normal, up to this many apparent radii (at least 2 px) either
+  // side, the outermost peak of the fall of the colour distance whose outer side is at
+  // the cloth's level. The edge pass maximises the mean fall over the outline, so where a
+  // ball's contrast varies along its outline (a lit lower half, a shaded upper half) the
+  // outline points at its sides pull it to where they sample the strongest contrast, not
+  // to where the edge is. 0 turns this off.
+  double edge_point_reach = 0.5;
+  // The edge pass's position counts in that fit as this many edge points lying on its
+  // outline: where a neighbour or the shadow zone leaves edge points on one side only,
+  // the fit is poorly held across them and would slide along that direction.
+  double edge_point_prior = 4;
 
   absl::Status Validate() const;
 };
