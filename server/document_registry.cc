@@ -428,6 +428,8 @@ absl::StatusOr<RetrievalResult> DocumentRegistry::Retrieve(const cv::Mat &gray,
     // Only the first extractor's keypoints are retried unrectified: a query that finds
     // nothing would otherwise pay for six retrievals.
     ro.retry_unrectified = options_.retrieval.retry_unrectified && attempt == 0;
+    // The few-keypoint pass is for views no extractor has found a page in yet.
+    ro.deep_max_keypoints = hits.empty() ? options_.retrieval.deep_max_keypoints : 0;
     std::vector<DocumentHit> found = retriever->Retrieve(kp.points, kp.char_height, ro);
     match_ms += MillisecondsSince(t);
     // A page confirmed only by the layout check (fewer than min_inliers LLAH inliers) may
