@@ -381,9 +381,9 @@ TEST_P(LlahRetrieverTest, ImprobableInlierAgreementConfirmsWeakMatchesAndNoWrong
 
 // A view holding ~25-40 of a page's keypoints (large type, a corner of the page) keeps few
 // whole LLAH neighbourhoods: the first pass finds few such windows. The few-keypoint pass
-// (no prefilter, one strong vote, every consensus set of 4+ correspondences refined, the
-// layout deciding a contrario) finds more, each with the right homography, and finds
-// neither a wrong document nor an unknown one.
+// (a second vote with one strong vote, every homography of four correspondences tried, the
+// layout deciding a contrario) finds more, each with its matches right and its homography
+// within the benchmark's tolerance, and finds neither a wrong document nor an unknown one.
 TEST_P(LlahRetrieverTest, FewKeypointWindowsAreFoundByTheSecondPassAndNoWrongDocument) {
   constexpr Disturbance kSmallView{25, 0.5, 0.1, 0.1};
   constexpr double kSide = 0.55;  // 12% of the page
