@@ -114,12 +114,14 @@ struct RetrievalOptions {
   // the same index hits, among the deep_prefilter_documents with most hits (0: all) and
   // with deep_min_strong_votes. A candidate with at most 12 correspondences has every
   // consensus set of deep_min_weak_inliers or more that four of them span refined by guided
-  // matching (the 8 largest); one with more gets deep_ransac_iterations of PROSAC. With
+  // matching (the 3 largest); one with more gets deep_ransac_iterations of PROSAC. With
   // fewer LLAH inliers than min_weak_inliers only the layout decides: deep_min_layout_ratio
   // of it, and a binomial tail (LayoutLog10Tail) that counts every homography tried as a
-  // chance. Right pages measured layout shares of 0.5-1, wrong ones 0.05 or less (0.36 from
-  // four projected keypoints). 0 turns the pass off.
-  int deep_max_keypoints = 250;
+  // chance. Right pages measured layout shares of mostly 0.5-1, wrong ones 0.05 or less
+  // (0.36 once, 4 of 11 projected keypoints). 0 turns the pass off. 120 keypoints (views of
+  // large type hold 15-100): at 250, views of unregistered pages paid for the pass often
+  // enough to raise the 10,000-page median by ~1 ms, for one view more of 600 at 100 pages.
+  int deep_max_keypoints = 120;
   int deep_prefilter_documents = 512;
   int deep_min_strong_votes = 1;
   int deep_min_weak_inliers = 4;

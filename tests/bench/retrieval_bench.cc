@@ -245,6 +245,8 @@ int main(int argc, char **argv) {
   app.add_option("--deep-max-keypoints", registry_options.retrieval.deep_max_keypoints,
                  "queries of at most this many keypoints that found nothing vote again on "
                  "their hits (the few-keypoint pass; 0: off)");
+  app.add_option("--deep-extractors", registry_options.deep_pass_extractors,
+                 "extractors (in order) whose keypoints may take the few-keypoint pass");
   app.add_option("--deep-prefilter", registry_options.retrieval.deep_prefilter_documents,
                  "documents (most hits) voted for in that second pass (0: all)");
   app.add_option("--deep-min-strong", registry_options.retrieval.deep_min_strong_votes,
