@@ -111,7 +111,13 @@ struct TrackerOptions {
   // retrieval_interval), so that streams started together do not all retrieve on the
   // same frame (see VideoKeypointOptions::measure_phase).
   int retrieval_phase = 0;
-  RetrievalOptions retrieval;
+  // The few-keypoint pass is off: a frame's free keypoints are often few (the followed pages
+  // hold the rest), and a page missed now is retrieved a few frames later.
+  RetrievalOptions retrieval = [] {
+    RetrievalOptions o;
+    o.deep_max_keypoints = 0;
+    return o;
+  }();
   // Pages followed at once.
   int max_documents = 8;
   // A page LOST for this many consecutive frames is forgotten (with what was learned).

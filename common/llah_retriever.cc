@@ -51,6 +51,12 @@ absl::Status RetrievalOptions::Validate() const {
   if (min_layout_matches < min_inliers)
     return absl::InvalidArgumentError(absl::StrCat("min_layout_matches must be >= min_inliers (",
                                                    min_inliers, "), got ", min_layout_matches));
+  if (!(layout_chance > 0 && layout_chance < 1))
+    return absl::InvalidArgumentError(
+        absl::StrCat("layout_chance must be in (0, 1), got ", layout_chance));
+  if (max_layout_tail < 0 || max_layout_tail > 1)
+    return absl::InvalidArgumentError(
+        absl::StrCat("max_layout_tail must be in [0, 1] (0: off), got ", max_layout_tail));
   if (min_layout_ratio <= 0.25 || min_layout_ratio > 1)
     return absl::InvalidArgumentError(absl::StrCat(
         "min_layout_ratio must be in (0.25, 1] (chance alignments of text reach ~0.2), got ",
@@ -66,6 +72,18 @@ absl::Status RetrievalOptions::Validate() const {
     return absl::InvalidArgumentError(
         absl::StrCat("max_border_lost must be >= 0 (0: off), got ", max_border_lost));
   if (max_results < 0) return absl::InvalidArgumentError("max_results must be >= 0");
+  if (deep_max_keypoints < 0)
+    return absl::InvalidArgumentError("deep_max_keypoints must be >= 0 (0: no second pass)");
+  if (deep_min_strong_votes < 0 || deep_min_strong_votes > min_strong_votes)
+    return absl::InvalidArgumentError(absl::StrCat(
+        "deep_min_strong_votes must be in [0, min_strong_votes], got ", deep_min_strong_votes));
+  if (deep_min_layout_ratio <= 0.25 || deep_min_layout_ratio > 1)
+    return absl::InvalidArgumentError(absl::StrCat(
+        "deep_min_layout_ratio must be in (0.25, 1] (chance alignments of text reach ~0.2), got ",
+        deep_min_layout_ratio));
+  if (deep_min_weak_inliers < 4 || deep_min_weak_inliers > min_weak_inliers)
+    return absl::InvalidArgumentError(absl::StrCat(
+        "deep_min_weak_inliers must be in [4, min_weak_inliers], got ", deep_min_weak_inliers));
   if (rectify_perspective) {
     absl::Status status = perspective.Validate();
     if (!status.ok())
@@ -102,6 +120,24 @@ float BaseLayerRadius(const DocumentKeypoints &d, int k, int64_t base) {
 }
 
 }  // namespace
+
+double LayoutLog10Tail(int inside, int matched, double chance) {
+  const int n = inside, k = std::min(matched, inside);
+  if (n <= 0 || k <= 0 || !(chance > 0) || chance >= 1) return 0;
+  auto log_choose = [](int a, int b) {
+    return std::lgamma(a + 1.0) - std::lgamma(b + 1.0) - std::lgamma(a - b + 1.0);
+  };
+  // Summed in log space from its largest term, as WeakMatchLog10Nfa's.
+  const double lp = std::log(chance), lq = std::log1p(-chance);
+  const double top = log_choose(n, k) + k * lp + (n - k) * lq;
+  double sum = 0;
+  for (int j = k; j <= n; ++j) {
+    const double term = std::exp(log_choose(n, j) + j * lp + (n - j) * lq - top);
+    sum += term;
+    if (term < 1e-12 * sum) break;
+  }
+  return std::min(0.0, (top + std::log(sum)) / std::log(10.0));
+}
 
 double WeakMatchLog10Nfa(int correspondences, int inliers, double threshold_px, double area_px2) {
   const int n = correspondences, k = inliers;
@@ -337,6 +373,38 @@ size_t LlahRetriever::MemoryBytes() const {
 
 namespace {
 
+// The deep pass tries every 4-subset of a candidate's correspondences up to this many
+// (C(12, 4) = 495 homographies).
+constexpr int kMaxExhaustivePairs = 12;
+// ...and refines at most this many of their consensus sets.
+constexpr int kMaxDeepHypotheses = 3;
+
+// The projective map of the unit square's corners (0,0), (1,0), (1,1), (0,1) onto p[0..3]
+// (Heckbert's closed form); false when three of them are collinear.
+bool SquareToQuad(const cv::Point2f p[4], cv::Matx33d *m) {
+  const double x0 = p[0].x, y0 = p[0].y, x1 = p[1].x, y1 = p[1].y, x2 = p[2].x, y2 = p[2].y,
+               x3 = p[3].x, y3 = p[3].y;
+  const double sx = x0 - x1 + x2 - x3, sy = y0 - y1 + y2 - y3;
+  const double dx1 = x1 - x2, dx2 = x3 - x2, dy1 = y1 - y2, dy2 = y3 - y2;
+  const double den = dx1 * dy2 - dx2 * dy1;
+  if (std::abs(den) < 1e-9) return false;
+  const double g = (sx * dy2 - dx2 * sy) / den, h = (dx1 * sy - sx * dy1) / den;
+  *m = cv::Matx33d(x1 - x0 + g * x1, x3 - x0 + h * x3, x0, y1 - y0 + g * y1, y3 - y0 + h * y3, y0,
+                   g, h, 1);
+  return true;
+}
+
+// The homography taking src[i] to dst[i] (i < 4) without allocating (the few-keypoint pass
+// solves hundreds per candidate); false for a degenerate quadruple.
+bool HomographyFromFour(const cv::Point2f src[4], const cv::Point2f dst[4], cv::Matx33d *H) {
+  cv::Matx33d a, b;
+  if (!SquareToQuad(src, &a) || !SquareToQuad(dst, &b)) return false;
+  const double det = cv::determinant(a);
+  if (std::abs(det) < 1e-12) return false;
+  *H = b * a.inv();
+  return std::isfinite((*H)(0, 0)) && std::isfinite((*H)(2, 2));
+}
+
 struct Correspondence {
   uint32_t document;
   int query;
@@ -419,24 +487,38 @@ class VoteTally {
   std::unordered_map<uint32_t, Count> sparse_;
 };
 
-// The layout check for documents with few LLAH inliers: the share of the reference
-// keypoints that H puts inside the query keypoints' hull which found a query keypoint
-// (`matched`, from the guided refinement).
-// Only the first `count` reference keypoints (the base layer) count.
-bool LayoutConfirms(const std::vector<cv::Point2f> &reference, size_t count, const cv::Matx33d &H,
-                    const std::vector<cv::Point2f> &query_hull, int matched,
-                    const RetrievalOptions &o, double min_ratio) {
-  if (matched < o.min_layout_matches || query_hull.size() < 3) return false;
+// Reference keypoints (the first `count`) that H puts inside the query keypoints' hull.
+int InsideHull(const std::vector<cv::Point2f> &reference, size_t count, const cv::Matx33d &H,
+               const std::vector<cv::Point2f> &query_hull) {
   int inside = 0;
   for (size_t i = 0; i < count && i < reference.size(); ++i) {
-    const cv::Point2f &r = reference[i];
-    const cv::Point2d p = ApplyHomography(H, r);
+    const cv::Point2d p = ApplyHomography(H, reference[i]);
     if (!std::isfinite(p.x) || !std::isfinite(p.y)) continue;
     if (cv::pointPolygonTest(
             query_hull, cv::Point2f(static_cast<float>(p.x), static_cast<float>(p.y)), false) >= 0)
       ++inside;
   }
-  return matched >= min_ratio * inside;
+  return inside;
+}
+
+// The layout check for documents with few LLAH inliers: the share of the reference
+// keypoints that H puts inside the query keypoints' hull which found a query keypoint
+// (`matched`, from the guided refinement), from min_layout_matches of them, or from
+// min_inliers when chance could hardly give that share (max_layout_tail).
+// Only the first `count` reference keypoints (the base layer) count.
+// `hypotheses` > 0: the homography is the best of that many (the few-keypoint pass), so only
+// the tail decides, with that many chances.
+bool LayoutConfirms(const std::vector<cv::Point2f> &reference, size_t count, const cv::Matx33d &H,
+                    const std::vector<cv::Point2f> &query_hull, int matched,
+                    const RetrievalOptions &o, double min_ratio, int hypotheses = 0) {
+  if (matched < o.min_inliers || query_hull.size() < 3) return false;
+  const int inside = InsideHull(reference, count, H, query_hull);
+  if (matched < min_ratio * inside) return false;
+  if (hypotheses == 0 && matched >= o.min_layout_matches) return true;
+  return o.max_layout_tail > 0 &&
+         LayoutLog10Tail(inside, matched, o.layout_chance) +
+                 std::log10(std::max(1, hypotheses) * static_cast<double>(o.max_candidates)) <=
+             std::log10(o.max_layout_tail);
 }
 
 }  // namespace
@@ -476,12 +558,16 @@ std::vector<DocumentHit> LlahRetriever::Retrieve(const std::vector<cv::Point2f> 
   std::optional<cv::Matx33d> rectification;
   if (o.rectify_perspective && query.size() >= 8)
     rectification = EstimateTextPerspective(query, o.perspective);
-  if (!rectification) return RetrieveDescribed(query, query, query_char_height, o, trace);
+  // The few-keypoint pass (deep_max_keypoints) votes on the descriptors tried first.
+  const bool deep =
+      o.deep_max_keypoints > 0 && static_cast<int>(query.size()) <= o.deep_max_keypoints;
+  if (!rectification) return RetrieveDescribed(query, query, query_char_height, o, trace, deep);
   RetrievalTrace rectified_trace;
   if (trace) rectified_trace.watch = trace->watch;
   rectified_trace.rectified = true;
-  auto rectified = RetrieveDescribed(query, ApplyPerspective(*rectification, query),
-                                     query_char_height, o, trace ? &rectified_trace : nullptr);
+  auto rectified =
+      RetrieveDescribed(query, ApplyPerspective(*rectification, query), query_char_height, o,
+                        trace ? &rectified_trace : nullptr, deep);
   const int rectified_inliers = rectified.empty() ? 0 : rectified[0].inliers;
   if (rectified_inliers < o.min_inliers && o.retry_unrectified) {
     // A spacing gradient that is the layout's (a figure, a heading, a column break) rather
@@ -498,7 +584,8 @@ std::vector<DocumentHit> LlahRetriever::RetrieveDescribed(const std::vector<cv::
                                                           const std::vector<cv::Point2f> &described,
                                                           double query_char_height,
                                                           const RetrievalOptions &o,
-                                                          RetrievalTrace *trace) const {
+                                                          RetrievalTrace *trace,
+                                                          bool allow_deep) const {
   std::vector<DocumentHit> results;
   if (trace) trace->query_keypoints = static_cast<int>(query.size());
   if (query.size() < 8) return results;
@@ -513,325 +600,448 @@ std::vector<DocumentHit> LlahRetriever::RetrieveDescribed(const std::vector<cv::
   std::unordered_map<uint32_t, std::shared_ptr<const Model>> candidates_models;
   // Per (document, query keypoint): the reference keypoint it hit most often, and how often.
   thread_local std::vector<Correspondence> best;
-  best.clear();
   std::vector<Candidate> ranked;
-  {
-    std::shared_lock lock(mutex_);
-    const int max_hits =
-        std::max<int>(o.max_hits_per_descriptor,
-                      static_cast<int>(o.max_hits_per_1000_documents * models_.size() / 1000));
-    // All hits, grouped by query keypoint (hit_begin[q] is where keypoint q's start).
-    struct LocalHit {
-      uint32_t document;
-      uint16_t reference;
-      bool operator<(const LocalHit &o) const {
-        return document != o.document ? document < o.document : reference < o.reference;
-      }
-    };
-    // Scratch kept per thread: a query's hits run to hundreds of thousands at 10,000 pages.
-    thread_local std::vector<LocalHit> hits;
-    hits.clear();
-    std::vector<size_t> hit_begin(query.size() + 1, 0);
-    for (size_t q = 0; q < query.size(); ++q) {
-      hit_begin[q] = hits.size();
-      for (int j = 0; j < per; ++j) {
-        const uint64_t h = hashes[q * per + j];
-        if (h == 0) continue;
-        // Descriptors under more than max_hits entries are stop words: their hits are dropped.
-        if (index_.LikelyExceeds(h, max_hits)) {
-          if (trace) ++trace->stop_word_lookups;
-          continue;
-        }
-        const size_t before = hits.size();
-        if (index_.ForEachUpTo(h, max_hits, [&](uint32_t doc, uint16_t kp) {
-              hits.push_back({doc, kp});
-            }) > max_hits) {
-          hits.resize(before);
-          if (trace) ++trace->stop_word_lookups;
-        }
-      }
+  // All hits, grouped by query keypoint (hit_begin[q] is where keypoint q's start).
+  struct LocalHit {
+    uint32_t document;
+    uint16_t reference;
+    bool operator<(const LocalHit &o) const {
+      return document != o.document ? document < o.document : reference < o.reference;
     }
-    hit_begin[query.size()] = hits.size();
-    if (trace) trace->total_hits = static_cast<int>(hits.size());
-    // Only the documents with most hits go on (bounds the query time of large databases).
-    // Raw hits favour long pages, which collect chance hits by the hundred, so the cut is
-    // generous (256 pages) and the ranking below uses votes instead.
-    VoteTally tally;
-    for (const LocalHit &h : hits) tally.AddHit(h.document);
-    const int floor = tally.HitFloor(o.prefilter_documents);
-    if (trace) trace->hits = tally.Get(trace->watch).hits;
-
-    // Voting, one query keypoint at a time: its hits are few (at most per * max_hits), and
-    // sorting them finds, per document, the reference keypoint most of its descriptors
-    // agree on. Every document gets one vote per
-    // query keypoint, and a strong vote when two or more descriptors agree on one reference
-    // keypoint: a single hit is often chance (text is regular, so some arrangements recur on
-    // every page), agreement rarely is.
-    thread_local std::vector<LocalHit> local;
-    std::vector<size_t> best_begin(query.size() + 1, 0);
-    for (size_t q = 0; q < query.size(); ++q) {
-      best_begin[q] = best.size();
-      local.clear();
-      for (size_t i = hit_begin[q]; i < hit_begin[q + 1]; ++i)
-        if (tally.Get(hits[i].document).hits >= floor) local.push_back(hits[i]);
-      std::sort(local.begin(), local.end());
-      for (size_t i = 0; i < local.size();) {
-        Correspondence c{local[i].document, static_cast<int>(q), 0, 0};
-        size_t j = i;
-        for (; j < local.size() && local[j].document == c.document;) {
-          size_t run = j;
-          while (run < local.size() && local[run].document == local[j].document &&
-                 local[run].reference == local[j].reference)
-            ++run;
-          if (static_cast<int>(run - j) > c.count) {
-            c.count = static_cast<int>(run - j);
-            c.reference = local[j].reference;
-          }
-          j = run;
-        }
-        tally.AddVote(c.document, c.count >= 2);
-        best.push_back(c);
-        i = j;
-      }
-    }
-    best_begin[query.size()] = best.size();
-    // Coherence: a correspondence (q, r) of a page is confirmed when a neighbouring query
-    // keypoint q' corresponds to a reference keypoint r' near r on the same page. The right
-    // page's correspondences come in such pairs wherever a patch of text repeats; chance
-    // hits, scattered over a page, rarely do. Each keypoint's correspondences are sorted by
-    // document, so one merge per neighbouring pair finds the pages both hit.
-    const int k = describer_.options().n;
-    std::vector<char> confirmed(best.size(), 0);
-    std::vector<int> nearest;
-    for (size_t q = 0; q < query.size(); ++q) {
-      query_grid.Nearest(static_cast<int>(q), k, &nearest);
-      for (int q2 : nearest) {
-        if (static_cast<size_t>(q2) < q) continue;  // each pair once
-        size_t a = best_begin[q], b = best_begin[q2];
-        const size_t a_end = best_begin[q + 1], b_end = best_begin[q2 + 1];
-        while (a < a_end && b < b_end) {
-          if (best[a].document < best[b].document) {
-            ++a;
-          } else if (best[b].document < best[a].document) {
-            ++b;
-          } else {
-            if ((!confirmed[a] || !confirmed[b]) &&
-                tally.Get(best[a].document).votes >= o.min_votes) {
-              const Model *model = FindModel(best[a].document);
-              if (model != nullptr && best[a].reference != best[b].reference) {
-                const cv::Point2f d =
-                    model->keypoints[best[a].reference] - model->keypoints[best[b].reference];
-                const float radius =
-                    static_cast<float>(o.coherence_radius) * model->neighbour_radius;
-                if (d.dot(d) <= radius * radius) confirmed[a] = confirmed[b] = 1;
-              }
+  };
+  // Scratch kept per thread: a query's hits run to hundreds of thousands at 10,000 pages.
+  thread_local std::vector<LocalHit> hits;
+  hits.clear();
+  std::vector<size_t> hit_begin(query.size() + 1, 0);
+  // Pass 0 votes among the documents with most hits; pass 1, the few-keypoint pass
+  // (deep_max_keypoints), when pass 0 found nothing, votes again on the same hits.
+  for (int pass = 0; pass < (allow_deep ? 2 : 1); ++pass) {
+    const bool deep = pass == 1;
+    if (deep && !results.empty()) break;
+    candidates_models.clear();
+    best.clear();
+    ranked.clear();
+    {
+      std::shared_lock lock(mutex_);
+      if (pass == 0) {
+        const int max_hits =
+            std::max<int>(o.max_hits_per_descriptor,
+                          static_cast<int>(o.max_hits_per_1000_documents * models_.size() / 1000));
+        for (size_t q = 0; q < query.size(); ++q) {
+          hit_begin[q] = hits.size();
+          for (int j = 0; j < per; ++j) {
+            const uint64_t h = hashes[q * per + j];
+            if (h == 0) continue;
+            // Descriptors under more than max_hits entries are stop words: their hits are dropped.
+            if (index_.LikelyExceeds(h, max_hits)) {
+              if (trace) ++trace->stop_word_lookups;
+              continue;
             }
-            ++a;
-            ++b;
+            const size_t before = hits.size();
+            if (index_.ForEachUpTo(h, max_hits, [&](uint32_t doc, uint16_t kp) {
+                  hits.push_back({doc, kp});
+                }) > max_hits) {
+              hits.resize(before);
+              if (trace) ++trace->stop_word_lookups;
+            }
+          }
+        }
+        hit_begin[query.size()] = hits.size();
+        if (trace) trace->total_hits = static_cast<int>(hits.size());
+      }
+      // Only the documents with most hits go on (bounds the query time of large databases).
+      // Raw hits favour long pages, which collect chance hits by the hundred, so the cut is
+      // generous (256 pages) and the ranking below uses votes instead.
+      VoteTally tally;
+      for (const LocalHit &h : hits) tally.AddHit(h.document);
+      const int floor = tally.HitFloor(deep ? o.deep_prefilter_documents : o.prefilter_documents);
+      if (trace) trace->hits = tally.Get(trace->watch).hits;
+
+      // Voting, one query keypoint at a time: its hits are few (at most per * max_hits), and
+      // sorting them finds, per document, the reference keypoint most of its descriptors
+      // agree on. Every document gets one vote per
+      // query keypoint, and a strong vote when two or more descriptors agree on one reference
+      // keypoint: a single hit is often chance (text is regular, so some arrangements recur on
+      // every page), agreement rarely is.
+      thread_local std::vector<LocalHit> local;
+      std::vector<size_t> best_begin(query.size() + 1, 0);
+      for (size_t q = 0; q < query.size(); ++q) {
+        best_begin[q] = best.size();
+        local.clear();
+        for (size_t i = hit_begin[q]; i < hit_begin[q + 1]; ++i)
+          if (tally.Get(hits[i].document).hits >= floor) local.push_back(hits[i]);
+        std::sort(local.begin(), local.end());
+        for (size_t i = 0; i < local.size();) {
+          Correspondence c{local[i].document, static_cast<int>(q), 0, 0};
+          size_t j = i;
+          for (; j < local.size() && local[j].document == c.document;) {
+            size_t run = j;
+            while (run < local.size() && local[run].document == local[j].document &&
+                   local[run].reference == local[j].reference)
+              ++run;
+            if (static_cast<int>(run - j) > c.count) {
+              c.count = static_cast<int>(run - j);
+              c.reference = local[j].reference;
+            }
+            j = run;
+          }
+          tally.AddVote(c.document, c.count >= 2);
+          best.push_back(c);
+          i = j;
+        }
+      }
+      best_begin[query.size()] = best.size();
+      // Coherence: a correspondence (q, r) of a page is confirmed when a neighbouring query
+      // keypoint q' corresponds to a reference keypoint r' near r on the same page. The right
+      // page's correspondences come in such pairs wherever a patch of text repeats; chance
+      // hits, scattered over a page, rarely do. Each keypoint's correspondences are sorted by
+      // document, so one merge per neighbouring pair finds the pages both hit.
+      const int k = describer_.options().n;
+      std::vector<char> confirmed(best.size(), 0);
+      std::vector<int> nearest;
+      for (size_t q = 0; q < query.size(); ++q) {
+        query_grid.Nearest(static_cast<int>(q), k, &nearest);
+        for (int q2 : nearest) {
+          if (static_cast<size_t>(q2) < q) continue;  // each pair once
+          size_t a = best_begin[q], b = best_begin[q2];
+          const size_t a_end = best_begin[q + 1], b_end = best_begin[q2 + 1];
+          while (a < a_end && b < b_end) {
+            if (best[a].document < best[b].document) {
+              ++a;
+            } else if (best[b].document < best[a].document) {
+              ++b;
+            } else {
+              if ((!confirmed[a] || !confirmed[b]) &&
+                  tally.Get(best[a].document).votes >= o.min_votes) {
+                const Model *model = FindModel(best[a].document);
+                if (model != nullptr && best[a].reference != best[b].reference) {
+                  const cv::Point2f d =
+                      model->keypoints[best[a].reference] - model->keypoints[best[b].reference];
+                  const float radius =
+                      static_cast<float>(o.coherence_radius) * model->neighbour_radius;
+                  if (d.dot(d) <= radius * radius) confirmed[a] = confirmed[b] = 1;
+                }
+              }
+              ++a;
+              ++b;
+            }
           }
         }
       }
-    }
-    for (size_t i = 0; i < best.size(); ++i)
-      if (confirmed[i]) tally.AddCoherent(best[i].document);
-    std::vector<int> scores;  // for the trace only
-    tally.ForEach([&](uint32_t doc, const VoteTally::Count &n) {
-      if (n.votes == 0) return;
-      Candidate c{doc, n.votes, n.strong, n.coherent, {}};
+      for (size_t i = 0; i < best.size(); ++i)
+        if (confirmed[i]) tally.AddCoherent(best[i].document);
+      std::vector<int> scores;  // for the trace only
+      tally.ForEach([&](uint32_t doc, const VoteTally::Count &n) {
+        if (n.votes == 0) return;
+        Candidate c{doc, n.votes, n.strong, n.coherent, {}};
+        if (trace) {
+          scores.push_back(c.Score());
+          if (doc == trace->watch) {
+            trace->votes = n.votes;
+            trace->strong = n.strong;
+            trace->coherent = n.coherent;
+          }
+        }
+        if (n.votes >= o.min_votes &&
+            n.strong >= (deep ? o.deep_min_strong_votes : o.min_strong_votes) &&
+            n.coherent >= o.min_coherent_votes)
+          ranked.push_back(std::move(c));
+      });
       if (trace) {
-        scores.push_back(c.Score());
-        if (doc == trace->watch) {
-          trace->votes = n.votes;
-          trace->strong = n.strong;
-          trace->coherent = n.coherent;
+        const Candidate mine{trace->watch, trace->votes, trace->strong, trace->coherent, {}};
+        trace->rank_by_score = static_cast<int>(
+            std::count_if(scores.begin(), scores.end(), [&](int s) { return s > mine.Score(); }));
+      }
+      std::sort(ranked.begin(), ranked.end(), [](const Candidate &a, const Candidate &b) {
+        if (a.Score() != b.Score()) return a.Score() > b.Score();
+        return a.document > b.document;
+      });
+      if (!ranked.empty()) {
+        const double floor = o.candidate_vote_ratio * ranked.front().Score();
+        while (!ranked.empty() && ranked.back().Score() < floor) ranked.pop_back();
+      }
+      if (trace) {
+        trace->candidates = static_cast<int>(ranked.size());
+        for (size_t r = 0; r < ranked.size(); ++r)
+          if (ranked[r].document == trace->watch) trace->rank = static_cast<int>(r);
+      }
+      if (static_cast<int>(ranked.size()) > o.max_candidates) ranked.resize(o.max_candidates);
+      for (const Candidate &c : ranked) {
+        auto it = models_.find(c.document);
+        if (it != models_.end()) candidates_models[c.document] = it->second;
+      }
+    }
+    // The candidates' correspondences, in query keypoint order.
+    for (const Correspondence &c : best)
+      for (Candidate &candidate : ranked)
+        if (candidate.document == c.document) {
+          candidate.correspondences.push_back(c);
+          break;
         }
-      }
-      if (n.votes >= o.min_votes && n.strong >= o.min_strong_votes &&
-          n.coherent >= o.min_coherent_votes)
-        ranked.push_back(std::move(c));
-    });
-    if (trace) {
-      const Candidate mine{trace->watch, trace->votes, trace->strong, trace->coherent, {}};
-      trace->rank_by_score = static_cast<int>(
-          std::count_if(scores.begin(), scores.end(), [&](int s) { return s > mine.Score(); }));
-    }
-    std::sort(ranked.begin(), ranked.end(), [](const Candidate &a, const Candidate &b) {
-      if (a.Score() != b.Score()) return a.Score() > b.Score();
-      return a.document > b.document;
-    });
-    if (!ranked.empty()) {
-      const double floor = o.candidate_vote_ratio * ranked.front().Score();
-      while (!ranked.empty() && ranked.back().Score() < floor) ranked.pop_back();
-    }
-    if (trace) {
-      trace->candidates = static_cast<int>(ranked.size());
-      for (size_t r = 0; r < ranked.size(); ++r)
-        if (ranked[r].document == trace->watch) trace->rank = static_cast<int>(r);
-    }
-    if (static_cast<int>(ranked.size()) > o.max_candidates) ranked.resize(o.max_candidates);
-    for (const Candidate &c : ranked) {
-      auto it = models_.find(c.document);
-      if (it != models_.end()) candidates_models[c.document] = it->second;
-    }
-  }
-  // The candidates' correspondences, in query keypoint order.
-  for (const Correspondence &c : best)
-    for (Candidate &candidate : ranked)
-      if (candidate.document == c.document) {
-        candidate.correspondences.push_back(c);
-        break;
-      }
 
-  const double threshold = o.ransac_threshold_px > 0
-                               ? o.ransac_threshold_px
-                               : std::clamp(0.45 * query_char_height, 2.5, 12.0);
-  std::vector<char> used(query.size(), 0);
-  std::vector<cv::Point2f> query_hull;  // computed when a layout check needs it
-  std::vector<int> nearest;
-  for (const Candidate &candidate : ranked) {
-    const uint32_t doc = candidate.document;
-    auto mit = candidates_models.find(doc);
-    if (mit == candidates_models.end()) continue;
-    const Model &model = *mit->second;
-    std::vector<cv::Point2f> ref_pts, query_pts;
-    std::vector<std::pair<int, int>> pairs;
-    std::vector<int> strength;
-    for (const Correspondence &c : candidate.correspondences) {
-      if (used[c.query] || c.reference >= model.keypoints.size()) continue;
-      ref_pts.push_back(model.keypoints[c.reference]);
-      query_pts.push_back(query[c.query]);
-      pairs.emplace_back(c.query, c.reference);
-      strength.push_back(c.count);
+    const double threshold = o.ransac_threshold_px > 0
+                                 ? o.ransac_threshold_px
+                                 : std::clamp(0.45 * query_char_height, 2.5, 12.0);
+    const int min_weak = deep ? o.deep_min_weak_inliers : o.min_weak_inliers;
+    std::vector<char> used(query.size(), 0);
+    cv::Rect2f query_box;
+    if (!query.empty()) {
+      const auto [min_x, max_x] =
+          std::minmax_element(query.begin(), query.end(),
+                              [](const cv::Point2f &a, const cv::Point2f &b) { return a.x < b.x; });
+      const auto [min_y, max_y] =
+          std::minmax_element(query.begin(), query.end(),
+                              [](const cv::Point2f &a, const cv::Point2f &b) { return a.y < b.y; });
+      query_box = {min_x->x, min_y->y, max_x->x - min_x->x, max_y->y - min_y->y};
     }
-    if (static_cast<int>(pairs.size()) < o.min_weak_inliers) continue;
-    // PROSAC: correspondences ordered by how many descriptors agree on them, so that
-    // hypotheses come from the likeliest inliers first and a good model stops the search
-    // early; hopeless candidates still cost at most ransac_iterations.
-    std::vector<int> order(pairs.size());
-    std::iota(order.begin(), order.end(), 0);
-    std::stable_sort(order.begin(), order.end(),
-                     [&](int a, int b) { return strength[a] > strength[b]; });
-    std::vector<cv::Point2f> sample_ref, sample_query;
-    for (int i : order) {
-      sample_ref.push_back(ref_pts[i]);
-      sample_query.push_back(query_pts[i]);
-    }
-    std::vector<uchar> mask;
-    cv::Mat Hm = cv::findHomography(sample_ref, sample_query, cv::USAC_PROSAC, threshold, mask,
-                                    o.ransac_iterations, 0.995);
-    if (Hm.empty()) continue;
-    cv::Matx33d H(Hm);
-    std::vector<cv::Point2f> inlier_ref;
-    std::vector<std::pair<int, int>> inlier_pairs;
-    for (size_t i = 0; i < pairs.size(); ++i) {
-      const cv::Point2d p = ApplyHomography(H, ref_pts[i]);
-      if (cv::norm(p - cv::Point2d(query_pts[i])) <= threshold) {
-        inlier_ref.push_back(ref_pts[i]);
-        inlier_pairs.push_back(pairs[i]);
+    std::vector<cv::Point2f> query_hull;  // computed when a layout check needs it
+    std::vector<int> nearest;
+    for (const Candidate &candidate : ranked) {
+      const uint32_t doc = candidate.document;
+      auto mit = candidates_models.find(doc);
+      if (mit == candidates_models.end()) continue;
+      const Model &model = *mit->second;
+      std::vector<cv::Point2f> ref_pts, query_pts;
+      std::vector<std::pair<int, int>> pairs;
+      std::vector<int> strength;
+      for (const Correspondence &c : candidate.correspondences) {
+        if (used[c.query] || c.reference >= model.keypoints.size()) continue;
+        ref_pts.push_back(model.keypoints[c.reference]);
+        query_pts.push_back(query[c.query]);
+        pairs.emplace_back(c.query, c.reference);
+        strength.push_back(c.count);
       }
-    }
-    const bool traced = trace && doc == trace->watch;
-    if (traced) trace->ransac_inliers = static_cast<int>(inlier_pairs.size());
-    if (static_cast<int>(inlier_pairs.size()) < o.min_weak_inliers) continue;
-    if (!MakePlausibleHomography(&H, inlier_ref)) continue;
-
-    // Guided refinement: every reference keypoint projected by H takes the
-    // nearest free query keypoint within the threshold; the homography is
-    // refitted on those matches. (Their number alone is no evidence: projected text
-    // lands near some word by chance too often. Only the layout check below uses them,
-    // as a share of the page in view, which chance alignments do not reach.)
-    std::vector<std::pair<int, int>> guided;
-    // The gate starts at the RANSAC threshold and then shrinks to a few times the median
-    // residual, so that extra keypoints a few pixels from a projected word stop pulling the
-    // least-squares refit.
-    double gate = threshold;
-    for (int round = 0; round < 3; ++round) {
-      std::vector<int> owner(query.size(), -1);
-      std::vector<float> owner_d(query.size(), 0.f);
-      for (int r = 0; r < static_cast<int>(model.base); ++r) {
-        const cv::Point2d p = ApplyHomography(H, model.keypoints[r]);
-        if (!std::isfinite(p.x) || !std::isfinite(p.y)) continue;
-        query_grid.NearestTo(cv::Point2f(static_cast<float>(p.x), static_cast<float>(p.y)), 1, -1,
-                             &nearest);
-        if (nearest.empty() || used[nearest[0]]) continue;
-        const float d = static_cast<float>(cv::norm(cv::Point2d(query[nearest[0]]) - p));
-        if (d > gate) continue;
-        if (owner[nearest[0]] < 0 || d < owner_d[nearest[0]]) {
-          owner[nearest[0]] = r;
-          owner_d[nearest[0]] = d;
+      if (static_cast<int>(pairs.size()) < min_weak) continue;
+      // The few-keypoint pass tries every 4-subset of few correspondences (below).
+      const bool exhaustive = deep && static_cast<int>(pairs.size()) <= kMaxExhaustivePairs;
+      cv::Matx33d H = cv::Matx33d::eye();
+      if (!exhaustive) {
+        // PROSAC: correspondences ordered by how many descriptors agree on them, so that
+        // hypotheses come from the likeliest inliers first and a good model stops the search
+        // early; hopeless candidates still cost at most ransac_iterations.
+        std::vector<int> order(pairs.size());
+        std::iota(order.begin(), order.end(), 0);
+        std::stable_sort(order.begin(), order.end(),
+                         [&](int a, int b) { return strength[a] > strength[b]; });
+        std::vector<cv::Point2f> sample_ref, sample_query;
+        for (int i : order) {
+          sample_ref.push_back(ref_pts[i]);
+          sample_query.push_back(query_pts[i]);
         }
+        std::vector<uchar> mask;
+        cv::Mat Hm = cv::findHomography(sample_ref, sample_query, cv::USAC_PROSAC, threshold, mask,
+                                        o.ransac_iterations, 0.995);
+        if (Hm.empty()) continue;
+        H = cv::Matx33d(Hm);
       }
-      guided.clear();
-      std::vector<cv::Point2f> gr, gq;
-      for (int q = 0; q < static_cast<int>(query.size()); ++q) {
-        if (owner[q] < 0) continue;
-        guided.emplace_back(q, owner[q]);
-        gr.push_back(model.keypoints[owner[q]]);
-        gq.push_back(query[q]);
+      auto inliers_of = [&](const cv::Matx33d &h, std::vector<std::pair<int, int>> *inlier_pairs,
+                            std::vector<cv::Point2f> *inlier_ref) {
+        inlier_pairs->clear();
+        inlier_ref->clear();
+        for (size_t i = 0; i < pairs.size(); ++i) {
+          const cv::Point2d p = ApplyHomography(h, ref_pts[i]);
+          if (cv::norm(p - cv::Point2d(query_pts[i])) <= threshold) {
+            inlier_ref->push_back(ref_pts[i]);
+            inlier_pairs->push_back(pairs[i]);
+          }
+        }
+      };
+      std::vector<cv::Point2f> inlier_ref;
+      std::vector<std::pair<int, int>> inlier_pairs;
+      if (!exhaustive) inliers_of(H, &inlier_pairs, &inlier_ref);
+      const bool traced = trace && doc == trace->watch;
+      if (traced && !exhaustive) trace->ransac_inliers = static_cast<int>(inlier_pairs.size());
+
+      // Guided refinement: every reference keypoint projected by H takes the
+      // nearest free query keypoint within the threshold; the homography is
+      // refitted on those matches. (Their number alone is no evidence: projected text
+      // lands near some word by chance too often. Only the layout check below uses them,
+      // as a share of the page in view, which chance alignments do not reach.)
+      // The gate starts at the RANSAC threshold and then shrinks to a few times the median
+      // residual, so that extra keypoints a few pixels from a projected word stop pulling the
+      // least-squares refit.
+      auto refine = [&](cv::Matx33d *h, const std::vector<std::pair<int, int>> &agreeing) {
+        std::vector<std::pair<int, int>> guided;
+        double gate = threshold;
+        for (int round = 0; round < 3; ++round) {
+          std::vector<int> owner(query.size(), -1);
+          std::vector<float> owner_d(query.size(), 0.f);
+          for (int r = 0; r < static_cast<int>(model.base); ++r) {
+            const cv::Point2d p = ApplyHomography(*h, model.keypoints[r]);
+            if (!std::isfinite(p.x) || !std::isfinite(p.y)) continue;
+            // Most of a page projects outside the view, where the grid's ring search is
+            // longest and finds nothing within the gate anyway.
+            if (p.x < query_box.x - gate || p.y < query_box.y - gate ||
+                p.x > query_box.x + query_box.width + gate ||
+                p.y > query_box.y + query_box.height + gate)
+              continue;
+            query_grid.NearestTo(cv::Point2f(static_cast<float>(p.x), static_cast<float>(p.y)), 1,
+                                 -1, &nearest);
+            if (nearest.empty() || used[nearest[0]]) continue;
+            const float d = static_cast<float>(cv::norm(cv::Point2d(query[nearest[0]]) - p));
+            if (d > gate) continue;
+            if (owner[nearest[0]] < 0 || d < owner_d[nearest[0]]) {
+              owner[nearest[0]] = r;
+              owner_d[nearest[0]] = d;
+            }
+          }
+          guided.clear();
+          std::vector<cv::Point2f> gr, gq;
+          for (int q = 0; q < static_cast<int>(query.size()); ++q) {
+            if (owner[q] < 0) continue;
+            guided.emplace_back(q, owner[q]);
+            gr.push_back(model.keypoints[owner[q]]);
+            gq.push_back(query[q]);
+          }
+          if (guided.size() < agreeing.size() || guided.size() < 8) {
+            guided = agreeing;
+            break;
+          }
+          cv::Mat refined = cv::findHomography(gr, gq, 0);
+          if (refined.empty()) break;
+          cv::Matx33d refined_h(refined);
+          if (!MakePlausibleHomography(&refined_h, gr)) break;
+          *h = refined_h;
+          std::vector<double> residuals(gr.size());
+          for (size_t i = 0; i < gr.size(); ++i)
+            residuals[i] = cv::norm(ApplyHomography(*h, gr[i]) - cv::Point2d(gq[i]));
+          std::nth_element(residuals.begin(), residuals.begin() + residuals.size() / 2,
+                           residuals.end());
+          gate = std::clamp(3.0 * residuals[residuals.size() / 2], 1.0, threshold);
+        }
+        return guided;
+      };
+      std::vector<std::pair<int, int>> guided;
+      int hypotheses = 0;  // homographies refined, when more than RANSAC's one
+      if (exhaustive) {
+        // Few correspondences, few of them right: RANSAC's largest consensus may be a chance
+        // one as large as the right one. Every consensus set of min_weak or more that a
+        // 4-subset spans is refined, and the one whose homography puts most of the page on
+        // query keypoints is kept.
+        std::vector<uint32_t> masks;
+        const int np = static_cast<int>(pairs.size());
+        cv::Point2f src[4], dst[4];
+        for (int a = 0; a < np; ++a)
+          for (int b = a + 1; b < np; ++b)
+            for (int c = b + 1; c < np; ++c)
+              for (int d = c + 1; d < np; ++d) {
+                const int idx[4] = {a, b, c, d};
+                for (int t = 0; t < 4; ++t) {
+                  src[t] = ref_pts[idx[t]];
+                  dst[t] = query_pts[idx[t]];
+                }
+                cv::Matx33d h;
+                if (!HomographyFromFour(src, dst, &h)) continue;
+                uint32_t m = 0;
+                int count = 0;
+                for (int i = 0; i < np; ++i) {
+                  const cv::Point2d p = ApplyHomography(h, ref_pts[i]);
+                  if (std::isfinite(p.x) && cv::norm(p - cv::Point2d(query_pts[i])) <= threshold) {
+                    m |= 1u << i;
+                    ++count;
+                  }
+                }
+                if (count >= min_weak) masks.push_back(m);
+              }
+        std::sort(masks.begin(), masks.end());
+        masks.erase(std::unique(masks.begin(), masks.end()), masks.end());
+        std::vector<uint32_t> maximal;
+        for (uint32_t m : masks) {
+          bool is_maximal = true;
+          for (uint32_t other : masks) is_maximal = is_maximal && (other == m || (other & m) != m);
+          if (is_maximal) maximal.push_back(m);
+        }
+        // The largest consensus sets first; at most kMaxDeepHypotheses are refined.
+        std::stable_sort(maximal.begin(), maximal.end(), [](uint32_t a, uint32_t b) {
+          return __builtin_popcount(a) > __builtin_popcount(b);
+        });
+        if (maximal.size() > static_cast<size_t>(kMaxDeepHypotheses))
+          maximal.resize(kMaxDeepHypotheses);
+        size_t best_guided = 0;
+        for (uint32_t m : maximal) {
+          ++hypotheses;
+          std::vector<cv::Point2f> r, q;
+          std::vector<std::pair<int, int>> agreeing;
+          for (int i = 0; i < np; ++i)
+            if (m >> i & 1) {
+              r.push_back(ref_pts[i]);
+              q.push_back(query_pts[i]);
+              agreeing.push_back(pairs[i]);
+            }
+          cv::Mat fitted = cv::findHomography(r, q, 0);
+          if (fitted.empty()) continue;
+          cv::Matx33d h(fitted);
+          if (!MakePlausibleHomography(&h, r)) continue;
+          std::vector<std::pair<int, int>> g = refine(&h, agreeing);
+          if (g.size() > best_guided) {
+            best_guided = g.size();
+            H = h;
+            guided = std::move(g);
+            inlier_pairs = agreeing;
+          }
+        }
+        if (best_guided == 0) continue;
+        if (traced) trace->ransac_inliers = static_cast<int>(inlier_pairs.size());
+      } else {
+        if (static_cast<int>(inlier_pairs.size()) < min_weak) continue;
+        if (!MakePlausibleHomography(&H, inlier_ref)) continue;
+        guided = refine(&H, inlier_pairs);
       }
-      if (guided.size() < inlier_pairs.size() || guided.size() < 8) {
-        guided = inlier_pairs;
-        break;
+      // Re-count LLAH inliers under the final homography.
+      int inliers = 0;
+      for (size_t i = 0; i < pairs.size(); ++i) {
+        const cv::Point2d p = ApplyHomography(H, ref_pts[i]);
+        if (cv::norm(p - cv::Point2d(query_pts[i])) <= threshold) ++inliers;
       }
-      cv::Mat refined = cv::findHomography(gr, gq, 0);
-      if (refined.empty()) break;
-      cv::Matx33d refined_h(refined);
-      if (!MakePlausibleHomography(&refined_h, gr)) break;
-      H = refined_h;
-      std::vector<double> residuals(gr.size());
-      for (size_t i = 0; i < gr.size(); ++i)
-        residuals[i] = cv::norm(ApplyHomography(H, gr[i]) - cv::Point2d(gq[i]));
-      std::nth_element(residuals.begin(), residuals.begin() + residuals.size() / 2,
-                       residuals.end());
-      gate = std::clamp(3.0 * residuals[residuals.size() / 2], 1.0, threshold);
+      if (traced) {
+        trace->final_inliers = inliers;
+        trace->guided = static_cast<int>(guided.size());
+      }
+      if (inliers < min_weak) continue;
+      if (inliers < o.min_inliers) {
+        if (query_hull.empty()) cv::convexHull(query, query_hull);
+        // The a-contrario test counts the inliers of both homographies (RANSAC's, from the
+        // correspondences alone, and the guided refit's), whichever is fewer, and every
+        // candidate verified as a separate chance. The homography must also put more of the
+        // page's keypoints onto query keypoints than chance does: few inliers in one corner
+        // can be the right page under a homography wrong elsewhere.
+        const int agreed = std::min(inliers, static_cast<int>(inlier_pairs.size()));
+        const int matched = static_cast<int>(guided.size());
+        const bool significant = o.max_weak_nfa > 0 && agreed >= o.min_weak_inliers &&
+                                 WeakMatchLog10Nfa(static_cast<int>(pairs.size()), agreed,
+                                                   threshold, cv::contourArea(query_hull)) +
+                                         std::log10(static_cast<double>(o.max_candidates)) <=
+                                     std::log10(o.max_weak_nfa);
+        // Fewer LLAH inliers than the first pass's gate (the few-keypoint pass): the layout
+        // alone decides, with every homography tried counted as a chance.
+        const bool layout_only = inliers < o.min_weak_inliers;
+        if (!LayoutConfirms(model.keypoints, model.base, H, query_hull, matched, o,
+                            layout_only   ? o.deep_min_layout_ratio
+                            : significant ? o.min_significant_layout_ratio
+                                          : o.min_layout_ratio,
+                            layout_only ? std::max(1, hypotheses) : 0))
+          continue;
+      }
+      if (traced) trace->accepted = true;
+      DocumentHit hit;
+      hit.document = doc;
+      // h22 = +-1, keeping the sign that puts the matched points in front of the camera.
+      hit.homography = H * (1.0 / std::abs(H(2, 2)));
+      hit.inliers = inliers;
+      hit.votes = candidate.votes;
+      hit.matches = std::move(guided);
+      for (const auto &[q, r] : hit.matches) used[q] = 1;
+      // A hit whose guided matching fell back to its LLAH inliers may pair query keypoints
+      // with extra layers' keypoints: they claim their query keypoints (above), but matches
+      // index the base layer only, as Keypoints() returns it.
+      const int base = static_cast<int>(model.base);
+      hit.matches.erase(
+          std::remove_if(hit.matches.begin(), hit.matches.end(),
+                         [base](const std::pair<int, int> &m) { return m.second >= base; }),
+          hit.matches.end());
+      results.push_back(std::move(hit));
+      if (o.max_results > 0 && static_cast<int>(results.size()) >= o.max_results) break;
     }
-    // Re-count LLAH inliers under the final homography.
-    int inliers = 0;
-    for (size_t i = 0; i < pairs.size(); ++i) {
-      const cv::Point2d p = ApplyHomography(H, ref_pts[i]);
-      if (cv::norm(p - cv::Point2d(query_pts[i])) <= threshold) ++inliers;
-    }
-    if (traced) {
-      trace->final_inliers = inliers;
-      trace->guided = static_cast<int>(guided.size());
-    }
-    if (inliers < o.min_weak_inliers) continue;
-    if (inliers < o.min_inliers) {
-      if (query_hull.empty()) cv::convexHull(query, query_hull);
-      // The a-contrario test counts the inliers of both homographies (RANSAC's, from the
-      // correspondences alone, and the guided refit's), whichever is fewer, and every
-      // candidate verified as a separate chance. The homography must also put more of the
-      // page's keypoints onto query keypoints than chance does: few inliers in one corner
-      // can be the right page under a homography wrong elsewhere.
-      const int agreed = std::min(inliers, static_cast<int>(inlier_pairs.size()));
-      const int matched = static_cast<int>(guided.size());
-      const bool significant = o.max_weak_nfa > 0 && agreed >= o.min_weak_inliers &&
-                               WeakMatchLog10Nfa(static_cast<int>(pairs.size()), agreed, threshold,
-                                                 cv::contourArea(query_hull)) +
-                                       std::log10(static_cast<double>(o.max_candidates)) <=
-                                   std::log10(o.max_weak_nfa);
-      if (!LayoutConfirms(model.keypoints, model.base, H, query_hull, matched, o,
-                          significant ? o.min_significant_layout_ratio : o.min_layout_ratio))
-        continue;
-    }
-    if (traced) trace->accepted = true;
-    DocumentHit hit;
-    hit.document = doc;
-    // h22 = +-1, keeping the sign that puts the matched points in front of the camera.
-    hit.homography = H * (1.0 / std::abs(H(2, 2)));
-    hit.inliers = inliers;
-    hit.votes = candidate.votes;
-    hit.matches = std::move(guided);
-    for (const auto &[q, r] : hit.matches) used[q] = 1;
-    // A hit whose guided matching fell back to its LLAH inliers may pair query keypoints
-    // with extra layers' keypoints: they claim their query keypoints (above), but matches
-    // index the base layer only, as Keypoints() returns it.
-    const int base = static_cast<int>(model.base);
-    hit.matches.erase(std::remove_if(hit.matches.begin(), hit.matches.end(),
-                                     [base](const std::pair<int, int> &m) { return m.second >= base; }),
-                      hit.matches.end());
-    results.push_back(std::move(hit));
-    if (o.max_results > 0 && static_cast<int>(results.size()) >= o.max_results) break;
   }
   std::sort(results.begin(), results.end(),
             [](const DocumentHit &a, const DocumentHit &b) { return a.inliers > b.inliers; });

@@ -70,6 +70,15 @@ struct RetrievalOptions {
   int min_weak_inliers = 6;
   int min_layout_matches = 16;
   double min_layout_ratio = 0.45;
+  // A view holding few of the page's keypoints (large type, a corner) cannot show
+  // min_layout_matches of them. From min_inliers matches up, the layout also confirms a page
+  // when so many of the keypoints it projects inside the query's hit query keypoints that a
+  // wrong page, each of whose projected keypoints meets a query keypoint with probability
+  // layout_chance, would do it with probability at most max_layout_tail (binomial tail,
+  // LayoutLog10Tail). Wrong pages measured shares up to ~0.2 (0.05 or less in the
+  // few-keypoint pass); 0 turns the test off.
+  double layout_chance = 0.25;
+  double max_layout_tail = 1e-4;
   // ...or, when the query's keypoints repeat the page's too poorly for the layout check
   // (blur merging words, a steep view splitting them), the LLAH inliers themselves decide
   // when chance could hardly have produced them: the expected number of candidates with as
@@ -98,6 +107,26 @@ struct RetrievalOptions {
   // with its descriptors as seen (a spacing gradient that is the layout's, not the
   // camera's, fools the fit). Doubles the cost of a query that finds nothing.
   bool retry_unrectified = true;
+  // The few-keypoint pass. Views of large type, of a page's corner, or steep views of a
+  // column keep few whole neighbourhoods: at 10,000 pages the right page's handful of
+  // descriptor hits is cut by the hit prefilter among chance hits, or it has one strong
+  // vote. A query of at most deep_max_keypoints keypoints that found no page votes again on
+  // the same index hits, among the deep_prefilter_documents with most hits (0: all) and
+  // with deep_min_strong_votes. A candidate with at most 12 correspondences has every
+  // consensus set of deep_min_weak_inliers or more that four of them span refined by guided
+  // matching (the 3 largest); one with more gets deep_ransac_iterations of PROSAC. With
+  // fewer LLAH inliers than min_weak_inliers only the layout decides: deep_min_layout_ratio
+  // of it, and a binomial tail (LayoutLog10Tail) that counts every homography tried as a
+  // chance. Right pages measured layout shares of mostly 0.5-1, wrong ones 0.05 or less
+  // (0.36 once, 4 of 11 projected keypoints). 0 turns the pass off. 120 keypoints (views of
+  // large type hold 15-100): at 250, views of unregistered pages paid for the pass often
+  // enough to raise the 10,000-page median by ~1 ms, for one view more of 600 at 100 pages.
+  int deep_max_keypoints = 120;
+  int deep_prefilter_documents = 512;
+  int deep_min_strong_votes = 1;
+  int deep_min_weak_inliers = 4;
+  int deep_ransac_iterations = 250;
+  double deep_min_layout_ratio = 0.6;
 
   absl::Status Validate() const;
 };
@@ -108,6 +137,10 @@ struct RetrievalOptions {
 // n - 4 correspondences with probability p = pi threshold^2 / area each (binomial tail).
 // Very negative: the agreement is no coincidence.
 double WeakMatchLog10Nfa(int correspondences, int inliers, double threshold_px, double area_px2);
+
+// log10 of the probability that `matched` or more of `inside` projected keypoints meet a query
+// keypoint, each with probability `chance` (binomial tail); `matched` is capped at `inside`.
+double LayoutLog10Tail(int inside, int matched, double chance);
 
 // How many of a keypoint's n nearest neighbours (the farthest at `radius`) are expected
 // beyond the frame's edges, for neighbours spread evenly over the disk.
@@ -221,11 +254,12 @@ class LlahRetriever {
   // The base layer's size, or -1 when extra_layers do not fit in `points`.
   static int64_t BaseLayerSize(size_t points, const std::vector<uint32_t> &extra_layers);
   // Retrieve() with the query's descriptors computed on `described` (the query's keypoints,
-  // or the same rectified), everything else on `query`.
+  // or the same rectified), everything else on `query`. `allow_deep`: when the first vote
+  // finds nothing, the few-keypoint pass votes again on the same index hits.
   std::vector<DocumentHit> RetrieveDescribed(const std::vector<cv::Point2f> &query,
                                              const std::vector<cv::Point2f> &described,
                                              double query_char_height, const RetrievalOptions &o,
-                                             RetrievalTrace *trace) const;
+                                             RetrievalTrace *trace, bool allow_deep = false) const;
   // Ids below kDenseIds (the registry's are dense from 1) also find their model through
   // dense_models_, without hashing: the coherence check looks up thousands per query.
   static constexpr uint32_t kDenseIds = 1u << 24;

@@ -131,6 +131,8 @@ absl::Status DocumentRegistryOptions::Validate() const {
   RETURN_IF_ERROR(retrieval.Validate());
   if (min_keypoints < llah.n + 1)
     return absl::InvalidArgumentError(absl::StrCat("min_keypoints must exceed LLAH n = ", llah.n));
+  if (deep_pass_extractors < 0)
+    return absl::InvalidArgumentError("deep_pass_extractors must be >= 0");
   if (duplicate_min_inliers < retrieval.min_inliers)
     return absl::InvalidArgumentError("duplicate_min_inliers must be >= retrieval.min_inliers");
   if (log2_buckets < 10 || log2_buckets > 30)
@@ -428,6 +430,11 @@ absl::StatusOr<RetrievalResult> DocumentRegistry::Retrieve(const cv::Mat &gray,
     // Only the first extractor's keypoints are retried unrectified: a query that finds
     // nothing would otherwise pay for six retrievals.
     ro.retry_unrectified = options_.retrieval.retry_unrectified && attempt == 0;
+    // The few-keypoint pass is for views no extractor has found a page in yet.
+    ro.deep_max_keypoints =
+        hits.empty() && static_cast<int>(attempt) < options_.deep_pass_extractors
+            ? options_.retrieval.deep_max_keypoints
+            : 0;
     std::vector<DocumentHit> found = retriever->Retrieve(kp.points, kp.char_height, ro);
     match_ms += MillisecondsSince(t);
     // A page confirmed only by the layout check (fewer than min_inliers LLAH inliers) may

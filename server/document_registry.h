@@ -58,6 +58,11 @@ struct DocumentRegistryOptions {
   // with.
   LlahOptions llah;
   RetrievalOptions retrieval;
+  // The few-keypoint pass (RetrievalOptions::deep_max_keypoints) runs for the first this
+  // many extractors (the registration one, then the fallbacks) while none has found a page:
+  // each pass costs a view of an unregistered page ~4 ms at 10,000 pages, and the views it
+  // found were found with the first two.
+  int deep_pass_extractors = 2;
   // Queries without intrinsics: the camera's horizontal field of view assumed when
   // rectifying a steep view (RetrievalOptions::perspective.focal_px), a phone's main camera
   // (60-75 degrees). 0: the rectification stays affine unless intrinsics are given.

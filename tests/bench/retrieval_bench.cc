@@ -239,6 +239,20 @@ int main(int argc, char **argv) {
                  "LLAH inliers from which the layout check may confirm a page");
   app.add_option("--layout-ratio", registry_options.retrieval.min_layout_ratio,
                  "share of projected reference keypoints that must meet query keypoints");
+  app.add_option("--max-layout-tail", registry_options.retrieval.max_layout_tail,
+                 "below min_layout_matches, the layout confirms a page when chance would match "
+                 "that share with at most this probability (0: off)");
+  app.add_option("--deep-max-keypoints", registry_options.retrieval.deep_max_keypoints,
+                 "queries of at most this many keypoints that found nothing vote again on "
+                 "their hits (the few-keypoint pass; 0: off)");
+  app.add_option("--deep-extractors", registry_options.deep_pass_extractors,
+                 "extractors (in order) whose keypoints may take the few-keypoint pass");
+  app.add_option("--deep-prefilter", registry_options.retrieval.deep_prefilter_documents,
+                 "documents (most hits) voted for in that second pass (0: all)");
+  app.add_option("--deep-min-strong", registry_options.retrieval.deep_min_strong_votes,
+                 "strong votes a candidate needs in that second pass");
+  app.add_option("--deep-min-weak-inliers", registry_options.retrieval.deep_min_weak_inliers,
+                 "LLAH inliers a candidate needs in that second pass");
   app.add_option("--ransac-iterations", registry_options.retrieval.ransac_iterations,
                  "RANSAC iterations per candidate document");
   app.add_option("--llah-n", registry_options.llah.n, "LLAH neighbours (new database only)");

@@ -90,10 +90,11 @@ constexpr Disturbance kHeavy{20, 0.5, 0.20, 0.10};
 // Random window of 40% of the page area; a camera tilted by tilt_deg (random azimuth and
 // roll) looking at the window's centre; a share of the window's points dropped, Gaussian
 // noise, then extra random points spread over the view's bounding box; shuffled.
+// `side` scales the window's sides (1: 40% of the page).
 Query MakeQuery(const std::vector<cv::Point2f>& document, std::mt19937& rng,
-                const Disturbance& disturbance) {
+                const Disturbance& disturbance, double side = 1.0) {
   std::uniform_real_distribution<double> u01(0, 1), angle(-180, 180);
-  const double w = 0.6 * kPageSize.width, h = (0.4 / 0.6) * kPageSize.height;
+  const double w = side * 0.6 * kPageSize.width, h = side * (0.4 / 0.6) * kPageSize.height;
   const cv::Rect2d window(u01(rng) * (kPageSize.width - w), u01(rng) * (kPageSize.height - h), w,
                           h);
   testdata::CameraViewOptions view;
@@ -125,6 +126,15 @@ Query MakeQuery(const std::vector<cv::Point2f>& document, std::mt19937& rng,
   for (size_t i = 0; i < outliers; ++i) q.points.emplace_back(ox(rng), oy(rng));
   std::shuffle(q.points.begin(), q.points.end(), rng);
   return q;
+}
+
+// Mean distance between where the found and the exact homography put the window's reference
+// points (the benchmark's criterion).
+double MeanHomographyError(const cv::Matx33d& found, const Query& q) {
+  double sum = 0;
+  for (const auto& p : q.window_points)
+    sum += cv::norm(ApplyHomography(found, p) - ApplyHomography(q.homography, p));
+  return q.window_points.empty() ? 0 : sum / q.window_points.size();
 }
 
 // Largest distance between where the found and the exact homography put the window's
@@ -308,6 +318,7 @@ TEST_P(LlahRetrieverTest, LayoutCheckConfirmsWeaklyMatchedWindowsAndNoWrongDocum
   // about the layout check, so the descriptors are taken as seen.
   RetrievalOptions options;
   options.rectify_perspective = false;
+  options.deep_max_keypoints = 0;  // the few-keypoint pass has its own test
   RetrievalOptions llah_only = options;
   llah_only.min_weak_inliers = llah_only.min_inliers;  // the layout check never decides
   std::mt19937 rng(GetParam() == Layout::kUniform ? 71 : 72);
@@ -340,6 +351,7 @@ TEST_P(LlahRetrieverTest, ImprobableInlierAgreementConfirmsWeakMatchesAndNoWrong
   RetrievalOptions options;
   options.rectify_perspective = false;
   options.min_layout_ratio = 1.0;  // the layout check (practically) never confirms
+  options.deep_max_keypoints = 0;  // nor does the few-keypoint pass's
   RetrievalOptions without = options;
   without.max_weak_nfa = 0;
   std::mt19937 rng(GetParam() == Layout::kUniform ? 81 : 82);
@@ -365,6 +377,76 @@ TEST_P(LlahRetrieverTest, ImprobableInlierAgreementConfirmsWeakMatchesAndNoWrong
     EXPECT_TRUE(db().retriever->Retrieve(q.points, kQueryCharHeight, options).empty())
         << "unknown document " << i;
   }
+}
+
+// A view holding ~25-40 of a page's keypoints (large type, a corner of the page) keeps few
+// whole LLAH neighbourhoods: the first pass finds few such windows. The few-keypoint pass
+// (a second vote with one strong vote, every homography of four correspondences tried, the
+// layout deciding a contrario) finds more, each with its matches right and its homography
+// within the benchmark's tolerance, and finds neither a wrong document nor an unknown one.
+TEST_P(LlahRetrieverTest, FewKeypointWindowsAreFoundByTheSecondPassAndNoWrongDocument) {
+  constexpr Disturbance kSmallView{25, 0.5, 0.1, 0.1};
+  constexpr double kSide = 0.55;  // 12% of the page
+  RetrievalOptions options;
+  RetrievalOptions first_pass = options;
+  first_pass.deep_max_keypoints = 0;
+  std::mt19937 rng(GetParam() == Layout::kUniform ? 61 : 62);
+  int deep = 0, first = 0, trials = 0;
+  size_t fewest = 1000, most = 0;
+  for (int d = 0; d < kDocuments; ++d) {
+    const Query q = MakeQuery(db().documents[d], rng, kSmallView, kSide);
+    ASSERT_LE(static_cast<int>(q.points.size()), options.deep_max_keypoints);
+    fewest = std::min(fewest, q.points.size());
+    most = std::max(most, q.points.size());
+    ++trials;
+    const auto hits = db().retriever->Retrieve(q.points, kQueryCharHeight, options);
+    for (const DocumentHit& h : hits) {
+      ASSERT_EQ(h.document, DocumentId(d)) << "document " << d << ": " << Describe(hits);
+      // Few matches, in part of the window: the homography is right where they are and may
+      // drift towards the far corners (a uniform window's 21 matches, one of them wrong, gave
+      // a mean error of 6 px and 27 px at the farthest point). The benchmark's criterion, and
+      // the matches themselves:
+      EXPECT_LT(MeanHomographyError(h.homography, q), 10.0) << "document " << d;
+      const auto ref = db().retriever->Keypoints(h.document);
+      int good = 0;
+      for (const auto& [qi, ri] : h.matches)
+        good += cv::norm(ApplyHomography(q.homography, ref[ri]) - cv::Point2d(q.points[qi])) < 3;
+      EXPECT_GE(good, 0.9 * h.matches.size()) << "document " << d;
+      EXPECT_GE(good, RetrievalOptions().min_inliers) << "document " << d;
+    }
+    deep += !hits.empty();
+    const auto plain = db().retriever->Retrieve(q.points, kQueryCharHeight, first_pass);
+    for (const DocumentHit& h : plain) ASSERT_EQ(h.document, DocumentId(d));
+    first += !plain.empty();
+  }
+  std::printf("few keypoints (%zu-%zu): %d of %d windows found (first pass alone: %d)\n", fewest,
+              most, deep, trials, first);
+  EXPECT_LE(most, 60u) << "test setup: the windows should hold few keypoints";
+  EXPECT_GT(deep, first);
+  // Windows of documents never registered, seen alike, find nothing.
+  std::mt19937 unknown_rng(GetParam() == Layout::kUniform ? 63 : 64);
+  for (int i = 0; i < 30; ++i) {
+    const Query q =
+        MakeQuery(MakeDocument(GetParam(), unknown_rng), unknown_rng, kSmallView, kSide);
+    const auto hits = db().retriever->Retrieve(q.points, kQueryCharHeight, options);
+    EXPECT_TRUE(hits.empty()) << "unknown document " << i << ": " << Describe(hits);
+  }
+}
+
+TEST(LayoutLog10TailTest, ChanceSharesAreLikelyAndNearlyWholeLayoutsAreNot) {
+  // A quarter of the projected keypoints on query keypoints: what chance gives.
+  EXPECT_GT(LayoutLog10Tail(100, 25, 0.25), -0.5);
+  // Twelve of twelve (a view holding a dozen of the page's words): p = 0.25^12.
+  EXPECT_NEAR(LayoutLog10Tail(12, 12, 0.25), 12 * std::log10(0.25), 1e-9);
+  // More matches are less likely; matches beyond the projected count are capped.
+  EXPECT_LT(LayoutLog10Tail(40, 30, 0.25), LayoutLog10Tail(40, 20, 0.25));
+  EXPECT_EQ(LayoutLog10Tail(12, 14, 0.25), LayoutLog10Tail(12, 12, 0.25));
+  // A likelier chance match makes the same share less significant.
+  EXPECT_GT(LayoutLog10Tail(40, 20, 0.4), LayoutLog10Tail(40, 20, 0.25));
+  // Degenerate input is never significant.
+  EXPECT_EQ(LayoutLog10Tail(0, 0, 0.25), 0);
+  EXPECT_EQ(LayoutLog10Tail(20, 10, 0), 0);
+  EXPECT_EQ(LayoutLog10Tail(20, 10, 1), 0);
 }
 
 TEST(NeighboursLostToFrameTest, ShareOfTheNeighbourhoodDiskBeyondTheEdges) {
@@ -711,6 +793,14 @@ TEST(RetrievalOptionsTest, ValidateRejectsBadValuesWithAMessage) {
       {"min_layout_ratio", [](RetrievalOptions& o) { o.min_layout_ratio = 0.2; }},
       {"min_layout_ratio", [](RetrievalOptions& o) { o.min_layout_ratio = 1.5; }},
       {"max_results", [](RetrievalOptions& o) { o.max_results = -1; }},
+      {"layout_chance", [](RetrievalOptions& o) { o.layout_chance = 0; }},
+      {"layout_chance", [](RetrievalOptions& o) { o.layout_chance = 1; }},
+      {"max_layout_tail", [](RetrievalOptions& o) { o.max_layout_tail = -1; }},
+      {"deep_max_keypoints", [](RetrievalOptions& o) { o.deep_max_keypoints = -1; }},
+      {"deep_min_strong_votes", [](RetrievalOptions& o) { o.deep_min_strong_votes = 3; }},
+      {"deep_min_weak_inliers", [](RetrievalOptions& o) { o.deep_min_weak_inliers = 3; }},
+      {"deep_min_weak_inliers", [](RetrievalOptions& o) { o.deep_min_weak_inliers = 7; }},
+      {"deep_min_layout_ratio", [](RetrievalOptions& o) { o.deep_min_layout_ratio = 0.2; }},
   };
   for (const Case& c : cases) {
     RetrievalOptions o;
