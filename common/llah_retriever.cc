@@ -119,24 +119,30 @@ float BaseLayerRadius(const DocumentKeypoints &d, int k, int64_t base) {
                          k);
 }
 
+double LogChoose(int a, int b) {
+  return std::lgamma(a + 1.0) - std::lgamma(b + 1.0) - std::lgamma(a - b + 1.0);
+}
+
+// log10 P[X >= k] for X ~ B(n, p), 0 < k <= n, 0 < p < 1: summed in log space from its
+// largest term, so that tails of 1e-300 and beyond stay finite.
+double Log10BinomialTail(int n, int k, double p) {
+  const double lp = std::log(p), lq = std::log1p(-p);
+  const double top = LogChoose(n, k) + k * lp + (n - k) * lq;
+  double sum = 0;
+  for (int j = k; j <= n; ++j) {
+    const double term = std::exp(LogChoose(n, j) + j * lp + (n - j) * lq - top);
+    sum += term;
+    if (term < 1e-12 * sum) break;
+  }
+  return (top + std::log(sum)) / std::log(10.0);
+}
+
 }  // namespace
 
 double LayoutLog10Tail(int inside, int matched, double chance) {
   const int n = inside, k = std::min(matched, inside);
   if (n <= 0 || k <= 0 || !(chance > 0) || chance >= 1) return 0;
-  auto log_choose = [](int a, int b) {
-    return std::lgamma(a + 1.0) - std::lgamma(b + 1.0) - std::lgamma(a - b + 1.0);
-  };
-  // Summed in log space from its largest term, as WeakMatchLog10Nfa's.
-  const double lp = std::log(chance), lq = std::log1p(-chance);
-  const double top = log_choose(n, k) + k * lp + (n - k) * lq;
-  double sum = 0;
-  for (int j = k; j <= n; ++j) {
-    const double term = std::exp(log_choose(n, j) + j * lp + (n - j) * lq - top);
-    sum += term;
-    if (term < 1e-12 * sum) break;
-  }
-  return std::min(0.0, (top + std::log(sum)) / std::log(10.0));
+  return std::min(0.0, Log10BinomialTail(n, k, chance));
 }
 
 double WeakMatchLog10Nfa(int correspondences, int inliers, double threshold_px, double area_px2) {
@@ -144,20 +150,8 @@ double WeakMatchLog10Nfa(int correspondences, int inliers, double threshold_px, 
   if (n < 4 || k <= 4 || k > n || !(area_px2 > 0)) return 0;
   const double p = std::min(1.0, CV_PI * threshold_px * threshold_px / area_px2);
   if (p >= 1) return 0;
-  auto log_choose = [](int a, int b) {
-    return std::lgamma(a + 1.0) - std::lgamma(b + 1.0) - std::lgamma(a - b + 1.0);
-  };
-  // Binomial tail P[X >= k - 4], X ~ B(n - 4, p), summed in log space from its largest term.
-  const int m = n - 4, first = k - 4;
-  const double lp = std::log(p), lq = std::log1p(-p);
-  const double top = log_choose(m, first) + first * lp + (m - first) * lq;
-  double sum = 0;
-  for (int j = first; j <= m; ++j) {
-    const double term = std::exp(log_choose(m, j) + j * lp + (m - j) * lq - top);
-    sum += term;
-    if (term < 1e-12 * sum) break;
-  }
-  return (log_choose(n, 4) + top + std::log(sum)) / std::log(10.0);
+  // C(n, 4) minimal samples, each explaining k - 4 of the other n - 4 by chance.
+  return LogChoose(n, 4) / std::log(10.0) + Log10BinomialTail(n - 4, k - 4, p);
 }
 
 LlahRetriever::LlahRetriever(LlahOptions options, InvariantQuantizer quantizer, int log2_buckets)
