@@ -1176,8 +1176,8 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
             const cv::Vec3b* p = bgr.ptr<cv::Vec3b>(v + grown.y) + grown.x;
             float* d = distance.ptr<float>(v);
             for (int u = 0; u < grown.width; ++u)
-              d[u] = static_cast<float>(
-                  cv::norm(cv::Vec3f(p[u][0], p[u][1], p[u][2]) - local_cloth));
+              d[u] =
+                  static_cast<float>(cv::norm(cv::Vec3f(p[u][0], p[u][1], p[u][2]) - local_cloth));
           }
         }
       }
