@@ -55,6 +55,13 @@ struct PoolBallOptions {
   // up to this many apparent radii more to find the cloth: the edge pass can leave a dark
   // ball 4-6 px down in its shadow, out of reach of its far rim. 0 turns this off.
   double rim_outward_reach = 0.6;
+  // A ball darker than the cloth whose median saturation (chroma over intensity) is under
+  // this share of the cloth's, a grey or black one, is fitted on its rim in the full
+  // colour distance from the cloth rather than mostly in chromaticity: its far rim is its
+  // lit top, nearly as bright as the cloth and without chromaticity of its own. A
+  // saturated ball (the green 6 on green cloth, about 1.5 of the cloth's) keeps the
+  // chromaticity, which tells it from the cloth of its own hue. 0 turns this off.
+  double rim_full_colour_saturation = 0.5;
   // A ball not darker than the cloth is refined, after the edge pass, on its edge points:
   // along each outline normal, up to this many apparent radii (at least 2 px) either
   // side, the outermost peak of the fall of the colour distance whose outer side is at

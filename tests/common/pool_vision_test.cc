@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <random>
+#include <utility>
 
 #include "common/pool_analyzer.h"
 #include "common/pool_balls.h"
@@ -566,6 +567,30 @@ TEST(PoolTouchingBalls, BallsNotDarkerThanTheClothAreFittedOnTheirEdgePoints) {
     }
     if (frame == 46 || frame == 55)
       EXPECT_EQ(score.position_errors_mm.size(), view.balls.size()) << "frame " << frame;
+    EXPECT_EQ(score.separated_identified, score.separated) << "frame " << frame;
+  }
+}
+
+// A grey or black ball darker than the cloth is fitted on its rim in the full colour
+// distance: its far rim is its top, lit to nearly the cloth's brightness and with no
+// chromaticity, so in the mostly chromatic distance its rim was met inside the ball.
+// Benchmark frames: seed 7's frame 5 8 (touching the cue ball, 12.1 mm towards the camera
+// before) and seed 11's frame 56 8 (11.9 mm before).
+TEST(PoolDarkBalls, GreyOrBlackBallsAreFittedOnTheirRimInFullColour) {
+  for (const auto& [frame, seed] : {std::pair<int, uint64_t>{5, 7}, {56, 11}}) {
+    const auto [scene, view] = RenderBenchFrame(frame, seed);
+    auto scored = AnalyzeAndScore(scene, view);
+    ASSERT_TRUE(scored.ok()) << scored.status();
+    const testdata::PoolScore& score = scored->score;
+    bool seen = false;
+    for (const auto& m : score.matches) {
+      EXPECT_GE(m.error_mm, 0) << "frame " << frame << ", ball " << m.truth_number;
+      EXPECT_LT(m.error_mm, 10.0) << "frame " << frame << ", ball " << m.truth_number;
+      if (m.truth_number != 8) continue;
+      seen = true;
+      EXPECT_LT(m.error_mm, 7.0) << "frame " << frame;
+    }
+    EXPECT_TRUE(seen) << "frame " << frame << " has no 8";
     EXPECT_EQ(score.separated_identified, score.separated) << "frame " << frame;
   }
 }
