@@ -461,14 +461,8 @@ class EdgeFitter {
       if (static_cast<int>(rim.size()) < kMinRimPoints) return xy;
       const cv::Point2d start = xy;
       xy = CompassSearch(xy, 0.1 * radius_, radius_, [&](const cv::Point2d& p) {
-        const cv::Matx33d Q =
-            SphereSilhouetteConic(pose_, K_, cv::Vec3d(p.x, p.y, radius_), radius_);
-        double cost = 0;
-        for (const auto& q : rim) {
-          const double e = std::abs(SilhouetteScorer::InsideDistance(Q, q.x, q.y));
-          cost += e < kRimHuberPx ? 0.5 * e * e : kRimHuberPx * (e - 0.5 * kRimHuberPx);
-        }
-        return -cost;
+        return -OutlineHuberCost(
+            SphereSilhouetteConic(pose_, K_, cv::Vec3d(p.x, p.y, radius_), radius_), rim);
       });
       if (cv::norm(xy - start) < 0.05 * radius_) break;
     }
@@ -533,12 +527,7 @@ class EdgeFitter {
         const cv::Vec3d centre(p.x, p.y, radius_);
         const cv::Matx33d Q = SphereSilhouetteConic(pose_, K_, centre, radius_);
         const cv::Point2d moved = ProjectIdeal(pose_, K_, centre) - origin;
-        double cost = 0.5 * prior_points * moved.dot(moved);
-        for (const auto& q : points) {
-          const double e = std::abs(SilhouetteScorer::InsideDistance(Q, q.x, q.y));
-          cost += e < kRimHuberPx ? 0.5 * e * e : kRimHuberPx * (e - 0.5 * kRimHuberPx);
-        }
-        return -cost;
+        return -(0.5 * prior_points * moved.dot(moved) + OutlineHuberCost(Q, points));
       });
       if (cv::norm(xy - start) < 0.05 * radius_) break;
     }
@@ -599,6 +588,17 @@ class EdgeFitter {
   static constexpr double kNeighbourMargin = 1.3;  // apparent radii
   static constexpr double kShadowReach = 1.3;  // radii
   static constexpr double kRimHuberPx = 1.0;
+
+  // Huber cost (kRimHuberPx) of points' distances to a sphere's projected outline Q: the
+  // rim fit's and the edge-point fit's objective.
+  static double OutlineHuberCost(const cv::Matx33d& Q, const std::vector<cv::Point2d>& points) {
+    double cost = 0;
+    for (const auto& q : points) {
+      const double e = std::abs(SilhouetteScorer::InsideDistance(Q, q.x, q.y));
+      cost += e < kRimHuberPx ? 0.5 * e * e : kRimHuberPx * (e - 0.5 * kRimHuberPx);
+    }
+    return cost;
+  }
 };
 
 // The level of a ball's rim step in `distance` (over `area`) for a ball at `xy`: half-way
