@@ -373,32 +373,6 @@ constexpr int kMaxExhaustivePairs = 12;
 // ...and refines at most this many of their consensus sets.
 constexpr int kMaxDeepHypotheses = 3;
 
-// The projective map of the unit square's corners (0,0), (1,0), (1,1), (0,1) onto p[0..3]
-// (Heckbert's closed form); false when three of them are collinear.
-bool SquareToQuad(const cv::Point2f p[4], cv::Matx33d *m) {
-  const double x0 = p[0].x, y0 = p[0].y, x1 = p[1].x, y1 = p[1].y, x2 = p[2].x, y2 = p[2].y,
-               x3 = p[3].x, y3 = p[3].y;
-  const double sx = x0 - x1 + x2 - x3, sy = y0 - y1 + y2 - y3;
-  const double dx1 = x1 - x2, dx2 = x3 - x2, dy1 = y1 - y2, dy2 = y3 - y2;
-  const double den = dx1 * dy2 - dx2 * dy1;
-  if (std::abs(den) < 1e-9) return false;
-  const double g = (sx * dy2 - dx2 * sy) / den, h = (dx1 * sy - sx * dy1) / den;
-  *m = cv::Matx33d(x1 - x0 + g * x1, x3 - x0 + h * x3, x0, y1 - y0 + g * y1, y3 - y0 + h * y3, y0,
-                   g, h, 1);
-  return true;
-}
-
-// The homography taking src[i] to dst[i] (i < 4) without allocating (the few-keypoint pass
-// solves hundreds per candidate); false for a degenerate quadruple.
-bool HomographyFromFour(const cv::Point2f src[4], const cv::Point2f dst[4], cv::Matx33d *H) {
-  cv::Matx33d a, b;
-  if (!SquareToQuad(src, &a) || !SquareToQuad(dst, &b)) return false;
-  const double det = cv::determinant(a);
-  if (std::abs(det) < 1e-12) return false;
-  *H = b * a.inv();
-  return std::isfinite((*H)(0, 0)) && std::isfinite((*H)(2, 2));
-}
-
 struct Correspondence {
   uint32_t document;
   int query;
@@ -778,16 +752,7 @@ std::vector<DocumentHit> LlahRetriever::RetrieveDescribed(const std::vector<cv::
                                  : std::clamp(0.45 * query_char_height, 2.5, 12.0);
     const int min_weak = deep ? o.deep_min_weak_inliers : o.min_weak_inliers;
     std::vector<char> used(query.size(), 0);
-    cv::Rect2f query_box;
-    if (!query.empty()) {
-      const auto [min_x, max_x] =
-          std::minmax_element(query.begin(), query.end(),
-                              [](const cv::Point2f &a, const cv::Point2f &b) { return a.x < b.x; });
-      const auto [min_y, max_y] =
-          std::minmax_element(query.begin(), query.end(),
-                              [](const cv::Point2f &a, const cv::Point2f &b) { return a.y < b.y; });
-      query_box = {min_x->x, min_y->y, max_x->x - min_x->x, max_y->y - min_y->y};
-    }
+    const cv::Rect query_box = cv::boundingRect(query);  // whole pixels around every point
     std::vector<cv::Point2f> query_hull;  // computed when a layout check needs it
     std::vector<int> nearest;
     for (const Candidate &candidate : ranked) {
@@ -924,8 +889,9 @@ std::vector<DocumentHit> LlahRetriever::RetrieveDescribed(const std::vector<cv::
                   src[t] = ref_pts[idx[t]];
                   dst[t] = query_pts[idx[t]];
                 }
-                cv::Matx33d h;
-                if (!HomographyFromFour(src, dst, &h)) continue;
+                // Three collinear points leave the system singular: solved as zeros.
+                const cv::Matx33d h(cv::getPerspectiveTransform(src, dst));
+                if (std::abs(cv::determinant(h)) < 1e-12) continue;
                 uint32_t m = 0;
                 int count = 0;
                 for (int i = 0; i < np; ++i) {

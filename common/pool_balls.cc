@@ -1110,22 +1110,27 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
     const bool dark_ball =
         ball_median < 0.5f * cloth_i && lit_chromatic < 0.15 * ball_intensities.size();
     const bool darker_than_cloth = ball_median < 0.9f * cloth_i;
+    // The ball's colour distance from the cloth over `grown`: in full colour, or mostly in
+    // chromaticity (which tells a ball from cloth of nearly its brightness).
     cv::Mat distance(grown.size(), CV_32FC1);
-    for (int v = 0; v < grown.height; ++v) {
-      const cv::Vec3b* p = bgr.ptr<cv::Vec3b>(v + grown.y) + grown.x;
-      float* d = distance.ptr<float>(v);
-      for (int u = 0; u < grown.width; ++u) {
-        const cv::Vec3f q(p[u][0], p[u][1], p[u][2]);
-        if (dark_ball) {
-          d[u] = static_cast<float>(cv::norm(q - local_cloth));
-          continue;
+    const auto fill_distance = [&](bool full_colour) {
+      for (int v = 0; v < grown.height; ++v) {
+        const cv::Vec3b* p = bgr.ptr<cv::Vec3b>(v + grown.y) + grown.x;
+        float* d = distance.ptr<float>(v);
+        for (int u = 0; u < grown.width; ++u) {
+          const cv::Vec3f q(p[u][0], p[u][1], p[u][2]);
+          if (full_colour) {
+            d[u] = static_cast<float>(cv::norm(q - local_cloth));
+            continue;
+          }
+          const float i = std::max(15.f, (q[0] + q[1] + q[2]) / 3);
+          d[u] = static_cast<float>(cv::norm(q / i - cloth_chroma) *
+                                        (darker_than_cloth ? std::min(i, cloth_i) : cloth_i) +
+                                    0.3 * std::abs(i - cloth_i));
         }
-        const float i = std::max(15.f, (q[0] + q[1] + q[2]) / 3);
-        d[u] = static_cast<float>(cv::norm(q / i - cloth_chroma) *
-                                      (darker_than_cloth ? std::min(i, cloth_i) : cloth_i) +
-                                  0.3 * std::abs(i - cloth_i));
       }
-    }
+    };
+    fill_distance(dark_ball);
     cv::Mat gx, gy;
     cv::Sobel(distance, gx, CV_32F, 1, 0, 3, 1.0 / 8);
     cv::Sobel(distance, gy, CV_32F, 0, 1, 3, 1.0 / 8);
@@ -1171,15 +1176,8 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
         const float cloth_cy = 0.8660254f * (local_cloth[1] - local_cloth[0]);
         const double cloth_saturation = std::hypot(cloth_cx, cloth_cy) / cloth_i;
         if (ball_saturations[ball_saturations.size() / 2] <
-            options.rim_full_colour_saturation * cloth_saturation) {
-          for (int v = 0; v < grown.height; ++v) {
-            const cv::Vec3b* p = bgr.ptr<cv::Vec3b>(v + grown.y) + grown.x;
-            float* d = distance.ptr<float>(v);
-            for (int u = 0; u < grown.width; ++u)
-              d[u] =
-                  static_cast<float>(cv::norm(cv::Vec3f(p[u][0], p[u][1], p[u][2]) - local_cloth));
-          }
-        }
+            options.rim_full_colour_saturation * cloth_saturation)
+          fill_distance(true);  // the edge pass above has its gradients already
       }
       double outside = 0;
       const double threshold =
