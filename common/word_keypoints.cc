@@ -208,19 +208,13 @@ void ComponentStats(const cv::Mat &labels, int n, cv::Mat *stats, cv::Mat *centr
   }
 }
 
-// `fast_stats`: component statistics by ComponentStats instead of OpenCV's.
 std::vector<Word> CloseAlongLines(const cv::Mat &ink, double h, double angle,
-                                  const WordKeypointOptions &o, bool fast_stats = false) {
+                                  const WordKeypointOptions &o) {
   cv::Mat words;
   cv::morphologyEx(ink, words, cv::MORPH_CLOSE, LineKernel(o.gap_factor * h, angle));
   cv::Mat labels, stats, centroids;
-  int n = 0;
-  if (fast_stats) {
-    n = cv::connectedComponents(words, labels, 8, CV_32S);
-    ComponentStats(labels, n, &stats, &centroids);
-  } else {
-    n = cv::connectedComponentsWithStats(words, labels, stats, centroids, 8, CV_32S);
-  }
+  const int n = cv::connectedComponents(words, labels, 8, CV_32S);
+  ComponentStats(labels, n, &stats, &centroids);
   std::vector<Word> found;
   const double min_area = o.min_word_area_factor * h * h;
   for (int i = 1; i < n; ++i) {
@@ -299,10 +293,17 @@ double WordGapThreshold(const std::vector<float> &gaps, double fallback) {
 // for the whole image cannot do this.
 std::vector<Word> GroupLettersIntoWords(const cv::Mat &ink, double h, double angle,
                                         const WordKeypointOptions &o) {
-  cv::Mat labels, stats, centroids;
-  const int count = cv::connectedComponentsWithStats(ink, labels, stats, centroids, 8, CV_32S);
+  // Labels only, and every glyph's statistics from one scan of them: OpenCV's
+  // connectedComponentsWithStats measures the same area, box and centroid several
+  // times slower (a fifth of the extraction's time).
+  cv::Mat labels;
+  const int count = cv::connectedComponents(ink, labels, 8, CV_32S);
   const float ux = static_cast<float>(std::cos(angle)), uy = static_cast<float>(std::sin(angle));
   std::vector<Glyph> glyphs(static_cast<size_t>(count));
+  for (Glyph &g : glyphs) {
+    g.left = g.top = INT32_MAX;
+    g.right = g.bottom = -1;
+  }
   for (int y = 0; y < labels.rows; ++y) {
     const int *row = labels.ptr<int>(y);
     for (int x = 0; x < labels.cols; ++x) {
@@ -314,6 +315,13 @@ std::vector<Word> GroupLettersIntoWords(const cv::Mat &ink, double h, double ang
       g.max_u = std::max(g.max_u, u);
       g.min_n = std::min(g.min_n, n);
       g.max_n = std::max(g.max_n, n);
+      g.area += 1;
+      g.sx += x;
+      g.sy += y;
+      g.left = std::min(g.left, x);
+      g.right = std::max(g.right, x);
+      g.top = std::min(g.top, y);
+      g.bottom = std::max(g.bottom, y);
     }
   }
   // Glyphs that may be part of words: not noise specks, not rules, frames or
@@ -323,18 +331,13 @@ std::vector<Word> GroupLettersIntoWords(const cv::Mat &ink, double h, double ang
   std::vector<cv::Point2f> centers;
   for (int i = 1; i < count; ++i) {
     Glyph &g = glyphs[static_cast<size_t>(i)];
-    g.area = stats.at<int>(i, cv::CC_STAT_AREA);
-    g.sx = centroids.at<double>(i, 0) * g.area;
-    g.sy = centroids.at<double>(i, 1) * g.area;
-    g.left = stats.at<int>(i, cv::CC_STAT_LEFT);
-    g.top = stats.at<int>(i, cv::CC_STAT_TOP);
-    g.right = g.left + stats.at<int>(i, cv::CC_STAT_WIDTH);
-    g.bottom = g.top + stats.at<int>(i, cv::CC_STAT_HEIGHT);
+    // One past the last column and row, as left + width and top + height.
+    ++g.right;
+    ++g.bottom;
     if (g.area < 2) continue;
     if (g.max_u - g.min_u > max_extent || g.height() > o.max_word_height_factor * h) continue;
     kept.push_back(i);
-    centers.emplace_back(static_cast<float>(centroids.at<double>(i, 0)),
-                         static_cast<float>(centroids.at<double>(i, 1)));
+    centers.emplace_back(static_cast<float>(g.sx / g.area), static_cast<float>(g.sy / g.area));
   }
   std::vector<Word> words;
   if (kept.size() < 2) return words;
@@ -490,8 +493,7 @@ WordKeypoints WordKeypointExtractor::Extract(const cv::Mat &gray) const {
 
   // Pass 2: window matched to the text (a few word heights); letters grouped into words.
   const int block2 = OddAtLeast(3.0 * h, 7);
-  return GroupWords(gray, smooth, h, angle, block2 == block1 ? ink1 : cv::Mat(),
-                    /*fast_stats=*/false);
+  return GroupWords(gray, smooth, h, angle, block2 == block1 ? ink1 : cv::Mat());
 }
 
 WordKeypoints WordKeypointExtractor::Extract(const cv::Mat &gray, const TextGeometry &known) const {
@@ -504,13 +506,11 @@ WordKeypoints WordKeypointExtractor::Extract(const cv::Mat &gray, const TextGeom
   if (!(o.half_resolution_above_char_height > 0 &&
         known.char_height > o.half_resolution_above_char_height))
     cv::GaussianBlur(gray, smooth, cv::Size(3, 3), 0.7);  // GroupWords smooths its own half
-  return GroupWords(gray, smooth, known.char_height, known.text_angle_rad, cv::Mat(),
-                    /*fast_stats=*/true);
+  return GroupWords(gray, smooth, known.char_height, known.text_angle_rad, cv::Mat());
 }
 
 WordKeypoints WordKeypointExtractor::GroupWords(const cv::Mat &gray, const cv::Mat &smooth,
-                                                double h, double angle, cv::Mat ink,
-                                                bool fast_stats) const {
+                                                double h, double angle, cv::Mat ink) const {
   const WordKeypointOptions &o = options_;
   WordKeypoints result;
   result.char_height = h;
@@ -533,7 +533,7 @@ WordKeypoints WordKeypointExtractor::GroupWords(const cv::Mat &gray, const cv::M
   if (ink.empty()) ink = InkMask(work_smooth, OddAtLeast(3.0 * work_h, 7), o.threshold_offset);
   std::vector<Word> found = o.grouping == WordGrouping::kLetterGraph
                                 ? GroupLettersIntoWords(ink, work_h, angle, o)
-                                : CloseAlongLines(ink, work_h, angle, o, fast_stats);
+                                : CloseAlongLines(ink, work_h, angle, o);
   if (static_cast<int>(found.size()) > o.max_keypoints) {
     std::nth_element(found.begin(), found.begin() + o.max_keypoints, found.end(),
                      [](const Word &a, const Word &b) { return a.area > b.area; });

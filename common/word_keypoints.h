@@ -107,10 +107,9 @@ class WordKeypointExtractor {
 
  private:
   // Pass 2: words of text of height h along `angle`. `ink` is the ink mask of `smooth` at
-  // window 3 h when the caller has it already. `fast_stats`: the same component
-  // statistics computed by a faster route.
+  // window 3 h when the caller has it already.
   WordKeypoints GroupWords(const cv::Mat &gray, const cv::Mat &smooth, double h, double angle,
-                           cv::Mat ink, bool fast_stats) const;
+                           cv::Mat ink) const;
 
   WordKeypointOptions options_;
 };
