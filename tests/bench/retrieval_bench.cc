@@ -245,6 +245,8 @@ int main(int argc, char **argv) {
   app.add_option("--deep-max-keypoints", registry_options.retrieval.deep_max_keypoints,
                  "queries of at most this many keypoints that found nothing vote again on "
                  "their hits (the few-keypoint pass; 0: off)");
+  app.add_option("--retry-extractors", registry_options.retry_unrectified_extractors,
+                 "extractors that retry unrectified when the rectified view finds nothing");
   app.add_option("--deep-extractors", registry_options.deep_pass_extractors,
                  "extractors (in order) whose keypoints may take the few-keypoint pass");
   app.add_option("--deep-prefilter", registry_options.retrieval.deep_prefilter_documents,
@@ -270,6 +272,8 @@ int main(int argc, char **argv) {
   double slow_ms = 0;
   app.add_option("--slow", slow_ms, "print the stages of queries slower than this (ms)");
   app.add_flag("--misses", misses, "print why each missed query failed (keypoint repeatability)");
+  std::string save_misses;
+  app.add_option("--save-misses", save_misses, "with --misses: write each missed view here (PNG)");
   app.add_flag("--no-fallback", no_fallback, "query with the registration extractor only");
   CLI11_PARSE(app, argc, argv);
   if (layers != "default") {
@@ -397,6 +401,8 @@ int main(int argc, char **argv) {
         if (err < 10) ++correct;
       } else if (misses) {
         PrintMiss(*registry, q, *gray, id_of_page[q.page], result.ok() ? &*result : nullptr);
+        if (!save_misses.empty())
+          cv::imwrite(save_misses + "/miss_page" + std::to_string(q.page) + ".png", *gray);
       }
       if (result.ok()) {
         for (const auto &d : result->documents)
