@@ -172,8 +172,6 @@ int Find(std::vector<int> &parent, int i) {
   return i;
 }
 
-// Letters -> words with one line-shaped closing for the whole image: gaps
-// shorter than gap_factor * h along the text direction are filled.
 // connectedComponentsWithStats' area, bounding box and centroid from the labels in one
 // pass: the same numbers, several times faster than OpenCV's per-pixel statistics.
 void ComponentStats(const cv::Mat &labels, int n, cv::Mat *stats, cv::Mat *centroids) {
@@ -208,6 +206,8 @@ void ComponentStats(const cv::Mat &labels, int n, cv::Mat *stats, cv::Mat *centr
   }
 }
 
+// Letters -> words with one line-shaped closing for the whole image: gaps
+// shorter than gap_factor * h along the text direction are filled.
 std::vector<Word> CloseAlongLines(const cv::Mat &ink, double h, double angle,
                                   const WordKeypointOptions &o) {
   cv::Mat words;
