@@ -133,8 +133,8 @@ absl::Status DocumentRegistryOptions::Validate() const {
     return absl::InvalidArgumentError(absl::StrCat("min_keypoints must exceed LLAH n = ", llah.n));
   if (deep_pass_extractors < 0)
     return absl::InvalidArgumentError("deep_pass_extractors must be >= 0");
-  if (retry_unrectified_extractors < 0)
-    return absl::InvalidArgumentError("retry_unrectified_extractors must be >= 0");
+  if (fallback_retry_max_keypoints < 0)
+    return absl::InvalidArgumentError("fallback_retry_max_keypoints must be >= 0");
   if (duplicate_min_inliers < retrieval.min_inliers)
     return absl::InvalidArgumentError("duplicate_min_inliers must be >= retrieval.min_inliers");
   if (log2_buckets < 10 || log2_buckets > 30)
@@ -429,10 +429,11 @@ absl::StatusOr<RetrievalResult> DocumentRegistry::Retrieve(const cv::Mat &gray,
     if (attempt > 0 && kp.points == tried) continue;
     tried = kp.points;
     t = Clock::now();
-    // Only the first extractor's keypoints are retried unrectified: a query that finds
-    // nothing would otherwise pay for six retrievals.
+    // The fallbacks' keypoints are retried unrectified only in small views: a large view
+    // that finds nothing would otherwise pay for six retrievals.
     ro.retry_unrectified = options_.retrieval.retry_unrectified &&
-                           static_cast<int>(attempt) < options_.retry_unrectified_extractors;
+                           (attempt == 0 || static_cast<int>(kp.points.size()) <=
+                                                options_.fallback_retry_max_keypoints);
     // The few-keypoint pass is for views no extractor has found a page in yet.
     ro.deep_max_keypoints =
         hits.empty() && static_cast<int>(attempt) < options_.deep_pass_extractors

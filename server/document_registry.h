@@ -63,9 +63,12 @@ struct DocumentRegistryOptions {
   // each pass costs a view of an unregistered page ~4 ms at 10,000 pages, and the views it
   // found were found with the first two.
   int deep_pass_extractors = 2;
-  // The unrectified retry (RetrievalOptions::retry_unrectified) runs for the first this
-  // many extractors: a query that finds nothing pays for a second retrieval with each.
-  int retry_unrectified_extractors = 1;
+  // The unrectified retry (RetrievalOptions::retry_unrectified) runs for the registration
+  // extractor, and for the fallbacks when they cut at most this many keypoints (0: never).
+  // The perspective fit from few keypoints is the one a layout's spacing fools most (a
+  // near-frontal view of large type found only as seen), and a small view's retrievals are
+  // cheap; a large view that finds nothing would pay for a second retrieval with each.
+  int fallback_retry_max_keypoints = 120;
   // Queries without intrinsics: the camera's horizontal field of view assumed when
   // rectifying a steep view (RetrievalOptions::perspective.focal_px), a phone's main camera
   // (60-75 degrees). 0: the rectification stays affine unless intrinsics are given.

@@ -245,8 +245,8 @@ int main(int argc, char **argv) {
   app.add_option("--deep-max-keypoints", registry_options.retrieval.deep_max_keypoints,
                  "queries of at most this many keypoints that found nothing vote again on "
                  "their hits (the few-keypoint pass; 0: off)");
-  app.add_option("--retry-extractors", registry_options.retry_unrectified_extractors,
-                 "extractors that retry unrectified when the rectified view finds nothing");
+  app.add_option("--fallback-retry", registry_options.fallback_retry_max_keypoints,
+                 "fallback extractors retry unrectified up to this many keypoints (0: never)");
   app.add_option("--deep-extractors", registry_options.deep_pass_extractors,
                  "extractors (in order) whose keypoints may take the few-keypoint pass");
   app.add_option("--deep-prefilter", registry_options.retrieval.deep_prefilter_documents,
