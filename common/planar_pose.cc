@@ -53,9 +53,12 @@ absl::StatusOr<PlanarPose> PoseFromHomography(const cv::Matx33d &H, const cv::Ma
   return pose;
 }
 
-absl::StatusOr<PlanarPose> EstimatePlanarPose(const std::vector<cv::Point2f> &plane,
-                                              const std::vector<cv::Point2f> &pixels,
-                                              const CameraModel &camera) {
+namespace {
+
+// IPPE (when `initial` is null) then Levenberg-Marquardt on the reprojection error.
+absl::StatusOr<PlanarPose> SolvePlanarPose(const std::vector<cv::Point2f> &plane,
+                                           const std::vector<cv::Point2f> &pixels,
+                                           const CameraModel &camera, const PlanarPose *initial) {
   if (plane.size() != pixels.size() || plane.size() < 4)
     return absl::InvalidArgumentError("planar pose needs at least 4 correspondences");
   std::vector<cv::Point3f> object;
@@ -66,7 +69,13 @@ absl::StatusOr<PlanarPose> EstimatePlanarPose(const std::vector<cv::Point2f> &pl
   const cv::Mat dist = camera.distortion.empty() ? cv::Mat() : cv::Mat(camera.distortion);
   bool ok = false;
   try {
-    ok = cv::solvePnP(object, pixels, K, dist, rvec, tvec, false, cv::SOLVEPNP_IPPE);
+    if (initial != nullptr) {
+      cv::Rodrigues(cv::Mat(initial->R), rvec);
+      tvec = cv::Mat(initial->t).clone();
+      ok = true;
+    } else {
+      ok = cv::solvePnP(object, pixels, K, dist, rvec, tvec, false, cv::SOLVEPNP_IPPE);
+    }
     if (ok) cv::solvePnPRefineLM(object, pixels, K, dist, rvec, tvec);
   } catch (const cv::Exception &e) {
     return absl::InvalidArgumentError(absl::StrCat("pose estimation failed: ", e.what()));
@@ -78,6 +87,20 @@ absl::StatusOr<PlanarPose> EstimatePlanarPose(const std::vector<cv::Point2f> &pl
   pose.R = cv::Matx33d(R);
   pose.t = cv::Vec3d(tvec.at<double>(0), tvec.at<double>(1), tvec.at<double>(2));
   return pose;
+}
+
+}  // namespace
+
+absl::StatusOr<PlanarPose> EstimatePlanarPose(const std::vector<cv::Point2f> &plane,
+                                              const std::vector<cv::Point2f> &pixels,
+                                              const CameraModel &camera) {
+  return SolvePlanarPose(plane, pixels, camera, nullptr);
+}
+
+absl::StatusOr<PlanarPose> RefinePlanarPose(const std::vector<cv::Point2f> &plane,
+                                            const std::vector<cv::Point2f> &pixels,
+                                            const CameraModel &camera, const PlanarPose &initial) {
+  return SolvePlanarPose(plane, pixels, camera, &initial);
 }
 
 cv::Matx33d HomographyFromPose(const PlanarPose &pose, const cv::Matx33d &K) {

@@ -37,6 +37,12 @@ absl::StatusOr<PlanarPose> EstimatePlanarPose(const std::vector<cv::Point2f> &pl
                                               const std::vector<cv::Point2f> &pixels,
                                               const CameraModel &camera);
 
+// The same Levenberg-Marquardt refinement started from `initial` instead of IPPE's
+// solution, for a pose already close (re-fitted to new correspondences).
+absl::StatusOr<PlanarPose> RefinePlanarPose(const std::vector<cv::Point2f> &plane,
+                                            const std::vector<cv::Point2f> &pixels,
+                                            const CameraModel &camera, const PlanarPose &initial);
+
 // The homography plane -> pixels of a pose: K [r1 r2 t], normalised to H(2,2)
 // = 1.
 cv::Matx33d HomographyFromPose(const PlanarPose &pose, const cv::Matx33d &K);

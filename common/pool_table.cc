@@ -564,7 +564,7 @@ absl::StatusOr<PoolTableDetection> DetectPoolTable(const cv::Mat& bgr, const cv:
       seen.push_back(p);
     }
     if (on_side.size() < 16) break;
-    auto refined = EstimatePlanarPose(on_side, seen, ideal);
+    auto refined = RefinePlanarPose(on_side, seen, ideal, plane_pose);
     if (!refined.ok()) break;
     plane_pose = *refined;
   }

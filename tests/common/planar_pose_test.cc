@@ -174,6 +174,44 @@ TEST(PlanarPoseTest, EstimatePlanarPoseWithDistortionAndNoise) {
   EXPECT_GE(tested, 12);
 }
 
+// Refinement from a pose a few degrees and centimetres off reaches the same pose as the
+// estimate from scratch: the exact one for exact pixels.
+TEST(PlanarPoseTest, RefinePlanarPoseFromNearbyPoseConverges) {
+  CameraModel camera;
+  camera.K = kK;
+  camera.size = {640, 480};
+  int tested = 0;
+  for (const PlanarPose &truth : Cameras()) {
+    std::vector<cv::Point3f> object;
+    for (int y = 0; y <= 400; y += 50)
+      for (int x = 0; x <= 600; x += 50) object.emplace_back(x, y, 0);
+    cv::Vec3d rvec;
+    cv::Rodrigues(truth.R, rvec);
+    std::vector<cv::Point2f> projected;
+    cv::projectPoints(object, rvec, truth.t, cv::Mat(kK), cv::Mat(), projected);
+    std::vector<cv::Point2f> plane, pixels;
+    for (size_t i = 0; i < object.size(); ++i) {
+      const cv::Point2f &p = projected[i];
+      if (p.x < 0 || p.y < 0 || p.x > 639 || p.y > 479) continue;
+      plane.emplace_back(object[i].x, object[i].y);
+      pixels.push_back(p);
+    }
+    if (plane.size() < 20) continue;
+    ++tested;
+    PlanarPose initial;
+    initial.R = Rotation(cv::Vec3d(0.03, -0.04, 0.05)) * truth.R;  // about 4 degrees off
+    initial.t = truth.t + cv::Vec3d(20, -15, 40);
+    auto pose = RefinePlanarPose(plane, pixels, camera, initial);
+    ASSERT_TRUE(pose.ok()) << pose.status();
+    EXPECT_LT(RotationErrorDeg(pose->R, truth.R), 0.01);
+    EXPECT_LT(cv::norm(pose->t - truth.t), 1e-4 * cv::norm(truth.t));
+  }
+  EXPECT_GE(tested, 12);
+  const std::vector<cv::Point2f> three = {{0, 0}, {100, 0}, {0, 100}};
+  EXPECT_EQ(RefinePlanarPose(three, three, camera, PlanarPose{}).status().code(),
+            absl::StatusCode::kInvalidArgument);
+}
+
 TEST(PlanarPoseTest, EstimatePlanarPoseNeedsFourPoints) {
   CameraModel camera;
   camera.K = kK;
