@@ -172,9 +172,12 @@ void PrintMiss(const DocumentRegistry &registry, const Query &q, const cv::Mat &
     stats += line;
   }
   std::fprintf(
-      stderr, "miss page %d: tilt %.0f scale %.2f blur %.1f noise %.1f light %.2f%s | %s\n", q.page,
-      q.view.tilt_deg, q.view.scale, q.view.blur_sigma, q.view.noise_sigma,
-      q.view.illumination_gradient, stats.c_str(),
+      stderr,
+      "miss page %d: tilt %.0f scale %.2f blur %.1f noise %.1f light %.2f (roll %.1f azimuth %.1f "
+      "fov %.1f look-at %.0f,%.0f)%s | %s\n",
+      q.page, q.view.tilt_deg, q.view.scale, q.view.blur_sigma, q.view.noise_sigma,
+      q.view.illumination_gradient, q.view.roll_deg, q.view.tilt_azimuth_deg,
+      q.view.horizontal_fov_deg, q.view.look_at.x, q.view.look_at.y, stats.c_str(),
       result == nullptr || result->documents.empty() ? "nothing"
                                                      : result->documents[0].document.title.c_str());
 }
