@@ -136,6 +136,28 @@ TEST(PlanarPoseTest, ApplyHomographyDividesByW) {
   EXPECT_DOUBLE_EQ(p.y, 10.0 / 3.0);
 }
 
+// A 600 x 400 grid of plane points (spacing `step`) around the looked-at point, projected
+// by `truth` through `camera` and kept where they land inside its 640 x 480 image.
+void VisibleGrid(const PlanarPose &truth, const CameraModel &camera, int step,
+                 std::vector<cv::Point2f> *plane, std::vector<cv::Point2f> *pixels) {
+  std::vector<cv::Point3f> object;
+  for (int y = 0; y <= 400; y += step)
+    for (int x = 0; x <= 600; x += step) object.emplace_back(x, y, 0);
+  cv::Vec3d rvec;
+  cv::Rodrigues(truth.R, rvec);
+  std::vector<cv::Point2f> projected;
+  cv::projectPoints(object, rvec, truth.t, cv::Mat(camera.K),
+                    camera.distortion.empty() ? cv::Mat() : cv::Mat(camera.distortion), projected);
+  plane->clear();
+  pixels->clear();
+  for (size_t i = 0; i < object.size(); ++i) {
+    const cv::Point2f &p = projected[i];
+    if (p.x < 0 || p.y < 0 || p.x > 639 || p.y > 479) continue;
+    plane->emplace_back(object[i].x, object[i].y);
+    pixels->push_back(p);
+  }
+}
+
 TEST(PlanarPoseTest, EstimatePlanarPoseWithDistortionAndNoise) {
   CameraModel camera;
   camera.K = kK;
@@ -147,23 +169,10 @@ TEST(PlanarPoseTest, EstimatePlanarPoseWithDistortionAndNoise) {
   std::normal_distribution<double> noise(0, 0.3);
   int tested = 0;
   for (const PlanarPose &truth : Cameras()) {
-    // A 600 x 400 grid of plane points around the looked-at point, kept where
-    // visible.
-    std::vector<cv::Point3f> object;
-    for (int y = 0; y <= 400; y += 40)
-      for (int x = 0; x <= 600; x += 40) object.emplace_back(x, y, 0);
-    cv::Vec3d rvec;
-    cv::Rodrigues(truth.R, rvec);
-    std::vector<cv::Point2f> projected;
-    cv::projectPoints(object, rvec, truth.t, cv::Mat(kK), cv::Mat(camera.distortion), projected);
     std::vector<cv::Point2f> plane, pixels;
-    for (size_t i = 0; i < object.size(); ++i) {
-      const cv::Point2f &p = projected[i];
-      if (p.x < 0 || p.y < 0 || p.x > 639 || p.y > 479) continue;
-      plane.emplace_back(object[i].x, object[i].y);
-      pixels.emplace_back(static_cast<float>(p.x + noise(rng)),
-                          static_cast<float>(p.y + noise(rng)));
-    }
+    VisibleGrid(truth, camera, 40, &plane, &pixels);
+    for (cv::Point2f &p : pixels)
+      p += cv::Point2f(static_cast<float>(noise(rng)), static_cast<float>(noise(rng)));
     if (plane.size() < 30) continue;
     ++tested;
     auto pose = EstimatePlanarPose(plane, pixels, camera);
@@ -182,20 +191,8 @@ TEST(PlanarPoseTest, RefinePlanarPoseFromNearbyPoseConverges) {
   camera.size = {640, 480};
   int tested = 0;
   for (const PlanarPose &truth : Cameras()) {
-    std::vector<cv::Point3f> object;
-    for (int y = 0; y <= 400; y += 50)
-      for (int x = 0; x <= 600; x += 50) object.emplace_back(x, y, 0);
-    cv::Vec3d rvec;
-    cv::Rodrigues(truth.R, rvec);
-    std::vector<cv::Point2f> projected;
-    cv::projectPoints(object, rvec, truth.t, cv::Mat(kK), cv::Mat(), projected);
     std::vector<cv::Point2f> plane, pixels;
-    for (size_t i = 0; i < object.size(); ++i) {
-      const cv::Point2f &p = projected[i];
-      if (p.x < 0 || p.y < 0 || p.x > 639 || p.y > 479) continue;
-      plane.emplace_back(object[i].x, object[i].y);
-      pixels.push_back(p);
-    }
+    VisibleGrid(truth, camera, 50, &plane, &pixels);
     if (plane.size() < 20) continue;
     ++tested;
     PlanarPose initial;
