@@ -8,6 +8,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "absl/strings/str_cat.h"
+#include "common/connected_components.h"
 #include "common/status_macros.h"
 
 namespace texfree {
@@ -36,21 +37,14 @@ cv::Mat AngleMask(const cv::Mat& bgr, const cv::Vec3f& ref, double angle_deg, do
   return mask;
 }
 
-// The largest 8-connected region of `mask` (and its area). Areas are counted from the
-// labels: OpenCV's connectedComponentsWithStats measures boxes and centroids too, and
-// took a tenth of a frame's analysis.
+// The largest 8-connected region of `mask` (and its area).
 cv::Mat LargestRegion(const cv::Mat& mask, int* area) {
-  cv::Mat labels;
-  const int n = cv::connectedComponents(mask, labels, 8, CV_32S);
-  std::vector<int> areas(static_cast<size_t>(n), 0);
-  for (int y = 0; y < labels.rows; ++y) {
-    const int* row = labels.ptr<int>(y);
-    for (int x = 0; x < labels.cols; ++x) ++areas[static_cast<size_t>(row[x])];
-  }
+  cv::Mat labels, stats, centroids;
+  const int n = ConnectedComponentsWithStats(mask, 8, &labels, &stats, &centroids);
   int best = 0, best_area = 0;
   for (int i = 1; i < n; ++i) {
-    if (areas[static_cast<size_t>(i)] > best_area) {
-      best_area = areas[static_cast<size_t>(i)];
+    if (stats.at<int>(i, cv::CC_STAT_AREA) > best_area) {
+      best_area = stats.at<int>(i, cv::CC_STAT_AREA);
       best = i;
     }
   }

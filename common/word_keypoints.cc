@@ -10,6 +10,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "absl/strings/str_cat.h"
+#include "common/connected_components.h"
 #include "common/neighbor_grid.h"
 
 namespace texfree {
@@ -172,40 +173,6 @@ int Find(std::vector<int> &parent, int i) {
   return i;
 }
 
-// connectedComponentsWithStats' area, bounding box and centroid from the labels in one
-// pass: the same numbers, several times faster than OpenCV's per-pixel statistics.
-void ComponentStats(const cv::Mat &labels, int n, cv::Mat *stats, cv::Mat *centroids) {
-  *stats = cv::Mat::zeros(n, cv::CC_STAT_MAX, CV_32S);
-  std::vector<int> left(n, INT32_MAX), top(n, INT32_MAX), right(n, -1), bottom(n, -1), area(n, 0);
-  std::vector<int64_t> sum_x(n, 0), sum_y(n, 0);
-  for (int y = 0; y < labels.rows; ++y) {
-    const int *row = labels.ptr<int>(y);
-    for (int x = 0; x < labels.cols; ++x) {
-      const int l = row[x];
-      if (l == 0) continue;
-      left[l] = std::min(left[l], x);
-      right[l] = std::max(right[l], x);
-      top[l] = std::min(top[l], y);
-      bottom[l] = std::max(bottom[l], y);
-      ++area[l];
-      sum_x[l] += x;
-      sum_y[l] += y;
-    }
-  }
-  *centroids = cv::Mat::zeros(n, 2, CV_64F);
-  for (int l = 1; l < n; ++l) {
-    if (area[l] == 0) continue;
-    int *s = stats->ptr<int>(l);
-    s[cv::CC_STAT_LEFT] = left[l];
-    s[cv::CC_STAT_TOP] = top[l];
-    s[cv::CC_STAT_WIDTH] = right[l] - left[l] + 1;
-    s[cv::CC_STAT_HEIGHT] = bottom[l] - top[l] + 1;
-    s[cv::CC_STAT_AREA] = area[l];
-    centroids->at<double>(l, 0) = static_cast<double>(sum_x[l]) / area[l];
-    centroids->at<double>(l, 1) = static_cast<double>(sum_y[l]) / area[l];
-  }
-}
-
 // Letters -> words with one line-shaped closing for the whole image: gaps
 // shorter than gap_factor * h along the text direction are filled.
 std::vector<Word> CloseAlongLines(const cv::Mat &ink, double h, double angle,
@@ -213,8 +180,7 @@ std::vector<Word> CloseAlongLines(const cv::Mat &ink, double h, double angle,
   cv::Mat words;
   cv::morphologyEx(ink, words, cv::MORPH_CLOSE, LineKernel(o.gap_factor * h, angle));
   cv::Mat labels, stats, centroids;
-  const int n = cv::connectedComponents(words, labels, 8, CV_32S);
-  ComponentStats(labels, n, &stats, &centroids);
+  const int n = ConnectedComponentsWithStats(words, 8, &labels, &stats, &centroids);
   std::vector<Word> found;
   const double min_area = o.min_word_area_factor * h * h;
   for (int i = 1; i < n; ++i) {
