@@ -681,6 +681,8 @@ absl::Status PoolBallOptions::Validate() const {
     return absl::InvalidArgumentError("rim_full_colour_saturation must be in [0, 1]");
   if (!(edge_point_prior >= 0 && edge_point_prior <= 100))
     return absl::InvalidArgumentError("edge_point_prior must be in [0, 100]");
+  if (!(edge_max_ballness_drop > 0 && edge_max_ballness_drop <= 1))
+    return absl::InvalidArgumentError("edge_max_ballness_drop must be in (0, 1]");
   if (!(split_hidden_min_visible >= 0 && split_hidden_min_visible <= 1))
     return absl::InvalidArgumentError("split_hidden_min_visible must be in [0, 1]");
   if (!(split_hidden_min_ballness > 0.5 && split_hidden_min_ballness <= 1))
@@ -1207,6 +1209,7 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
     // A ball mostly hidden behind another has too little outline of its own: it keeps the
     // silhouette fit it had with the nearer ball.
     if (hidden_behind[i] >= 0) continue;
+    const cv::Point2d silhouette_xy = seeds[i];
     claim(seeds, i, seeds.size());
     SilhouetteScorer scorer(ballness_in_region, roi, claimed, K, pose, profile);
     const cv::Vec3d centre(seeds[i].x, seeds[i].y, r);
@@ -1316,6 +1319,17 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
         seeds[i] =
             edge.FitToEdgePoints(seeds[i], distance, threshold, reach_px, options.edge_point_prior);
       }
+    }
+    if (!darker_than_cloth) {
+      // The ball-ness of a ball not darker than the cloth is its colour, which the
+      // silhouette fit matches; outline fits that put a good part of the silhouette on the
+      // cloth were drawn by another edge (options.edge_max_ballness_drop).
+      double silhouette_ballness = 0, edge_ballness = 0;
+      scorer.Score(silhouette_xy, &silhouette_ballness);
+      scorer.Score(seeds[i], &edge_ballness);
+      if (silhouette_ballness >= 0.5 &&
+          edge_ballness < silhouette_ballness - options.edge_max_ballness_drop)
+        seeds[i] = silhouette_xy;
     }
     if (darker_than_cloth) {
       // A ball darker than the cloth has brighter edges inside it than its rim (the

@@ -74,6 +74,12 @@ struct PoolBallOptions {
   // outline: where a neighbour or the shadow zone leaves edge points on one side only,
   // the fit is poorly held across them and would slide along that direction.
   double edge_point_prior = 4;
+  // For a ball not darker than the cloth, the edge pass and the edge-point fit are not
+  // kept when they leave the mean ball-ness under its silhouette more than this below
+  // the silhouette fit's (0.15): its ball-ness is its colour, and a fit that moves a good
+  // part of the silhouette onto the cloth was drawn by another edge (the shaded face of
+  // the far cushion behind a green 6 took one 2 px up, 17 mm). 1 turns this off.
+  double edge_max_ballness_drop = 0.15;
   // A ball seen behind another one along the line of sight shows only a crescent above
   // it: their blob has about two balls' area for the pose but a single distance maximum,
   // and its one seed's silhouette settles on the farther ball or between the two. Such a
