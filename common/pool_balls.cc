@@ -1123,14 +1123,14 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
       const size_t b = pair.size();
       pair.push_back({});
       double best = -1;
+      claim(pair, b, b);
+      const SilhouetteScorer starter(ballness_in_region, roi, claimed, K, pose, profile);
       for (int k = 0; k < 12; ++k) {
         const double t = k * kPi / 6;
         const cv::Point2d start = seeds[a] + 2 * r * cv::Point2d(std::cos(t), std::sin(t));
         if (!on_table(start)) continue;
-        claim(pair, b, b);
         double mean = 0, visible = 0;
-        SilhouetteScorer(ballness_in_region, roi, claimed, K, pose, profile)
-            .Score(start, &mean, &visible);
+        starter.Score(start, &mean, &visible);
         if (mean * visible > best) {
           best = mean * visible;
           pair[b] = start;
@@ -1146,14 +1146,17 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
           return cv::norm(p - pair[other]) < 2 * r ? -1e18 : scorer.Score(p);
         });
       };
+      double second_ballness = 0, first_ballness = 0;
       for (int round = 0; round < 2; ++round) {
         fit_apart(b, a);
         fit_apart(a, b);
+        claim(pair, b, pair.size());
+        SilhouetteScorer(ballness_in_region, roi, claimed, K, pose, profile)
+            .Score(pair[b], &second_ballness);
+        // Far from ball after the first round, the second does not become one (time).
+        if (second_ballness < 0.5) break;
       }
-      double second_ballness = 0, first_ballness = 0;
-      claim(pair, b, pair.size());
-      SilhouetteScorer(ballness_in_region, roi, claimed, K, pose, profile)
-          .Score(pair[b], &second_ballness);
+      if (second_ballness < options.split_hidden_min_ballness) continue;
       claim(pair, a, pair.size());
       SilhouetteScorer(ballness_in_region, roi, claimed, K, pose, profile)
           .Score(pair[a], &first_ballness);
@@ -1191,8 +1194,7 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
       const bool farther = cv::norm(cv::Vec3d(pair[b].x, pair[b].y, r) - camera) >
                            cv::norm(cv::Vec3d(pair[a].x, pair[a].y, r) - camera);
       const bool shadow = !farther && second_lit < 0.3;
-      if (shadow || second_ballness < options.split_hidden_min_ballness ||
-          std::min(own_area[0], own_area[1]) < options.split_hidden_min_visible ||
+      if (shadow || std::min(own_area[0], own_area[1]) < options.split_hidden_min_visible ||
           first_ballness < 0.5)
         continue;
       seeds = pair;
