@@ -1122,7 +1122,7 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
       std::vector<cv::Point2d> pair = seeds;
       const size_t b = pair.size();
       pair.push_back({});
-      double best = -1;
+      double best = -1, best_mean = 0;
       claim(pair, b, b);
       const SilhouetteScorer starter(ballness_in_region, roi, claimed, K, pose, profile);
       for (int k = 0; k < 12; ++k) {
@@ -1133,10 +1133,13 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
         starter.Score(start, &mean, &visible);
         if (mean * visible > best) {
           best = mean * visible;
+          best_mean = mean;
           pair[b] = start;
         }
       }
-      if (best < 0) continue;
+      // Where even the best start is mostly cloth there is no second ball to fit (time:
+      // most single balls lengthened by their shadow end here).
+      if (best < 0 || best_mean < 0.5) continue;
       // Never into the other: the second ball's fit would slide back into the first, whose
       // silhouette explains its pixels.
       const auto fit_apart = [&](size_t self, size_t other) {
