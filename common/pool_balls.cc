@@ -205,7 +205,9 @@ class SilhouetteScorer {
   // that a cushion hides and the dark zone under the ball. Ball pixels outside the
   // silhouette count against it as much as cloth inside it, so the fit is held from
   // every side.
-  double Score(const cv::Point2d& xy, double* mean_ballness = nullptr) const {
+  // `visible`: the silhouette's area (pixels) that the other balls leave to it.
+  double Score(const cv::Point2d& xy, double* mean_ballness = nullptr,
+               double* visible = nullptr) const {
     const cv::Vec3d centre(xy.x, xy.y, radius_);
     const cv::Matx33d Q = SphereSilhouetteConic(pose_, K_, centre, radius_);
     const cv::Rect box = Box(centre);
@@ -228,6 +230,7 @@ class SilhouetteScorer {
       }
     }
     if (mean_ballness) *mean_ballness = cov_sum > 0 ? ball_sum / cov_sum : 0;
+    if (visible) *visible = cov_sum;
     return score;
   }
 
@@ -678,6 +681,14 @@ absl::Status PoolBallOptions::Validate() const {
     return absl::InvalidArgumentError("rim_full_colour_saturation must be in [0, 1]");
   if (!(edge_point_prior >= 0 && edge_point_prior <= 100))
     return absl::InvalidArgumentError("edge_point_prior must be in [0, 100]");
+  if (!(edge_max_ballness_drop > 0 && edge_max_ballness_drop <= 1))
+    return absl::InvalidArgumentError("edge_max_ballness_drop must be in (0, 1]");
+  if (!(split_hidden_min_visible >= 0 && split_hidden_min_visible <= 1))
+    return absl::InvalidArgumentError("split_hidden_min_visible must be in [0, 1]");
+  if (!(split_hidden_min_ballness > 0.5 && split_hidden_min_ballness <= 1))
+    return absl::InvalidArgumentError("split_hidden_min_ballness must be in (0.5, 1]");
+  if (!(split_hidden_min_radius_px >= 0))
+    return absl::InvalidArgumentError("split_hidden_min_radius_px must be >= 0");
   return absl::OkStatus();
 }
 
@@ -895,6 +906,8 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
   cv::Mat labels, stats, centroids;
   const int n = cv::connectedComponentsWithStats(mask, labels, stats, centroids, 8, CV_32S);
   std::vector<cv::Point2d> seeds;
+  // Blobs with the area of more balls than their distance maxima gave seeds for.
+  std::vector<int> under_split;
   for (int i = 1; i < n; ++i) {
     const cv::Point2d c(centroids.at<double>(i, 0) + roi.x, centroids.at<double>(i, 1) + roi.y);
     cv::Point2d xy;
@@ -915,6 +928,7 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
     cv::copyMakeBorder(labels(box) == i, blob, 1, 1, 1, 1, cv::BORDER_CONSTANT, 0);
     cv::Mat dist;
     cv::distanceTransform(blob, dist, cv::DIST_L2, 3);
+    const size_t seeds_before = seeds.size();
     for (int k = 0; k < count; ++k) {
       double max_value;
       cv::Point max_at;
@@ -924,6 +938,7 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
       if (BackProjectToPlane(pose, K, pixel, r, &xy)) seeds.push_back(xy);
       cv::circle(dist, max_at, static_cast<int>(std::ceil(1.4 * r_px)), cv::Scalar(0), -1);
     }
+    if (seeds.size() - seeds_before == 1) under_split.push_back(i);
   }
 
   // Fit each ball's silhouette, nearest balls first; a farther ball ignores pixels that a
@@ -1042,12 +1057,164 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
       seeds[i] = scorer.Fit(seeds[i], 0.35 * r);
     }
   }
+  const float cloth_sum = cloth[0] + cloth[1] + cloth[2];
+  // Median chromaticity (opponent chroma over intensity) of a fit's lit ball pixels that
+  // the other balls (painted in `claimed`) leave to it; false when it has too few of them.
+  const auto fit_chroma = [&](const cv::Point2d& xy, cv::Point2d* chroma) {
+    const cv::Vec3d centre(xy.x, xy.y, r);
+    const cv::Matx33d Q = SphereSilhouetteConic(pose, K, centre, r);
+    SilhouetteScorer boxer(ballness_in_region, roi, claimed, K, pose, profile);
+    const cv::Rect box = boxer.Box(centre);
+    std::vector<float> cx, cy;
+    for (int v = box.y; v < box.y + box.height; ++v)
+      for (int u = box.x; u < box.x + box.width; ++u) {
+        if (SilhouetteScorer::Coverage(Q, u, v) < 0.99) continue;
+        if (claimed.at<float>(v - roi.y, u - roi.x) > 0.5) continue;
+        if (ballness_in_region.at<float>(v - roi.y, u - roi.x) < 0.5) continue;
+        const cv::Vec3b& p = bgr.at<cv::Vec3b>(v, u);
+        const float sum = static_cast<float>(p[0] + p[1] + p[2]);
+        // Dark pixels (a shadow, the 8) have no chromaticity to speak of.
+        if (sum < 0.45f * cloth_sum) continue;
+        cx.push_back((p[2] - 0.5f * (p[1] + p[0])) * 3 / sum);
+        cy.push_back(0.8660254f * (p[1] - p[0]) * 3 / sum);
+      }
+    constexpr size_t kMinColoured = 8;
+    if (cx.size() < kMinColoured) return false;
+    std::nth_element(cx.begin(), cx.begin() + cx.size() / 2, cx.end());
+    std::nth_element(cy.begin(), cy.begin() + cy.size() / 2, cy.end());
+    *chroma = {cx[cx.size() / 2], cy[cy.size() / 2]};
+    return true;
+  };
+  // A ball seen behind another one along the line of sight is mostly hidden by it: the
+  // pair's blob has about two balls' area for the pose, but the farther ball shows only a
+  // crescent above the nearer one, with no distance maximum of its own, and the one seed's
+  // silhouette settles on the farther ball or between the two, the nearer ball's lower
+  // half being in its dark zone (benchmark seed 11's frame 17: the 9 24 mm off, the 8 behind
+  // it lost). Such a blob with a single seed is fitted as two balls as well: a second one
+  // started touching the first where it covers the most ball pixels the first leaves, each
+  // then fitted with the other's silhouette claimed and never into it. The pair is kept
+  // when the second is ball (options.split_hidden_min_ballness), when each of the two
+  // alone explains enough of the blob (options.split_hidden_min_visible: the pixels at
+  // least a pixel outside the other's outline), and when the second is not a dark patch in
+  // front of the first (its shadow).
+  // For the farther ball of such a pair, the nearer one's index (-1: none).
+  std::vector<int> hidden_behind(seeds.size(), -1);
+  if (options.split_hidden_min_visible > 0) {
+    // A ball frozen on a cushion is often fitted into it, its blob lengthened by the
+    // cushion's shaded face: that one is brought back later, not split.
+    const double inset = 0.9 * r;
+    const auto on_table = [&](const cv::Point2d& p) {
+      return p.x >= inset && p.y >= inset && p.x <= L - inset && p.y <= W - inset;
+    };
+    for (int label : under_split) {
+      size_t a = seeds.size(), found = 0;
+      for (size_t i = 0; i < seeds.size(); ++i) {
+        const cv::Point2d at = ProjectIdeal(pose, K, {seeds[i].x, seeds[i].y, r});
+        const cv::Point p(cvRound(at.x) - roi.x, cvRound(at.y) - roi.y);
+        if (p.inside(cv::Rect(0, 0, roi.width, roi.height)) && labels.at<int>(p) == label) {
+          a = i;
+          ++found;
+        }
+      }
+      if (found != 1 || !on_table(seeds[a]) ||
+          ApparentRadiusPx(pose, K, seeds[a], r) < options.split_hidden_min_radius_px)
+        continue;
+      std::vector<cv::Point2d> pair = seeds;
+      const size_t b = pair.size();
+      pair.push_back({});
+      double best = -1, best_mean = 0;
+      claim(pair, b, b);
+      const SilhouetteScorer starter(ballness_in_region, roi, claimed, K, pose, profile);
+      for (int k = 0; k < 12; ++k) {
+        const double t = k * kPi / 6;
+        const cv::Point2d start = seeds[a] + 2 * r * cv::Point2d(std::cos(t), std::sin(t));
+        if (!on_table(start)) continue;
+        double mean = 0, visible = 0;
+        starter.Score(start, &mean, &visible);
+        if (mean * visible > best) {
+          best = mean * visible;
+          best_mean = mean;
+          pair[b] = start;
+        }
+      }
+      // Where even the best start is mostly cloth there is no second ball to fit (time:
+      // most single balls lengthened by their shadow end here).
+      if (best < 0 || best_mean < 0.5) continue;
+      // Never into the other: the second ball's fit would slide back into the first, whose
+      // silhouette explains its pixels.
+      const auto fit_apart = [&](size_t self, size_t other) {
+        claim(pair, self, pair.size());
+        const SilhouetteScorer scorer(ballness_in_region, roi, claimed, K, pose, profile);
+        pair[self] = CompassSearch(pair[self], 0.35 * r, 1e9, [&](const cv::Point2d& p) {
+          return cv::norm(p - pair[other]) < 2 * r ? -1e18 : scorer.Score(p);
+        });
+      };
+      double second_ballness = 0, first_ballness = 0;
+      for (int round = 0; round < 2; ++round) {
+        fit_apart(b, a);
+        fit_apart(a, b);
+        claim(pair, b, pair.size());
+        SilhouetteScorer(ballness_in_region, roi, claimed, K, pose, profile)
+            .Score(pair[b], &second_ballness);
+        // Far from ball after the first round, the second does not become one (time).
+        if (second_ballness < 0.5) break;
+      }
+      if (second_ballness < options.split_hidden_min_ballness) continue;
+      claim(pair, a, pair.size());
+      SilhouetteScorer(ballness_in_region, roi, claimed, K, pose, profile)
+          .Score(pair[a], &first_ballness);
+      // What each alone explains, the other balls claimed: its pixels at least a pixel
+      // outside the other's outline, out of its dark zone. Their area over a ball's, and
+      // for the second the share of their ball-ness that is lit.
+      claim(pair, a, b);
+      double own_area[2], second_lit = 0;
+      for (int k = 0; k < 2; ++k) {
+        const cv::Point2d& self = pair[k == 0 ? a : b];
+        const cv::Point2d& other = pair[k == 0 ? b : a];
+        const cv::Vec3d centre(self.x, self.y, r);
+        const cv::Matx33d Q = SphereSilhouetteConic(pose, K, centre, r);
+        const cv::Matx33d Q_other = SphereSilhouetteConic(pose, K, {other.x, other.y, r}, r);
+        const SilhouetteScorer boxer(ballness_in_region, roi, claimed, K, pose, profile);
+        const cv::Rect box = boxer.Box(centre);
+        double pixels = 0, ball = 0, lit = 0;
+        for (int v = box.y; v < box.y + box.height; ++v)
+          for (int u = box.x; u < box.x + box.width; ++u) {
+            if (SilhouetteScorer::Coverage(Q, u, v) < 0.99) continue;
+            if (SilhouetteScorer::InsideDistance(Q_other, u, v) > -1) continue;
+            if (claimed.at<float>(v - roi.y, u - roi.x) > 0.5) continue;
+            if (boxer.InShadowZone(centre, u, v)) continue;
+            const float bn = ballness_in_region.at<float>(v - roi.y, u - roi.x);
+            if (bn < 0) continue;
+            pixels += 1;
+            ball += bn;
+            const cv::Vec3b& p = bgr.at<cv::Vec3b>(v, u);
+            if (bn >= 0.5 && p[0] + p[1] + p[2] >= 0.45f * cloth_sum) lit += 1;
+          }
+        const double r_self = ApparentRadiusPx(pose, K, self, r);
+        own_area[k] = pixels / (kPi * r_self * r_self);
+        if (k == 1) second_lit = ball > 0 ? lit / ball : 0;
+      }
+      const bool farther = cv::norm(cv::Vec3d(pair[b].x, pair[b].y, r) - camera) >
+                           cv::norm(cv::Vec3d(pair[a].x, pair[a].y, r) - camera);
+      const bool shadow = !farther && second_lit < 0.3;
+      if (shadow || std::min(own_area[0], own_area[1]) < options.split_hidden_min_visible ||
+          first_ballness < 0.5)
+        continue;
+      seeds = pair;
+      hidden_behind.push_back(-1);
+      hidden_behind[farther ? b : a] = static_cast<int>(farther ? a : b);
+    }
+  }
   // Sub-pixel pass on the edge: the ball's outline is where its colour distance from the
   // cloth around it falls fastest (for any symmetric blur, JPEG smear or shading of the
   // ball), so the silhouette's outline is moved to where that fall is steepest, on the
   // part of the outline that is not in the dark zone under the ball, not hidden by a
   // cushion and not next to another ball.
   for (size_t i = 0; i < seeds.size(); ++i) {
+    // A ball mostly hidden behind another has too little outline of its own: it keeps the
+    // silhouette fit it had with the nearer ball.
+    if (hidden_behind[i] >= 0) continue;
+    const cv::Point2d silhouette_xy = seeds[i];
     claim(seeds, i, seeds.size());
     SilhouetteScorer scorer(ballness_in_region, roi, claimed, K, pose, profile);
     const cv::Vec3d centre(seeds[i].x, seeds[i].y, r);
@@ -1158,6 +1325,17 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
             edge.FitToEdgePoints(seeds[i], distance, threshold, reach_px, options.edge_point_prior);
       }
     }
+    if (!darker_than_cloth) {
+      // The ball-ness of a ball not darker than the cloth is its colour, which the
+      // silhouette fit matches; outline fits that put a good part of the silhouette on the
+      // cloth were drawn by another edge (options.edge_max_ballness_drop).
+      double silhouette_ballness = 0, edge_ballness = 0;
+      scorer.Score(silhouette_xy, &silhouette_ballness);
+      scorer.Score(seeds[i], &edge_ballness);
+      if (silhouette_ballness >= 0.5 &&
+          edge_ballness < silhouette_ballness - options.edge_max_ballness_drop)
+        seeds[i] = silhouette_xy;
+    }
     if (darker_than_cloth) {
       // A ball darker than the cloth has brighter edges inside it than its rim (the
       // highlight on the 8, the lit cap of the 6 above its dark lower half) and the mean
@@ -1215,6 +1393,14 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
     }
   }
 
+  // The nearer ball's outline fits do not see the hidden one behind it (its outline there
+  // is against that ball, not the cloth): it is kept out of it.
+  for (size_t h = 0; h < seeds.size(); ++h) {
+    if (hidden_behind[h] < 0) continue;
+    cv::Point2d& front = seeds[static_cast<size_t>(hidden_behind[h])];
+    const double gap = cv::norm(front - seeds[h]);
+    if (gap < 2 * r) front = seeds[h] + (front - seeds[h]) * (2 * r / std::max(1e-6, gap));
+  }
   // Two balls cannot be closer than 2r, yet two fits may end up closer than 1.6r (real
   // touching balls, each fitted within a few millimetres, stay well apart of that). Either
   // the worse fit is a ball's shaded lower half and shadow fitted as a ball of its own,
@@ -1224,34 +1410,6 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
   // 9), or it is a touching ball of another colour whose fit slid into its neighbour (it
   // is moved straight out to touch it: frame 58's 4, in front of the 1 on the line of
   // sight, was 21 mm into it).
-  const float cloth_sum = cloth[0] + cloth[1] + cloth[2];
-  // Median chromaticity (opponent chroma over intensity) of a fit's lit ball pixels that
-  // the other balls (painted in `claimed`) leave to it; false when it has too few of them.
-  const auto fit_chroma = [&](const cv::Point2d& xy, cv::Point2d* chroma) {
-    const cv::Vec3d centre(xy.x, xy.y, r);
-    const cv::Matx33d Q = SphereSilhouetteConic(pose, K, centre, r);
-    SilhouetteScorer boxer(ballness_in_region, roi, claimed, K, pose, profile);
-    const cv::Rect box = boxer.Box(centre);
-    std::vector<float> cx, cy;
-    for (int v = box.y; v < box.y + box.height; ++v)
-      for (int u = box.x; u < box.x + box.width; ++u) {
-        if (SilhouetteScorer::Coverage(Q, u, v) < 0.99) continue;
-        if (claimed.at<float>(v - roi.y, u - roi.x) > 0.5) continue;
-        if (ballness_in_region.at<float>(v - roi.y, u - roi.x) < 0.5) continue;
-        const cv::Vec3b& p = bgr.at<cv::Vec3b>(v, u);
-        const float sum = static_cast<float>(p[0] + p[1] + p[2]);
-        // Dark pixels (a shadow, the 8) have no chromaticity to speak of.
-        if (sum < 0.45f * cloth_sum) continue;
-        cx.push_back((p[2] - 0.5f * (p[1] + p[0])) * 3 / sum);
-        cy.push_back(0.8660254f * (p[1] - p[0]) * 3 / sum);
-      }
-    constexpr size_t kMinColoured = 8;
-    if (cx.size() < kMinColoured) return false;
-    std::nth_element(cx.begin(), cx.begin() + cx.size() / 2, cx.end());
-    std::nth_element(cy.begin(), cy.begin() + cy.size() / 2, cy.end());
-    *chroma = {cx[cx.size() / 2], cy[cy.size() / 2]};
-    return true;
-  };
   // Each round drops a seed or moves one out of another; a moved ball may land in a third
   // one, so the rounds are capped rather than run until nothing overlaps.
   const size_t max_rounds = 2 * seeds.size();
@@ -1317,8 +1475,16 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
     double mean_ballness = 0;
     scorer.Score(xy, &mean_ballness);
     if (mean_ballness < 0.5) continue;
-    // Votes: pixels not covered by a nearer ball.
-    claim(seeds, i, i);
+    // Votes: pixels not covered by a nearer ball (by distance now: a ball split off a
+    // blob behind another one was added after the others).
+    {
+      const double own = cv::norm(cv::Vec3d(xy.x, xy.y, r) - camera);
+      std::vector<cv::Point2d> nearer;
+      for (size_t j = 0; j < seeds.size(); ++j)
+        if (j != i && cv::norm(cv::Vec3d(seeds[j].x, seeds[j].y, r) - camera) < own)
+          nearer.push_back(seeds[j]);
+      claim(nearer, nearer.size(), nearer.size());
+    }
     kept.push_back(xy);
     PoolDetectedBall ball;
     ball.x_mm = xy.x;

@@ -74,6 +74,28 @@ struct PoolBallOptions {
   // outline: where a neighbour or the shadow zone leaves edge points on one side only,
   // the fit is poorly held across them and would slide along that direction.
   double edge_point_prior = 4;
+  // For a ball not darker than the cloth, the edge pass and the edge-point fit are not
+  // kept when they leave the mean ball-ness under its silhouette more than this below
+  // the silhouette fit's (0.15): its ball-ness is its colour, and a fit that moves a good
+  // part of the silhouette onto the cloth was drawn by another edge (the shaded face of
+  // the far cushion behind a green 6 took one 2 px up, 17 mm). 1 turns this off.
+  double edge_max_ballness_drop = 0.15;
+  // A ball seen behind another one along the line of sight shows only a crescent above
+  // it: their blob has about two balls' area for the pose but a single distance maximum,
+  // and its one seed's silhouette settles on the farther ball or between the two. Such a
+  // blob is also fitted as two balls, each with the other's silhouette claimed and never
+  // into it. The pair is kept when each of the two alone (its pixels at least a pixel
+  // outside the other's outline) covers at least split_hidden_min_visible of a ball's
+  // silhouette (two fits that overlap more cannot be told from one ball), when the second
+  // ball's mean ball-ness is at least split_hidden_min_ballness (a fit on a ball's own
+  // lower half and shadow is part cloth), and when the second is not a dark patch in
+  // front of the first (its shadow). 0.25 / 0.85; split_hidden_min_visible 0 turns this off.
+  double split_hidden_min_visible = 0.25;
+  double split_hidden_min_ballness = 0.85;
+  // Not for balls under this apparent radius, pixels (5): a hidden ball's crescent is then
+  // a pixel or two thick, lost in the blur and JPEG's halved colour resolution, and the
+  // shaded cloth beyond a small ball looks the same (the 9-ft set's 3-4 px balls).
+  double split_hidden_min_radius_px = 5;
 
   absl::Status Validate() const;
 };
