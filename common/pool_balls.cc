@@ -3,9 +3,9 @@
 
 #include <algorithm>
 #include <cmath>
-
 #include <opencv2/imgproc.hpp>
 
+#include "common/connected_components.h"
 #include "common/pool_table.h"
 
 namespace texfree {
@@ -97,10 +97,11 @@ cv::Mat BallnessMap(const cv::Mat& bgr, const cv::Rect& roi, const cv::Vec3f& cl
         }
       }
       const float dark =
-          sum >= dark_hi ? 0.f
-                         : (sum <= dark_lo ? 1.f
-                                           : static_cast<float>(SmoothStep((dark_hi - sum) /
-                                                                           (dark_hi - dark_lo))));
+          sum >= dark_hi
+              ? 0.f
+              : (sum <= dark_lo
+                     ? 1.f
+                     : static_cast<float>(SmoothStep((dark_hi - sum) / (dark_hi - dark_lo))));
       q[x] = dark_counts ? std::max(colour, dark) : colour;
     }
   }
@@ -195,8 +196,8 @@ class SilhouetteScorer {
     const cv::Point2d m = ProjectIdeal(pose_, K_, centre);
     const double r_px = 1.35 * K_(0, 0) * radius_ / std::max(1e-9, cv::norm(c)) + 2.5;
     return cv::Rect(static_cast<int>(std::floor(m.x - r_px)),
-                    static_cast<int>(std::floor(m.y - r_px)),
-                    static_cast<int>(2 * r_px + 2), static_cast<int>(2 * r_px + 2)) &
+                    static_cast<int>(std::floor(m.y - r_px)), static_cast<int>(2 * r_px + 2),
+                    static_cast<int>(2 * r_px + 2)) &
            roi_;
   }
 
@@ -358,8 +359,7 @@ class EdgeFitter {
           v > area_.y + area_.height - 2)
         continue;
       const int iu = static_cast<int>(u), iv = static_cast<int>(v);
-      if (!roi_.contains({iu, iv}) || claimed_.at<float>(iv - roi_.y, iu - roi_.x) > 0.01)
-        continue;
+      if (!roi_.contains({iu, iv}) || claimed_.at<float>(iv - roi_.y, iu - roi_.x) > 0.01) continue;
       if (scorer_.NearCushion(xy) && scorer_.HiddenByCushion(centre, u, v)) continue;
       // Outward normal of the outline: the conic's gradient points inside.
       const double qx = Q(0, 0) * u + Q(0, 1) * v + Q(0, 2);
@@ -589,7 +589,7 @@ class EdgeFitter {
   bool far_only_ = false;
   std::vector<cv::Vec3d> neighbours_;
   static constexpr double kNeighbourMargin = 1.3;  // apparent radii
-  static constexpr double kShadowReach = 1.3;  // radii
+  static constexpr double kShadowReach = 1.3;      // radii
   static constexpr double kRimHuberPx = 1.0;
 
   // Huber cost (kRimHuberPx) of points' distances to a sphere's projected outline Q: the
@@ -816,8 +816,8 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
   // without the pockets.
   std::vector<cv::Point> hull_points;
   for (double z : {0.0, 2 * r})
-    for (const cv::Vec3d& p : {cv::Vec3d(0, 0, z), cv::Vec3d(L, 0, z), cv::Vec3d(L, W, z),
-                               cv::Vec3d(0, W, z)}) {
+    for (const cv::Vec3d& p :
+         {cv::Vec3d(0, 0, z), cv::Vec3d(L, 0, z), cv::Vec3d(L, W, z), cv::Vec3d(0, W, z)}) {
       const cv::Point2d q = ProjectIdeal(pose, K, p);
       hull_points.emplace_back(cvRound(q.x), cvRound(q.y));
     }
@@ -839,8 +839,7 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
       for (int a = 0; a < 24; ++a) {
         const double t = 2 * kPi * a / 24;
         const cv::Point2d q = ProjectIdeal(
-            pose, K,
-            {pockets[k].x + radius * std::cos(t), pockets[k].y + radius * std::sin(t), z});
+            pose, K, {pockets[k].x + radius * std::cos(t), pockets[k].y + radius * std::sin(t), z});
         disc.emplace_back(cvRound(q.x) - roi.x, cvRound(q.y) - roi.y);
       }
       cv::fillConvexPoly(region, disc, cv::Scalar(0));
@@ -867,8 +866,8 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
     // is taken where the pixels are ball at all (over 0.1): the lit cap's edge is partly
     // of the cloth's colour on one side, where a ring of clear ball pixels has a gap.
     cv::Mat hole_labels, hole_stats, hole_centroids;
-    const int holes = cv::connectedComponentsWithStats(ballness <= 0.1, hole_labels, hole_stats,
-                                                       hole_centroids, 4, CV_32S);
+    const int holes = ConnectedComponentsWithStats(ballness <= 0.1, 4, &hole_labels, &hole_stats,
+                                                   &hole_centroids);
     std::vector<uchar> fill(holes, 0);
     for (int h = 1; h < holes; ++h) {
       const int left = hole_stats.at<int>(h, cv::CC_STAT_LEFT);
@@ -904,7 +903,7 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
 
   // Blobs -> seeds (one per expected ball; touching balls split at distance maxima).
   cv::Mat labels, stats, centroids;
-  const int n = cv::connectedComponentsWithStats(mask, labels, stats, centroids, 8, CV_32S);
+  const int n = ConnectedComponentsWithStats(mask, 8, &labels, &stats, &centroids);
   std::vector<cv::Point2d> seeds;
   // Blobs with the area of more balls than their distance maxima gave seeds for.
   std::vector<int> under_split;
@@ -1251,9 +1250,9 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
       std::nth_element(c.begin(), c.begin() + c.size() / 2, c.end());
       local_cloth[k] = c[c.size() / 2];
     }
-    const cv::Rect grown = cv::Rect(box.x - box.width / 2, box.y - box.height / 2,
-                                    box.width * 2, box.height * 2) &
-                           image_rect;
+    const cv::Rect grown =
+        cv::Rect(box.x - box.width / 2, box.y - box.height / 2, box.width * 2, box.height * 2) &
+        image_rect;
     // Distance from the cloth mostly in chromaticity (the colour with the light's
     // strength divided out), so that a ball as bright as the cloth (the lit top of a green
     // 6) still stands out, and a shadow on the cloth does not; a dark ball (the 8) has no
@@ -1624,16 +1623,15 @@ cv::Mat EmptyTableBackground(const cv::Mat& bgr, const cv::Matx33d& K, const Pla
     const cv::Vec3d centre(ball.x_mm, ball.y_mm, r);
     const cv::Matx33d Q = SphereSilhouetteConic(pose, K, centre, r);
     const double reach = 1.5 * ball.radius_px + 3;
-    const cv::Rect box = cv::Rect(cvFloor(ball.ideal_pixel.x - 2 * reach),
-                                  cvFloor(ball.ideal_pixel.y - 2 * reach),
-                                  cvCeil(4 * reach) + 1, cvCeil(4 * reach) + 1) &
-                         cv::Rect(0, 0, bgr.cols, bgr.rows);
+    const cv::Rect box =
+        cv::Rect(cvFloor(ball.ideal_pixel.x - 2 * reach), cvFloor(ball.ideal_pixel.y - 2 * reach),
+                 cvCeil(4 * reach) + 1, cvCeil(4 * reach) + 1) &
+        cv::Rect(0, 0, bgr.cols, bgr.rows);
     if (box.area() <= 0) continue;
     cv::Mat inside = cv::Mat::zeros(box.size(), CV_8UC1);
     for (int v = 0; v < box.height; ++v)
       for (int u = 0; u < box.width; ++u)
-        if (SilhouetteScorer::Coverage(Q, u + box.x, v + box.y) > 0)
-          inside.at<uint8_t>(v, u) = 255;
+        if (SilhouetteScorer::Coverage(Q, u + box.x, v + box.y) > 0) inside.at<uint8_t>(v, u) = 255;
     cv::dilate(inside, inside, cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(5, 5)));
     cv::Mat ring;
     cv::dilate(inside, ring, cv::getStructuringElement(cv::MORPH_ELLIPSE, cv::Size(7, 7)));
