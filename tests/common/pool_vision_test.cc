@@ -522,6 +522,23 @@ TEST(PoolTouchingBalls, EachBallOfABlobIsFittedOnItsOwnPixels) {
   EXPECT_EQ(score.separated_identified, score.separated);
 }
 
+// Benchmark frame `frame` of the rendered set `seed`: no false ball, every ball located
+// within 10 mm, every separated ball identified.
+void ExpectEveryBallWithin10Mm(int frame, uint64_t seed) {
+  SCOPED_TRACE("seed " + std::to_string(seed) + " frame " + std::to_string(frame));
+  const auto [scene, view] = RenderBenchFrame(frame, seed);
+  auto scored = AnalyzeAndScore(scene, view);
+  ASSERT_TRUE(scored.ok()) << scored.status();
+  const testdata::PoolScore& score = scored->score;
+  EXPECT_EQ(score.false_balls, 0);
+  EXPECT_EQ(score.position_errors_mm.size(), view.balls.size());
+  for (const auto& m : score.matches) {
+    EXPECT_GE(m.error_mm, 0) << "ball " << m.truth_number;
+    EXPECT_LT(m.error_mm, 10.0) << "ball " << m.truth_number;
+  }
+  EXPECT_EQ(score.separated_identified, score.separated);
+}
+
 // Two fits closer than 1.6 radii cannot both be balls as they are (balls are 2 radii
 // apart at least). Benchmark frames (seed 7): in frame 13 the yellow 1's shaded lower half
 // and its shadow were fitted as a false ball of their own, which, nearer to the camera,
@@ -531,19 +548,7 @@ TEST(PoolTouchingBalls, EachBallOfABlobIsFittedOnItsOwnPixels) {
 // worse fit only when it has the other's colour (or none), and otherwise moving it out to
 // touch the other, removes the false ball and keeps every real one.
 TEST(PoolTouchingBalls, OverlappingFitsAreAShadowOrAPairPushedApart) {
-  for (int frame : {1, 13, 58}) {
-    const auto [scene, view] = RenderBenchFrame(frame);
-    auto scored = AnalyzeAndScore(scene, view);
-    ASSERT_TRUE(scored.ok()) << scored.status();
-    const testdata::PoolScore& score = scored->score;
-    EXPECT_EQ(score.false_balls, 0) << "frame " << frame;
-    EXPECT_EQ(score.position_errors_mm.size(), view.balls.size()) << "frame " << frame;
-    for (const auto& m : score.matches) {
-      EXPECT_GE(m.error_mm, 0) << "frame " << frame << ", ball " << m.truth_number;
-      EXPECT_LT(m.error_mm, 10.0) << "frame " << frame << ", ball " << m.truth_number;
-    }
-    EXPECT_EQ(score.separated_identified, score.separated) << "frame " << frame;
-  }
+  for (int frame : {1, 13, 58}) ExpectEveryBallWithin10Mm(frame, 7);
 }
 
 // A ball seen behind another one along the line of sight shows only a crescent above it:
@@ -553,19 +558,7 @@ TEST(PoolTouchingBalls, OverlappingFitsAreAShadowOrAPairPushedApart) {
 // behind the 2 was found 21 mm off and the 2 lost. Fitted as two balls, each is found
 // within 10 mm, and a blob lengthened by a ball's own shadow is not split (no false ball).
 TEST(PoolTouchingBalls, BallHiddenBehindAnotherIsSplitOffItsBlob) {
-  for (int frame : {14, 17}) {
-    const auto [scene, view] = RenderBenchFrame(frame, 11);
-    auto scored = AnalyzeAndScore(scene, view);
-    ASSERT_TRUE(scored.ok()) << scored.status();
-    const testdata::PoolScore& score = scored->score;
-    EXPECT_EQ(score.false_balls, 0) << "frame " << frame;
-    EXPECT_EQ(score.position_errors_mm.size(), view.balls.size()) << "frame " << frame;
-    for (const auto& m : score.matches) {
-      EXPECT_GE(m.error_mm, 0) << "frame " << frame << ", ball " << m.truth_number;
-      EXPECT_LT(m.error_mm, 10.0) << "frame " << frame << ", ball " << m.truth_number;
-    }
-    EXPECT_EQ(score.separated_identified, score.separated) << "frame " << frame;
-  }
+  for (int frame : {14, 17}) ExpectEveryBallWithin10Mm(frame, 11);
   PoolBallOptions options;
   options.split_hidden_min_visible = 0;  // off
   EXPECT_TRUE(options.Validate().ok());
