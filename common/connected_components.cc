@@ -29,8 +29,8 @@ int ConnectedComponentsWithStats(const cv::Mat &mask, int connectivity, cv::Mat 
       sum_y[l] += y;
     }
   }
+  // connectedComponents numbers the components 1..n-1 without gaps: each has pixels.
   for (int l = 1; l < n; ++l) {
-    if (area[l] == 0) continue;
     int *s = stats->ptr<int>(l);
     s[cv::CC_STAT_LEFT] = left[l];
     s[cv::CC_STAT_TOP] = top[l];

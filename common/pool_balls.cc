@@ -1057,33 +1057,6 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
     }
   }
   const float cloth_sum = cloth[0] + cloth[1] + cloth[2];
-  // Median chromaticity (opponent chroma over intensity) of a fit's lit ball pixels that
-  // the other balls (painted in `claimed`) leave to it; false when it has too few of them.
-  const auto fit_chroma = [&](const cv::Point2d& xy, cv::Point2d* chroma) {
-    const cv::Vec3d centre(xy.x, xy.y, r);
-    const cv::Matx33d Q = SphereSilhouetteConic(pose, K, centre, r);
-    SilhouetteScorer boxer(ballness_in_region, roi, claimed, K, pose, profile);
-    const cv::Rect box = boxer.Box(centre);
-    std::vector<float> cx, cy;
-    for (int v = box.y; v < box.y + box.height; ++v)
-      for (int u = box.x; u < box.x + box.width; ++u) {
-        if (SilhouetteScorer::Coverage(Q, u, v) < 0.99) continue;
-        if (claimed.at<float>(v - roi.y, u - roi.x) > 0.5) continue;
-        if (ballness_in_region.at<float>(v - roi.y, u - roi.x) < 0.5) continue;
-        const cv::Vec3b& p = bgr.at<cv::Vec3b>(v, u);
-        const float sum = static_cast<float>(p[0] + p[1] + p[2]);
-        // Dark pixels (a shadow, the 8) have no chromaticity to speak of.
-        if (sum < 0.45f * cloth_sum) continue;
-        cx.push_back((p[2] - 0.5f * (p[1] + p[0])) * 3 / sum);
-        cy.push_back(0.8660254f * (p[1] - p[0]) * 3 / sum);
-      }
-    constexpr size_t kMinColoured = 8;
-    if (cx.size() < kMinColoured) return false;
-    std::nth_element(cx.begin(), cx.begin() + cx.size() / 2, cx.end());
-    std::nth_element(cy.begin(), cy.begin() + cy.size() / 2, cy.end());
-    *chroma = {cx[cx.size() / 2], cy[cy.size() / 2]};
-    return true;
-  };
   // A ball seen behind another one along the line of sight is mostly hidden by it: the
   // pair's blob has about two balls' area for the pose, but the farther ball shows only a
   // crescent above the nearer one, with no distance maximum of its own, and the one seed's
@@ -1409,6 +1382,33 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
   // 9), or it is a touching ball of another colour whose fit slid into its neighbour (it
   // is moved straight out to touch it: frame 58's 4, in front of the 1 on the line of
   // sight, was 21 mm into it).
+  // Median chromaticity (opponent chroma over intensity) of a fit's lit ball pixels that
+  // the other balls (painted in `claimed`) leave to it; false when it has too few of them.
+  const auto fit_chroma = [&](const cv::Point2d& xy, cv::Point2d* chroma) {
+    const cv::Vec3d centre(xy.x, xy.y, r);
+    const cv::Matx33d Q = SphereSilhouetteConic(pose, K, centre, r);
+    SilhouetteScorer boxer(ballness_in_region, roi, claimed, K, pose, profile);
+    const cv::Rect box = boxer.Box(centre);
+    std::vector<float> cx, cy;
+    for (int v = box.y; v < box.y + box.height; ++v)
+      for (int u = box.x; u < box.x + box.width; ++u) {
+        if (SilhouetteScorer::Coverage(Q, u, v) < 0.99) continue;
+        if (claimed.at<float>(v - roi.y, u - roi.x) > 0.5) continue;
+        if (ballness_in_region.at<float>(v - roi.y, u - roi.x) < 0.5) continue;
+        const cv::Vec3b& p = bgr.at<cv::Vec3b>(v, u);
+        const float sum = static_cast<float>(p[0] + p[1] + p[2]);
+        // Dark pixels (a shadow, the 8) have no chromaticity to speak of.
+        if (sum < 0.45f * cloth_sum) continue;
+        cx.push_back((p[2] - 0.5f * (p[1] + p[0])) * 3 / sum);
+        cy.push_back(0.8660254f * (p[1] - p[0]) * 3 / sum);
+      }
+    constexpr size_t kMinColoured = 8;
+    if (cx.size() < kMinColoured) return false;
+    std::nth_element(cx.begin(), cx.begin() + cx.size() / 2, cx.end());
+    std::nth_element(cy.begin(), cy.begin() + cy.size() / 2, cy.end());
+    *chroma = {cx[cx.size() / 2], cy[cy.size() / 2]};
+    return true;
+  };
   // Each round drops a seed or moves one out of another; a moved ball may land in a third
   // one, so the rounds are capped rather than run until nothing overlaps.
   const size_t max_rounds = 2 * seeds.size();
