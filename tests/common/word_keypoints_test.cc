@@ -15,6 +15,7 @@
 
 #include "common/image_io.h"
 #include "common/neighbor_grid.h"
+#include "tests/data/camera_view.h"
 #include "tests/data/page_renderer.h"
 
 namespace texfree {
@@ -227,6 +228,51 @@ TEST(WordKeypointsTest, RotationBy90DegreesRotatesKeypoints) {
   }
 }
 
+// A near-frontal view of a serif page (page 75's body), as a phone held close sees it.
+// With one noise and blur draw (render seed 7) the letters touch at this resolution; with
+// another (42) they stand 2-4 px apart, wider than the provisional closing bridges, and
+// the text measurement once took the tall letters' width (4 px) for the word height (19
+// px) and cut the view into a thousand letters. Either way the text must be measured at
+// the words' height and cut into about as many keypoints as there are words in view.
+TEST(WordKeypointsTest, TextIsMeasuredAlikeWhetherLettersTouchOrStandApart) {
+  const auto &page = Page(75);
+  for (const double roll : {0.0, 90.0})
+    for (const uint64_t render_seed : {7, 42}) {
+      SCOPED_TRACE("roll " + std::to_string(roll) + " render seed " + std::to_string(render_seed));
+      testdata::CameraViewOptions view;
+      view.horizontal_fov_deg = 55.6;
+      view.tilt_deg = 4;
+      view.tilt_azimuth_deg = 110.5;
+      view.roll_deg = roll;
+      view.scale = 0.9;
+      view.look_at = {350, 735};
+      view.blur_sigma = 1.2;
+      view.noise_sigma = 3.8;
+      view.illumination_gradient = 0.43;
+      const testdata::CameraView seen = testdata::RenderCameraView(page.image, view, render_seed);
+      // Ground truth: the word boxes wholly in view, and their median height there.
+      std::vector<float> heights;
+      const cv::Rect frame(0, 0, seen.image.cols, seen.image.rows);
+      for (const cv::Rect &box : page.word_boxes) {
+        std::vector<cv::Point2f> corners = {box.tl(), cv::Point2f(box.br().x, box.tl().y), box.br(),
+                                            cv::Point2f(box.tl().x, box.br().y)};
+        cv::perspectiveTransform(corners, corners, cv::Mat(seen.homography));
+        const cv::Rect seen_box = cv::boundingRect(corners);
+        if ((seen_box & frame) != seen_box) continue;
+        heights.push_back(static_cast<float>(box.height * view.scale));
+      }
+      ASSERT_GT(heights.size(), 40u);
+      std::nth_element(heights.begin(), heights.begin() + heights.size() / 2, heights.end());
+      const double word_height = heights[heights.size() / 2];
+
+      const WordKeypoints kp = Extractor(WordGrouping::kLetterGraph).Extract(ToGray(seen.image));
+      EXPECT_GT(kp.char_height, 0.7 * word_height) << "word height " << word_height;
+      EXPECT_LT(kp.char_height, 1.4 * word_height) << "word height " << word_height;
+      EXPECT_GT(kp.points.size(), 0.6 * heights.size()) << heights.size() << " words in view";
+      EXPECT_LT(kp.points.size(), 1.6 * heights.size()) << heights.size() << " words in view";
+    }
+}
+
 TEST(WordKeypointsTest, BlankPageGivesAlmostNoKeypoints) {
   const WordKeypointExtractor extractor;
   for (uint64_t seed : kSeeds) {
@@ -252,6 +298,9 @@ TEST(WordKeypointsTest, OptionsValidate) {
   EXPECT_FALSE(o.Validate().ok());
   o = WordKeypointOptions();
   o.max_keypoints = 0;
+  EXPECT_FALSE(o.Validate().ok());
+  o = WordKeypointOptions();
+  o.min_reclosed_word_area_share = o.min_word_area_share - 0.1;
   EXPECT_FALSE(o.Validate().ok());
 }
 
