@@ -64,8 +64,11 @@ struct Query {
   texfree::testdata::CameraViewOptions view;
 };
 
+// `resolution` scales the camera's pixels: the same views, F times as many pixels across
+// (the page scale and the lens blur in pixels grow with it), as a phone's full-size photo.
 std::vector<Query> MakeQueries(int count, int registered, uint64_t seed, bool unregistered,
-                               const texfree::testdata::PageOptions &page_options) {
+                               const texfree::testdata::PageOptions &page_options,
+                               double resolution) {
   std::vector<Query> out;
   std::mt19937_64 rng(seed);
   for (int i = 0; i < count; ++i) {
@@ -75,6 +78,11 @@ std::vector<Query> MakeQueries(int count, int registered, uint64_t seed, bool un
     auto rendered = texfree::testdata::RenderTextPage(page_seed, page_options);
     auto options = texfree::testdata::RandomViewOptions(rng, rendered.image.size());
     options.jpeg_quality = 0;  // encoded below, decoded by the timed server path
+    options.image_size =
+        cv::Size(static_cast<int>(std::lround(options.image_size.width * resolution)),
+                 static_cast<int>(std::lround(options.image_size.height * resolution)));
+    options.scale *= resolution;
+    options.blur_sigma *= resolution;
     auto view = texfree::testdata::RenderCameraView(rendered.image, options, seed + i);
     std::vector<uchar> bytes;
     cv::imencode(".jpg", view.image, bytes,
@@ -267,6 +275,11 @@ int main(int argc, char **argv) {
   app.add_flag("--line-closing", line_closing,
                "register and query first with the line closing (new database only)");
   app.add_option("--log2-buckets", registry_options.log2_buckets, "index hash table size");
+  double resolution = 1.0;
+  app.add_option("--resolution", resolution,
+                 "camera pixels per 640x480 view's pixel: the same views at F times the width "
+                 "and height (page scale and blur scaled alike)")
+      ->check(CLI::Range(0.25, 8.0));
   std::string fonts = "dejavu";
   app.add_option("--fonts", fonts,
                  "font set of the registered and the unregistered pages: dejavu (the one the "
@@ -336,7 +349,8 @@ int main(int argc, char **argv) {
       "| pages | top-1 | H err px (median) | false matches | median ms | p95 ms | median CPU ms "
       "| p95 CPU ms | index MiB | RSS MiB | start-up s | register ms/page |\n");
   std::printf("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
-  const auto unregistered_queries = MakeQueries(unregistered, 1, 99, true, page_options);
+  const auto unregistered_queries =
+      MakeQueries(unregistered, 1, 99, true, page_options, resolution);
   for (int target : checkpoints) {
     const auto t_reg = Clock::now();
     const int before = registered;
@@ -375,8 +389,9 @@ int main(int argc, char **argv) {
 
     const auto queries_now =
         query_pages > 0
-            ? MakeQueries(queries, std::min(query_pages, registered), 1234, false, page_options)
-            : MakeQueries(queries, registered, 1234 + target, false, page_options);
+            ? MakeQueries(queries, std::min(query_pages, registered), 1234, false, page_options,
+                          resolution)
+            : MakeQueries(queries, registered, 1234 + target, false, page_options, resolution);
     std::vector<double> times, cpu_times, errors;
     std::map<std::string, double> stage_ms;
     int correct = 0, false_matches = 0;
