@@ -170,14 +170,26 @@ void PrintMiss(const DocumentRegistry &registry, const Query &q, const cv::Mat &
       ro.perspective.principal_point = {gray.cols / 2.0, gray.rows / 2.0};
     }
     registry.retriever()->Retrieve(kp.points, kp.char_height, ro, &t);
-    char line[200];
-    std::snprintf(line, sizeof(line),
-                  " [%sstop %d, hits %d/%d, votes %d/%d/%d rank %d, candidate %d of %d, ransac %d "
-                  "final %d guided %d%s]",
-                  t.rectified ? "rectified, " : "", t.stop_word_lookups, t.hits, t.total_hits,
-                  t.coherent, t.strong, t.votes, t.rank_by_score, t.rank, t.candidates,
-                  t.ransac_inliers, t.final_inliers, t.guided, t.accepted ? " accepted" : "");
-    stats += line;
+    auto gates = [](const texfree::RetrievalTrace &t) {
+      char line[200];
+      std::snprintf(line, sizeof(line),
+                    " [%sstop %d, hits %d/%d, votes %d/%d/%d rank %d, candidate %d of %d, ransac "
+                    "%d final %d guided %d%s]",
+                    t.rectified ? "rectified, " : "", t.stop_word_lookups, t.hits, t.total_hits,
+                    t.coherent, t.strong, t.votes, t.rank_by_score, t.rank, t.candidates,
+                    t.ransac_inliers, t.final_inliers, t.guided, t.accepted ? " accepted" : "");
+      return std::string(line);
+    };
+    stats += gates(t);
+    // A rectified query's trace is the rectified attempt's: the unrectified one is traced
+    // apart (with the few-keypoint pass the registry would allow it first).
+    if (t.rectified) {
+      texfree::RetrievalTrace seen;
+      seen.watch = record->index_id;
+      ro.rectify_perspective = false;
+      registry.retriever()->Retrieve(kp.points, kp.char_height, ro, &seen);
+      stats += " as seen" + gates(seen);
+    }
   }
   std::fprintf(
       stderr,
