@@ -252,6 +252,8 @@ absl::Status PoolTableOptions::Validate() const {
     return absl::InvalidArgumentError("min_cloth_fraction must be in (0, 1)");
   if (!(max_rectangle_inconsistency > 0))
     return absl::InvalidArgumentError("max_rectangle_inconsistency must be positive");
+  if (other_cloth_colours < 0 || other_cloth_colours > 8)
+    return absl::InvalidArgumentError("other_cloth_colours must be in [0, 8]");
   return absl::OkStatus();
 }
 
@@ -314,32 +316,74 @@ cv::Point2d PoolUndistorter::Distort(const cv::Point2d& ideal) const {
   return out[0];
 }
 
-absl::StatusOr<PoolTableDetection> DetectPoolTable(const cv::Mat& bgr, const cv::Matx33d& K,
-                                                   const PoolTableProfile& profile,
-                                                   const PoolTableOptions& options) {
-  RETURN_IF_ERROR(options.Validate());
-  RETURN_IF_ERROR(profile.Validate());
-  if (bgr.empty() || bgr.type() != CV_8UC3)
-    return absl::InvalidArgumentError("table detection needs an 8-bit BGR image");
+namespace {
+
+// The table's cloth colour as the image shows it, when it is not the profile's (a blue or
+// a red cloth, the profile holding the default green): the peaks of a hue histogram of the
+// saturated, lit pixels of the half-resolution image, most common first, each as the mean
+// colour of its pixels. Only peaks that cover min_fraction of the image (a table does).
+std::vector<cv::Vec3f> DominantColours(const cv::Mat& small, double min_fraction, int max_colours) {
+  constexpr int kBins = 36;           // 5 of OpenCV's hue units (10 degrees) each
+  constexpr int kMinSaturation = 60;  // of 255: grey paper, walls and floors are out
+  constexpr int kMinValue = 40;       // of 255: shadows' hue is noise
+  cv::Mat hsv;
+  cv::cvtColor(small, hsv, cv::COLOR_BGR2HSV);
+  std::array<double, kBins> count{};
+  std::array<cv::Vec3d, kBins> sum{};
+  for (int y = 0; y < hsv.rows; ++y) {
+    const cv::Vec3b* h = hsv.ptr<cv::Vec3b>(y);
+    const cv::Vec3b* p = small.ptr<cv::Vec3b>(y);
+    for (int x = 0; x < hsv.cols; ++x) {
+      if (h[x][1] < kMinSaturation || h[x][2] < kMinValue) continue;
+      const int bin = std::min(kBins - 1, h[x][0] * kBins / 180);
+      count[bin] += 1;
+      sum[bin] += cv::Vec3d(p[x][0], p[x][1], p[x][2]);
+    }
+  }
+  // Peaks of the circularly smoothed histogram; a peak's colour is the mean over its bin
+  // and the two beside it.
+  std::vector<std::pair<double, int>> peaks;
+  auto smoothed = [&](int i) {
+    return count[(i + kBins - 1) % kBins] + 2 * count[i] + count[(i + 1) % kBins];
+  };
+  for (int i = 0; i < kBins; ++i) {
+    const double c = smoothed(i);
+    if (c >= smoothed((i + 1) % kBins) && c > smoothed((i + kBins - 1) % kBins))
+      peaks.emplace_back(c, i);
+  }
+  std::sort(peaks.rbegin(), peaks.rend());
+  std::vector<cv::Vec3f> colours;
+  for (const auto& [c, i] : peaks) {
+    const double n = count[(i + kBins - 1) % kBins] + count[i] + count[(i + 1) % kBins];
+    if (n < min_fraction * static_cast<double>(small.total()) ||
+        static_cast<int>(colours.size()) >= max_colours)
+      break;
+    const cv::Vec3d s = sum[(i + kBins - 1) % kBins] + sum[i] + sum[(i + 1) % kBins];
+    colours.emplace_back(static_cast<float>(s[0] / n), static_cast<float>(s[1] / n),
+                         static_cast<float>(s[2] / n));
+  }
+  return colours;
+}
+
+// The table found from a cloth colour `seed` (the wide search's centre): steps 1-8 below.
+absl::StatusOr<PoolTableDetection> DetectPoolTableFrom(const cv::Mat& bgr, const cv::Mat& small,
+                                                       const cv::Matx33d& K,
+                                                       const PoolTableProfile& profile,
+                                                       const PoolTableOptions& options,
+                                                       const cv::Vec3f& seed) {
   PoolTableDetection det;
-  const cv::Vec3f profile_cloth(profile.cloth_bgr[0], profile.cloth_bgr[1], profile.cloth_bgr[2]);
-  // The cloth, its outline and the Hough lines are found at half resolution (four times
-  // fewer pixels); the sides are then refined on the full image.
-  cv::Mat small;
-  cv::pyrDown(bgr, small);
   // 1. Wide search for the cloth, then its colour measured on this image.
   int area = 0;
-  cv::Mat region =
-      LargestRegion(AngleMask(small, profile_cloth, options.search_angle_deg, 45), &area);
+  cv::Mat region = LargestRegion(AngleMask(small, seed, options.search_angle_deg, 45), &area);
   const int min_area = static_cast<int>(options.min_cloth_fraction * small.total());
   if (area < min_area) {
     return absl::FailedPreconditionError(absl::StrCat(
-        "no pool table in view: no region of the cloth colour (BGR ", profile.cloth_bgr[0], ",",
-        profile.cloth_bgr[1], ",", profile.cloth_bgr[2], ") covers ",
+        "no pool table in view: no region of the cloth colour (BGR ", std::lround(seed[0]), ",",
+        std::lround(seed[1]), ",", std::lround(seed[2]), ") covers ",
         100 * options.min_cloth_fraction,
         "% of the image; point the camera at the table or calibrate the cloth colour"));
   }
-  cv::Vec3f cloth = MeanColor(small, region, profile_cloth, options.search_angle_deg);
+  cv::Vec3f cloth = MeanColor(small, region, seed, options.search_angle_deg);
   cloth = MeanColor(small, region, cloth, options.cloth_angle_deg);
   const double brightness = (cloth[0] + cloth[1] + cloth[2]) / 3;
   det.cloth_bgr =
@@ -579,6 +623,34 @@ absl::StatusOr<PoolTableDetection> DetectPoolTable(const cv::Mat& bgr, const cv:
   det.rotated_pose = rotated;
   det.cushion_corners = best_order;
   return det;
+}
+
+}  // namespace
+
+absl::StatusOr<PoolTableDetection> DetectPoolTable(const cv::Mat& bgr, const cv::Matx33d& K,
+                                                   const PoolTableProfile& profile,
+                                                   const PoolTableOptions& options) {
+  RETURN_IF_ERROR(options.Validate());
+  RETURN_IF_ERROR(profile.Validate());
+  if (bgr.empty() || bgr.type() != CV_8UC3)
+    return absl::InvalidArgumentError("table detection needs an 8-bit BGR image");
+  // The cloth, its outline and the Hough lines are found at half resolution (four times
+  // fewer pixels); the sides are then refined on the full image.
+  cv::Mat small;
+  cv::pyrDown(bgr, small);
+  const cv::Vec3f profile_cloth(profile.cloth_bgr[0], profile.cloth_bgr[1], profile.cloth_bgr[2]);
+  auto found = DetectPoolTableFrom(bgr, small, K, profile, options, profile_cloth);
+  if (found.ok() || options.other_cloth_colours == 0) return found;
+  // A cloth of another colour than the profile's (blue, red): the image's own dominant
+  // colours, each of which must still give a table of the profile's proportions. When none
+  // does, the profile colour's answer says what is wrong.
+  for (const cv::Vec3f& colour :
+       DominantColours(small, options.min_cloth_fraction, options.other_cloth_colours)) {
+    if (ColorAngleDeg(colour, profile_cloth) < options.search_angle_deg) continue;  // tried
+    auto other = DetectPoolTableFrom(bgr, small, K, profile, options, colour);
+    if (other.ok()) return other;
+  }
+  return found;
 }
 
 }  // namespace texfree

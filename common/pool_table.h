@@ -8,9 +8,8 @@
 #pragma once
 
 #include <array>
-#include <vector>
-
 #include <opencv2/core.hpp>
+#include <vector>
 
 #include "absl/status/statusor.h"
 #include "common/planar_pose.h"
@@ -33,6 +32,10 @@ struct PoolTableOptions {
   // Largest allowed inconsistency of the pose from the corners (0 = a perfect rectangle
   // of the profile's proportions seen by this camera).
   double max_rectangle_inconsistency = 0.2;
+  // When no table is found in the profile's cloth colour, the image's this many most
+  // common saturated colours are tried as the cloth's (a blue or red cloth with a profile
+  // left at the default green); 0 = only the profile's colour.
+  int other_cloth_colours = 3;
 
   absl::Status Validate() const;
 };
@@ -46,8 +49,8 @@ struct PoolTableDetection {
   // The same table with the origin at the opposite corner (the table's 180 degree
   // symmetry): which of the two is right is decided by the ball arrangement (seed 4.5).
   PlanarPose rotated_pose;
-  cv::Vec3b cloth_bgr;       // measured on this image
-  double cloth_brightness;   // mean of B, G, R of the cloth
+  cv::Vec3b cloth_bgr;         // measured on this image
+  double cloth_brightness;     // mean of B, G, R of the cloth
   bool long_side_view = true;  // camera stands at a long side
   double rectangle_inconsistency = 0;
   cv::Mat cloth_mask;  // CV_8U, 255 = cloth (largest region), at half resolution
@@ -58,8 +61,7 @@ struct PoolTableDetection {
 // table in view"), when the table is cut by the image border ("only part of the table is
 // in view") or its outline is not four straight sides; INVALID_ARGUMENT for bad
 // options/profile.
-absl::StatusOr<PoolTableDetection> DetectPoolTable(const cv::Mat& ideal_bgr,
-                                                   const cv::Matx33d& K,
+absl::StatusOr<PoolTableDetection> DetectPoolTable(const cv::Mat& ideal_bgr, const cv::Matx33d& K,
                                                    const PoolTableProfile& profile,
                                                    const PoolTableOptions& options = {});
 

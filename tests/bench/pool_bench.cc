@@ -10,11 +10,11 @@
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <cstdio>
+#include <ctime>
 #include <filesystem>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <random>
-#include <ctime>
 #include <string>
 #include <vector>
 
@@ -70,16 +70,45 @@ int main(int argc, char** argv) {
   bool true_pose = false;
   app.add_flag("--true-pose", true_pose,
                "Find the balls with the true table pose (separates ball errors from pose errors)");
+  std::string cloth = "green";
+  app.add_option("--cloth", cloth,
+                 "Cloth colour: green (the renderer's), blue, red or R,G,B; the profile is told "
+                 "the cloth colour, as table.json's cloth_color tells the server")
+      ->check([](const std::string& v) {
+        int r, g, b;
+        return v == "green" || v == "blue" || v == "red" ||
+                       std::sscanf(v.c_str(), "%d,%d,%d", &r, &g, &b) == 3
+                   ? std::string()
+                   : "expected green, blue, red or R,G,B";
+      });
+  bool cloth_unknown = false;
+  app.add_flag("--cloth-unknown", cloth_unknown,
+               "Keep the profile's default cloth colour whatever the cloth (a user who did not "
+               "set it)");
   CLI11_PARSE(app, argc, argv);
   cv::setNumThreads(1);  // one core
 
-  const PoolTableSpec spec = nine_foot ? PoolTableSpec::NineFoot() : PoolTableSpec::Bench();
+  PoolTableSpec spec = nine_foot ? PoolTableSpec::NineFoot() : PoolTableSpec::Bench();
+  // Tournament blue and a burgundy, as cloth makers sell them.
+  if (cloth == "blue") {
+    spec.cloth_rgb = {20, 95, 160};
+  } else if (cloth == "red") {
+    spec.cloth_rgb = {125, 30, 40};
+  } else if (cloth != "green") {
+    int r = 0, g = 0, b = 0;
+    std::sscanf(cloth.c_str(), "%d,%d,%d", &r, &g, &b);
+    spec.cloth_rgb = {static_cast<double>(r), static_cast<double>(g), static_cast<double>(b)};
+  }
   PoolTableProfile profile = nine_foot ? NineFootPoolProfile() : BenchPoolProfile();
   profile.length_mm = spec.length_mm;
   profile.width_mm = spec.width_mm;
   profile.ball_radius_mm = spec.ball_radius_mm;
   profile.cushion_height_mm = spec.cushion_height_mm;
   profile.cushion_width_mm = spec.cushion_width_mm;
+  if (cloth != "green" && !cloth_unknown)
+    profile.cloth_bgr = cv::Vec3b(cv::saturate_cast<uchar>(spec.cloth_rgb[2]),
+                                  cv::saturate_cast<uchar>(spec.cloth_rgb[1]),
+                                  cv::saturate_cast<uchar>(spec.cloth_rgb[0]));
   if (!save.empty()) std::filesystem::create_directories(save);
 
   std::mt19937_64 rng(seed);
@@ -158,8 +187,9 @@ int main(int argc, char** argv) {
     per_frame_max.push_back(frame_max);
     if (verbose && score.max_corner_error_px > 1) {
       for (int i = 0; i < 4; ++i)
-        std::printf("    corner %d: (%.2f, %.2f) truth (%.2f, %.2f)\n", i, analysis->cloth_corners[i].x,
-                    analysis->cloth_corners[i].y, view.cloth_corners[i].x, view.cloth_corners[i].y);
+        std::printf("    corner %d: (%.2f, %.2f) truth (%.2f, %.2f)\n", i,
+                    analysis->cloth_corners[i].x, analysis->cloth_corners[i].y,
+                    view.cloth_corners[i].x, view.cloth_corners[i].y);
     }
     if (verbose) {
       for (const auto& m : score.matches)
@@ -195,20 +225,22 @@ int main(int argc, char** argv) {
     }
     if (verbose) {
       const cv::Vec3d c = -(view.rotation.t() * view.translation);
-      std::printf("frame %3d  camera (%6.0f %6.0f %5.0f)  corners %.2f px  balls %zu/%zu  "
-                  "max %.1f mm  separated %d/%d id %d  false %d  %.1f ms\n",
-                  f, c[0], c[1], c[2], score.max_corner_error_px,
-                  score.position_errors_mm.size(), view.balls.size(), frame_max,
-                  score.separated_found, score.separated, score.separated_identified,
-                  score.false_balls, times.back());
-      for (const auto& [stage, ms] : analysis->timings_ms) std::printf("    %s %.1f ms", stage.c_str(), ms);
+      std::printf(
+          "frame %3d  camera (%6.0f %6.0f %5.0f)  corners %.2f px  balls %zu/%zu  "
+          "max %.1f mm  separated %d/%d id %d  false %d  %.1f ms\n",
+          f, c[0], c[1], c[2], score.max_corner_error_px, score.position_errors_mm.size(),
+          view.balls.size(), frame_max, score.separated_found, score.separated,
+          score.separated_identified, score.false_balls, times.back());
+      for (const auto& [stage, ms] : analysis->timings_ms)
+        std::printf("    %s %.1f ms", stage.c_str(), ms);
       std::printf("\n");
     }
   }
-  std::printf("\nPool analysis benchmark: %d frames of 640x480, %s table (%.0f x %.0f mm, ball "
-              "radius %.3f mm), seed %llu, one core\n\n",
-              frames, nine_foot ? "9-ft" : "bench", spec.length_mm, spec.width_mm,
-              spec.ball_radius_mm, static_cast<unsigned long long>(seed));
+  std::printf(
+      "\nPool analysis benchmark: %d frames of 640x480, %s table (%.0f x %.0f mm, ball "
+      "radius %.3f mm), seed %llu, one core\n\n",
+      frames, nine_foot ? "9-ft" : "bench", spec.length_mm, spec.width_mm, spec.ball_radius_mm,
+      static_cast<unsigned long long>(seed));
   std::printf("| measure | value |\n|---|---|\n");
   std::printf("| table found | %d / %d frames |\n", found, frames);
   std::printf("| corner error (max per frame), median / p95 | %.2f / %.2f px |\n",

@@ -194,6 +194,64 @@ TEST(PoolErrors, NoTableInView) {
   ExpectAnalysisRefused(scene, 5, "no pool table in view");
 }
 
+// A blue or a red cloth with a profile left at the default green (the user did not set
+// cloth_color): the table is found in the image's own dominant colour. On blue cloth the
+// balls are located and numbered as on green (within the seed's 16 mm; the purple 4 on blue
+// is the hardest, 12 mm in the short-side view); on a burgundy cloth every ball but the red
+// 3 and the maroon 7, of the cloth's own hue, is.
+TEST(PoolClothColour, ClothOfAnotherColourThanTheProfileIsFound) {
+  struct Cloth {
+    const char* name;
+    cv::Vec3d rgb;
+    std::vector<int> of_the_cloth_hue;
+  };
+  for (const Cloth& cloth :
+       {Cloth{"tournament blue", {20, 95, 160}, {}}, Cloth{"burgundy", {125, 30, 40}, {3, 7}}})
+    for (const PoolViewSide side : {PoolViewSide::kLongNear, PoolViewSide::kShortLeft}) {
+      SCOPED_TRACE(std::string(cloth.name) +
+                   (side == PoolViewSide::kLongNear ? ", long side" : ", short side"));
+      PoolScene scene = Scene(side, 50, 8);
+      scene.table.cloth_rgb = cloth.rgb;
+      const PoolView view = testdata::RenderPoolView(scene, 1234);
+      auto scored = AnalyzeAndScore(scene, view);
+      ASSERT_TRUE(scored.ok()) << scored.status();
+      const testdata::PoolScore& score = scored->score;
+      EXPECT_LT(score.max_corner_error_px, 1.5);
+      EXPECT_EQ(score.false_balls, 0);
+      std::vector<int> located;
+      double sum = 0, worst = 0;
+      std::string detail;
+      for (const auto& m : score.matches) {
+        if (m.estimated_index < 0) continue;  // not found
+        located.push_back(m.truth_number);
+        sum += m.error_mm;
+        worst = std::max(worst, m.error_mm);
+        detail += " " + std::to_string(m.truth_number) + ":" + std::to_string(m.error_mm);
+      }
+      for (const auto& ball : view.balls) {
+        const bool hidden_by_hue =
+            std::count(cloth.of_the_cloth_hue.begin(), cloth.of_the_cloth_hue.end(), ball.number);
+        if (!hidden_by_hue)
+          EXPECT_TRUE(std::count(located.begin(), located.end(), ball.number))
+              << "ball " << ball.number << " not located";
+      }
+      EXPECT_LT(worst, 16.0) << detail;
+      EXPECT_LT(sum / std::max<size_t>(1, located.size()), 5.0) << detail;
+      if (cloth.of_the_cloth_hue.empty())
+        EXPECT_GE(score.separated_identified, score.separated - 1);
+    }
+  // Told to look for the profile's colour only, it finds no table.
+  PoolScene scene = Scene(PoolViewSide::kLongNear, 50, 8);
+  scene.table.cloth_rgb = {20, 95, 160};
+  const PoolView view = testdata::RenderPoolView(scene, 1234);
+  PoolTableOptions only_profile;
+  only_profile.other_cloth_colours = 0;
+  auto table =
+      DetectPoolTable(view.image, view.camera_matrix, ProfileFor(scene.table), only_profile);
+  ASSERT_FALSE(table.ok());
+  EXPECT_EQ(table.status().code(), absl::StatusCode::kFailedPrecondition);
+}
+
 TEST(PoolErrors, OnlyPartOfTheTable) {
   PoolScene scene = Scene(PoolViewSide::kLongNear, 45);
   // Zoom in on one end: the far cushion and one side leave the frame.
