@@ -81,7 +81,8 @@ std::vector<Query> MakeQueries(int count, int registered, uint64_t seed, bool un
     options.image_size =
         cv::Size(static_cast<int>(std::lround(options.image_size.width * resolution)),
                  static_cast<int>(std::lround(options.image_size.height * resolution)));
-    options.scale *= resolution;
+    // Pages rendered wider than the default 1,000 px (a higher dpi) are seen alike.
+    options.scale *= resolution * 1000.0 / page_options.width;
     options.blur_sigma *= resolution;
     auto view = texfree::testdata::RenderCameraView(rendered.image, options, seed + i);
     std::vector<uchar> bytes;
@@ -287,6 +288,16 @@ int main(int argc, char **argv) {
   app.add_flag("--line-closing", line_closing,
                "register and query first with the line closing (new database only)");
   app.add_option("--log2-buckets", registry_options.log2_buckets, "index hash table size");
+  int page_width = 1000;
+  app.add_option("--page-width", page_width,
+                 "width of the rendered pages in pixels (1000: about 120 dpi on A4; 2480: 300 "
+                 "dpi); the camera views are the same at any width")
+      ->check(CLI::Range(500, 5000));
+  double register_scale = 1.0;
+  app.add_option("--register-scale", register_scale,
+                 "register each page downscaled by this factor (the views still see the full "
+                 "page): a page registered at a lower dpi than it is printed at")
+      ->check(CLI::Range(0.1, 1.0));
   double resolution = 1.0;
   app.add_option("--resolution", resolution,
                  "camera pixels per 640x480 view's pixel: the same views at F times the width "
@@ -322,6 +333,8 @@ int main(int argc, char **argv) {
     }
   }
   texfree::testdata::PageOptions page_options;
+  page_options.width = page_width;
+  page_options.height = static_cast<int>(std::lround(page_width * 1.414));
   if (auto set = texfree::testdata::AvailableFontSet(fonts); set.ok()) {
     page_options.fonts = *set;
   } else {
@@ -361,6 +374,16 @@ int main(int argc, char **argv) {
       "| pages | top-1 | H err px (median) | false matches | median ms | p95 ms | median CPU ms "
       "| p95 CPU ms | index MiB | RSS MiB | start-up s | register ms/page |\n");
   std::printf("|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
+  // Ground truth in registered-image pixels.
+  auto registered_frame = [&](std::vector<Query> queries) {
+    const cv::Matx33d to_page(1 / register_scale, 0, 0, 0, 1 / register_scale, 0, 0, 0, 1);
+    for (Query &q : queries) {
+      q.truth = q.truth * to_page;
+      q.page_size = cv::Size(static_cast<int>(std::lround(q.page_size.width * register_scale)),
+                             static_cast<int>(std::lround(q.page_size.height * register_scale)));
+    }
+    return queries;
+  };
   const auto unregistered_queries =
       MakeQueries(unregistered, 1, 99, true, page_options, resolution);
   for (int target : checkpoints) {
@@ -370,6 +393,8 @@ int main(int argc, char **argv) {
       auto page = texfree::testdata::RenderTextPage(registered, page_options);
       cv::Mat gray;
       cv::cvtColor(page.image, gray, cv::COLOR_BGR2GRAY);
+      if (register_scale != 1.0)
+        cv::resize(gray, gray, cv::Size(), register_scale, register_scale, cv::INTER_AREA);
       auto record = registry->Register(gray, "page " + std::to_string(registered), {});
       if (!record.ok()) {
         std::fprintf(stderr, "register page %d: %s\n", registered,
@@ -400,10 +425,10 @@ int main(int argc, char **argv) {
     }
 
     const auto queries_now =
-        query_pages > 0
-            ? MakeQueries(queries, std::min(query_pages, registered), 1234, false, page_options,
-                          resolution)
-            : MakeQueries(queries, registered, 1234 + target, false, page_options, resolution);
+        registered_frame(query_pages > 0 ? MakeQueries(queries, std::min(query_pages, registered),
+                                                       1234, false, page_options, resolution)
+                                         : MakeQueries(queries, registered, 1234 + target, false,
+                                                       page_options, resolution));
     std::vector<double> times, cpu_times, errors;
     std::map<std::string, double> stage_ms;
     int correct = 0, false_matches = 0;
