@@ -64,11 +64,19 @@ struct Query {
   texfree::testdata::CameraViewOptions view;
 };
 
-// `resolution` scales the camera's pixels: the same views, F times as many pixels across
-// (the page scale and the lens blur in pixels grow with it), as a phone's full-size photo.
+// How the camera views are drawn: `resolution` scales the camera's pixels (the same views,
+// F times as many pixels across, the page scale and the lens blur in pixels growing with
+// it, as a phone's full-size photo); the page scale (image px per page px of a 1,000 px
+// page) is drawn in [min_scale, max_scale].
+struct ViewRange {
+  double resolution = 1.0;
+  double min_scale = 0.6, max_scale = 1.3;
+};
+
 std::vector<Query> MakeQueries(int count, int registered, uint64_t seed, bool unregistered,
                                const texfree::testdata::PageOptions &page_options,
-                               double resolution) {
+                               const ViewRange &range) {
+  const double resolution = range.resolution;
   std::vector<Query> out;
   std::mt19937_64 rng(seed);
   for (int i = 0; i < count; ++i) {
@@ -76,7 +84,8 @@ std::vector<Query> MakeQueries(int count, int registered, uint64_t seed, bool un
         unregistered ? -1 : static_cast<int>((static_cast<int64_t>(i) * 7919) % registered);
     const uint64_t page_seed = unregistered ? 1'000'000 + i : page;
     auto rendered = texfree::testdata::RenderTextPage(page_seed, page_options);
-    auto options = texfree::testdata::RandomViewOptions(rng, rendered.image.size());
+    auto options = texfree::testdata::RandomViewOptions(rng, rendered.image.size(), 40,
+                                                        range.min_scale, range.max_scale);
     options.jpeg_quality = 0;  // encoded below, decoded by the timed server path
     options.image_size =
         cv::Size(static_cast<int>(std::lround(options.image_size.width * resolution)),
@@ -298,7 +307,12 @@ int main(int argc, char **argv) {
                  "register each page downscaled by this factor (the views still see the full "
                  "page): a page registered at a lower dpi than it is printed at")
       ->check(CLI::Range(0.1, 1.0));
-  double resolution = 1.0;
+  ViewRange view_range;
+  double &resolution = view_range.resolution;
+  std::string view_scale = "0.6:1.3";
+  app.add_option("--view-scale", view_scale,
+                 "MIN:MAX page scale of the views (image px per px of a 1,000 px page; a whole "
+                 "A4 page fills a 640x480 view at about 0.34)");
   app.add_option("--resolution", resolution,
                  "camera pixels per 640x480 view's pixel: the same views at F times the width "
                  "and height (page scale and blur scaled alike)")
@@ -331,6 +345,14 @@ int main(int argc, char **argv) {
         layer.keypoints = texfree::server::DefaultFallbackKeypointOptions()[0];
       registry_options.registration_layers.push_back(layer);
     }
+  }
+  if (std::sscanf(view_scale.c_str(), "%lf:%lf", &view_range.min_scale, &view_range.max_scale) !=
+          2 ||
+      !(view_range.min_scale > 0.05 && view_range.min_scale <= view_range.max_scale &&
+        view_range.max_scale <= 5)) {
+    std::fprintf(stderr, "--view-scale: expected MIN:MAX with 0.05 < MIN <= MAX <= 5, got %s\n",
+                 view_scale.c_str());
+    return 1;
   }
   texfree::testdata::PageOptions page_options;
   page_options.width = page_width;
@@ -385,7 +407,7 @@ int main(int argc, char **argv) {
     return queries;
   };
   const auto unregistered_queries =
-      MakeQueries(unregistered, 1, 99, true, page_options, resolution);
+      MakeQueries(unregistered, 1, 99, true, page_options, view_range);
   for (int target : checkpoints) {
     const auto t_reg = Clock::now();
     const int before = registered;
@@ -426,9 +448,9 @@ int main(int argc, char **argv) {
 
     const auto queries_now =
         registered_frame(query_pages > 0 ? MakeQueries(queries, std::min(query_pages, registered),
-                                                       1234, false, page_options, resolution)
+                                                       1234, false, page_options, view_range)
                                          : MakeQueries(queries, registered, 1234 + target, false,
-                                                       page_options, resolution));
+                                                       page_options, view_range));
     std::vector<double> times, cpu_times, errors;
     std::map<std::string, double> stage_ms;
     int correct = 0, false_matches = 0;
