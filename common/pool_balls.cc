@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <opencv2/imgproc.hpp>
 
 #include "common/connected_components.h"
@@ -298,6 +299,16 @@ class EdgeFitter {
   // How much farther out than its reach a rim scan that starts inside the ball goes on
   // looking for the cloth, on the outline's far side (0: not at all).
   void SetOutwardReach(double px) { outward_reach_px_ = px; }
+  // Edge points on the far side with a pixel under `level` in `brightness` (over `area_`)
+  // 0.5-2 px beyond them are taken on the outward fall of the luma (gradients luma_gx,
+  // luma_gy over `area_`) when it has a qualifying peak no farther out (nullptr: never).
+  void SetShadedOutside(const cv::Mat* brightness, double level, const cv::Mat* luma_gx,
+                        const cv::Mat* luma_gy) {
+    brightness_ = brightness;
+    shade_level_ = level;
+    luma_gx_ = luma_gx;
+    luma_gy_ = luma_gy;
+  }
   // Rim points only on the outline's far side: a ball darker than the cloth has its own
   // shadow, as dark as it, joined to its near side (a camera looking steeply down sees it
   // beside the whole lower half), so only the far rim is against clean cloth. With the
@@ -489,17 +500,21 @@ class EdgeFitter {
     };
     constexpr double kStep = 0.25;
     std::vector<double> falls;
-    ForEachOutlinePoint(xy, [&](double u, double v, double nx, double ny, bool) {
+    // The outermost qualifying peak of the outward fall along the normal at (u, v) in the
+    // gradients (gx, gy): its offset along the normal, or false when there is none.
+    const auto outermost_edge = [&](const cv::Mat& gx, const cv::Mat& gy, double u, double v,
+                                    double nx, double ny, double* at_out) {
       falls.clear();
       for (double s = reach_px; s >= -reach_px; s -= kStep) {
         const double x = u + s * nx, y = v + s * ny;
-        if (!inside_area(x, y)) return;
+        if (!inside_area(x, y)) return false;
         const int ix = static_cast<int>(x), iy = static_cast<int>(y);
-        if (!roi_.contains({ix, iy}) || claimed_.at<float>(iy - roi_.y, ix - roi_.x) > 0.01) return;
-        falls.push_back(-(Sample(gx_, x, y) * nx + Sample(gy_, x, y) * ny));
+        if (!roi_.contains({ix, iy}) || claimed_.at<float>(iy - roi_.y, ix - roi_.x) > 0.01)
+          return false;
+        falls.push_back(-(Sample(gx, x, y) * nx + Sample(gy, x, y) * ny));
       }
       const double peak = *std::max_element(falls.begin(), falls.end());
-      if (peak <= 0) return;
+      if (peak <= 0) return false;
       for (size_t k = 1; k + 1 < falls.size(); ++k) {
         const double f = falls[k];
         if (f < 0.5 * peak || f < falls[k - 1] || f < falls[k + 1]) continue;
@@ -509,9 +524,26 @@ class EdgeFitter {
         const double at = reach_px - kStep * (k + shift);
         const double ox = u + (at + 1.5) * nx, oy = v + (at + 1.5) * ny;
         if (!inside_area(ox, oy) || Sample(distance, ox, oy) > cloth_level) continue;
-        points.emplace_back(u + at * nx, v + at * ny);
-        return;
+        *at_out = at;
+        return true;
       }
+      return false;
+    };
+    ForEachOutlinePoint(xy, [&](double u, double v, double nx, double ny, bool far_side) {
+      double at = 0;
+      if (!outermost_edge(gx_, gy_, u, v, nx, ny, &at)) return;
+      if (far_side && brightness_ != nullptr && luma_gx_ != nullptr) {
+        double darkest = std::numeric_limits<double>::max();
+        for (double t = 0.5; t <= 2.0; t += 0.5) {
+          const double x = u + (at + t) * nx, y = v + (at + t) * ny;
+          if (inside_area(x, y)) darkest = std::min(darkest, Sample(*brightness_, x, y));
+        }
+        double luma_at = 0;
+        if (darkest < shade_level_ &&
+            outermost_edge(*luma_gx_, *luma_gy_, u, v, nx, ny, &luma_at) && luma_at <= at + kStep)
+          at = luma_at;
+      }
+      points.emplace_back(u + at * nx, v + at * ny);
     });
     return points;
   }
@@ -586,6 +618,10 @@ class EdgeFitter {
   cv::Vec3d camera_;
   bool skip_shadowed_ = false;
   double outward_reach_px_ = 0;
+  const cv::Mat* brightness_ = nullptr;
+  double shade_level_ = 0;
+  const cv::Mat* luma_gx_ = nullptr;
+  const cv::Mat* luma_gy_ = nullptr;
   bool far_only_ = false;
   std::vector<cv::Vec3d> neighbours_;
   static constexpr double kNeighbourMargin = 1.3;  // apparent radii
@@ -683,6 +719,8 @@ absl::Status PoolBallOptions::Validate() const {
     return absl::InvalidArgumentError("edge_point_prior must be in [0, 100]");
   if (!(edge_max_ballness_drop > 0 && edge_max_ballness_drop <= 1))
     return absl::InvalidArgumentError("edge_max_ballness_drop must be in (0, 1]");
+  if (!(edge_shade_brightness >= 0 && edge_shade_brightness <= 1))
+    return absl::InvalidArgumentError("edge_shade_brightness must be in [0, 1]");
   if (!(split_hidden_min_visible >= 0 && split_hidden_min_visible <= 1))
     return absl::InvalidArgumentError("split_hidden_min_visible must be in [0, 1]");
   if (!(split_hidden_min_ballness > 0.5 && split_hidden_min_ballness <= 1))
@@ -1293,8 +1331,29 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
       if (threshold > 0) {
         const double reach_px =
             std::max(2.0, options.edge_point_reach * ApparentRadiusPx(pose, K, seeds[i], r));
+        // Brightness (as the cloth's) and luma over `grown` for the edge points against a
+        // shaded background (options.edge_shade_brightness).
+        cv::Mat brightness, luma_gx, luma_gy;
+        if (options.edge_shade_brightness > 0) {
+          brightness.create(grown.size(), CV_32FC1);
+          cv::Mat luma(grown.size(), CV_32FC1);
+          for (int v = 0; v < grown.height; ++v) {
+            const cv::Vec3b* p = bgr.ptr<cv::Vec3b>(v + grown.y) + grown.x;
+            float* b = brightness.ptr<float>(v);
+            float* y = luma.ptr<float>(v);
+            for (int u = 0; u < grown.width; ++u) {
+              b[u] = (p[u][0] + p[u][1] + p[u][2]) / 3.f;
+              y[u] = 0.114f * p[u][0] + 0.587f * p[u][1] + 0.299f * p[u][2];  // JPEG's Y
+            }
+          }
+          cv::Sobel(luma, luma_gx, CV_32F, 1, 0, 3, 1.0 / 8);
+          cv::Sobel(luma, luma_gy, CV_32F, 0, 1, 3, 1.0 / 8);
+          edge.SetShadedOutside(&brightness, options.edge_shade_brightness * cloth_i, &luma_gx,
+                                &luma_gy);
+        }
         seeds[i] =
             edge.FitToEdgePoints(seeds[i], distance, threshold, reach_px, options.edge_point_prior);
+        edge.SetShadedOutside(nullptr, 0, nullptr, nullptr);
       }
     }
     if (!darker_than_cloth) {

@@ -80,6 +80,16 @@ struct PoolBallOptions {
   // part of the silhouette onto the cloth was drawn by another edge (the shaded face of
   // the far cushion behind a green 6 took one 2 px up, 17 mm). 1 turns this off.
   double edge_max_ballness_drop = 0.15;
+  // An edge point on the outline's far side whose outside (0.5-2 px beyond it) has a
+  // pixel darker than this fraction of the local cloth's brightness (0.75) is taken on
+  // the fall of the luma instead, when that lies no farther out: the colour distance is
+  // mostly chromaticity, and against a dark background (the ball's shadow cast behind it,
+  // the far cushion's shaded face) JPEG's halved colour resolution spreads the ball's
+  // colour into pixels whose chromaticity it then dominates, so the colour's fall lies a
+  // pixel or two outside the ball; the luma keeps the full resolution. Benchmark seed 13's
+  // frame 3 5 and seed 11's frame 32 1, in front of the far cushion: their top edge points
+  // 1.3-1.8 px outside the ball, 12.7 and 10.0 mm away from the camera. 0 turns this off.
+  double edge_shade_brightness = 0.75;
   // A ball seen behind another one along the line of sight shows only a crescent above
   // it: their blob has about two balls' area for the pose but a single distance maximum,
   // and its one seed's silhouette settles on the farther ball or between the two. Such a

@@ -6,6 +6,7 @@
 
 #include <cmath>
 #include <random>
+#include <tuple>
 #include <utility>
 
 #include "common/pool_analyzer.h"
@@ -664,6 +665,36 @@ TEST(PoolTouchingBalls, OutlineFitsThatLeaveTheBallForTheClothAreNotKept) {
     EXPECT_LT(m.error_mm, 10.0) << "ball " << m.truth_number;
   }
   EXPECT_EQ(score.separated_identified, score.separated);
+}
+
+// The edge points of a ball not darker than the cloth that lie against a dark background
+// on the outline's far side are taken on the luma's fall: the colour distance is mostly
+// chromaticity, and JPEG's halved colour resolution spreads the ball's colour into the
+// dark pixels beyond it, whose chromaticity it then dominates. Benchmark frames, each a
+// lit ball in front of the far cushion with its shadow and the cushion's shaded face
+// above it: seed 13's frame 3 5 (its top edge points 1.3-1.8 px outside it, 12.7 mm away
+// from the camera before) and seed 11's frame 32 1 (10.0 mm before).
+TEST(PoolTouchingBalls, EdgePointsAgainstADarkBackgroundAreTakenOnTheLuma) {
+  for (const auto& [frame, seed, number] :
+       {std::tuple<int, uint64_t, int>{3, 13, 5}, {32, 11, 1}}) {
+    const auto [scene, view] = RenderBenchFrame(frame, seed);
+    auto scored = AnalyzeAndScore(scene, view);
+    ASSERT_TRUE(scored.ok()) << scored.status();
+    const testdata::PoolScore& score = scored->score;
+    bool seen = false;
+    for (const auto& m : score.matches) {
+      EXPECT_GE(m.error_mm, 0) << "frame " << frame << ", ball " << m.truth_number;
+      EXPECT_LT(m.error_mm, 10.0) << "frame " << frame << ", ball " << m.truth_number;
+      seen |= m.truth_number == number;
+    }
+    EXPECT_TRUE(seen) << "frame " << frame << " has no " << number;
+    EXPECT_EQ(score.separated_identified, score.separated) << "frame " << frame;
+  }
+  PoolBallOptions options;
+  options.edge_shade_brightness = 0;  // off
+  EXPECT_TRUE(options.Validate().ok());
+  options.edge_shade_brightness = 1.5;
+  EXPECT_FALSE(options.Validate().ok());
 }
 
 // A grey or black ball darker than the cloth is fitted on its rim in the full colour
