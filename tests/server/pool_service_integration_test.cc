@@ -33,8 +33,8 @@ std::string Encode(const cv::Mat& image) {
 
 PoolScene Scene(PoolViewSide side, double elevation) {
   PoolScene scene;
-  scene.balls = {{0, 300, 350}, {1, 520, 200}, {2, 700, 520}, {3, 900, 180}, {5, 200, 560},
-                 {6, 450, 470}, {7, 800, 330}, {9, 620, 110}};
+  scene.balls = {{0, 300, 350}, {1, 520, 200}, {2, 700, 520}, {3, 900, 180},
+                 {5, 200, 560}, {6, 450, 470}, {7, 800, 330}, {9, 620, 110}};
   scene.camera = testdata::FramedPoolCamera(scene.table, side, elevation, 60, 6, 2);
   scene.camera.k1 = -0.03;
   scene.blur_sigma = 0.5;
@@ -73,8 +73,7 @@ class PoolServiceIntegrationTest : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
     long_view_ = new PoolView(testdata::RenderPoolView(Scene(PoolViewSide::kLongNear, 50), 11));
-    short_view_ =
-        new PoolView(testdata::RenderPoolView(Scene(PoolViewSide::kShortRight, 50), 12));
+    short_view_ = new PoolView(testdata::RenderPoolView(Scene(PoolViewSide::kShortRight, 50), 12));
   }
   static void TearDownTestSuite() {
     delete long_view_;
@@ -123,8 +122,8 @@ TEST_F(PoolServiceIntegrationTest, AnalyzeMatchesTheTruthAndSuggestsShots) {
   for (int i = 0; i < 4; ++i) corners[i] = {response.corners(i).x(), response.corners(i).y()};
   std::vector<testdata::EstimatedPoolBall> estimated;
   for (const auto& b : response.balls()) estimated.push_back({b.number(), b.x_mm(), b.y_mm()});
-  const testdata::PoolScore score = testdata::ScorePoolAnalysis(
-      Scene(PoolViewSide::kLongNear, 50), *long_view_, corners, estimated);
+  const testdata::PoolScore score = testdata::ScorePoolAnalysis(Scene(PoolViewSide::kLongNear, 50),
+                                                                *long_view_, corners, estimated);
   EXPECT_LT(score.max_corner_error_px, 1.5);
   EXPECT_EQ(score.position_errors_mm.size(), long_view_->balls.size());
   for (double e : score.position_errors_mm) EXPECT_LT(e, 12);
@@ -144,6 +143,29 @@ TEST_F(PoolServiceIntegrationTest, AnalyzeMatchesTheTruthAndSuggestsShots) {
   EXPECT_GT(response.overlays_size(), static_cast<int>(long_view_->balls.size()));
   EXPECT_GT(response.server_ms(), 0);
   EXPECT_EQ(response.profile().length_mm(), 1330);
+}
+
+// A blue table analysed with a profile that does not name its cloth colour (the default
+// green): found, its measured cloth colour returned, and the log says how to skip the
+// search.
+TEST_F(PoolServiceIntegrationTest, TableOfAnotherClothColourIsFoundAndTheLogSaysSo) {
+  PoolScene scene = Scene(PoolViewSide::kLongNear, 50);
+  scene.table.cloth_rgb = {20, 95, 160};
+  const PoolView view = testdata::RenderPoolView(scene, 13);
+  v1::AnalyzeTableResponse response;
+  const grpc::Status status = Analyze(Request(view), &response);
+  ASSERT_TRUE(status.ok()) << status.error_message() << server_->Log();
+  EXPECT_GT(response.cloth_color().b(), response.cloth_color().g() + 30);
+  EXPECT_GT(response.cloth_color().b(), response.cloth_color().r() + 60);
+  std::vector<testdata::EstimatedPoolBall> estimated;
+  for (const auto& b : response.balls()) estimated.push_back({b.number(), b.x_mm(), b.y_mm()});
+  std::array<cv::Point2d, 4> corners;
+  for (int i = 0; i < 4; ++i) corners[i] = {response.corners(i).x(), response.corners(i).y()};
+  const testdata::PoolScore score = testdata::ScorePoolAnalysis(scene, view, corners, estimated);
+  EXPECT_LT(score.max_corner_error_px, 1.5);
+  EXPECT_EQ(score.position_errors_mm.size(), view.balls.size());
+  EXPECT_NE(server_->Log().find("is not the profile's colour"), std::string::npos)
+      << server_->Log();
 }
 
 TEST_F(PoolServiceIntegrationTest, BadInputGetsAClearErrorAndTheServerStaysUp) {
