@@ -2,12 +2,12 @@
 // back with overlays.
 #include "server/pool_service.h"
 
-#include <spdlog/spdlog.h>
-
 #include <algorithm>
 #include <cmath>
-#include <opencv2/core.hpp>
 #include <optional>
+
+#include <opencv2/core.hpp>
+#include <spdlog/spdlog.h>
 
 #include "absl/strings/str_cat.h"
 #include "common/pool_analyzer.h"
@@ -58,13 +58,13 @@ absl::StatusOr<PoolTableProfile> ProfileFromProto(const v1::TableProfile& in) {
   p.width_mm = size(in.width_mm(), p.width_mm);
   const bool radius_given = in.ball_radius_mm() != 0;
   p.ball_radius_mm = size(in.ball_radius_mm(), p.ball_radius_mm);
-  p.cushion_height_mm =
-      size(in.cushion_height_mm(), radius_given ? 1.277 * p.ball_radius_mm : p.cushion_height_mm);
+  p.cushion_height_mm = size(in.cushion_height_mm(), radius_given ? 1.277 * p.ball_radius_mm
+                                                                  : p.cushion_height_mm);
   p.cushion_width_mm = in.cushion_width_mm() == 0 ? 1.75 * p.ball_radius_mm : in.cushion_width_mm();
-  p.corner_pocket_mm =
-      size(in.corner_pocket_mm(), radius_given ? 4.0 * p.ball_radius_mm : p.corner_pocket_mm);
-  p.side_pocket_mm =
-      size(in.side_pocket_mm(), radius_given ? 4.5 * p.ball_radius_mm : p.side_pocket_mm);
+  p.corner_pocket_mm = size(in.corner_pocket_mm(),
+                            radius_given ? 4.0 * p.ball_radius_mm : p.corner_pocket_mm);
+  p.side_pocket_mm = size(in.side_pocket_mm(),
+                          radius_given ? 4.5 * p.ball_radius_mm : p.side_pocket_mm);
   if (in.has_cloth_color()) {
     ASSIGN_OR_RETURN(p.cloth_bgr, ColourFromProto(in.cloth_color(), "cloth_color"));
   }
@@ -126,9 +126,10 @@ void PointToProto(const cv::Point2d& p, v1::Point2* out) {
 
 // Overlay colours (RGB) per ball number, the cue white.
 cv::Vec3b BallOverlayRgb(int number) {
-  static const cv::Vec3b kColours[] = {{255, 255, 255}, {255, 210, 0}, {40, 90, 255}, {230, 30, 30},
-                                       {150, 60, 200},  {255, 130, 0}, {0, 190, 80},  {150, 40, 40},
-                                       {30, 30, 30},    {255, 230, 80}};
+  static const cv::Vec3b kColours[] = {{255, 255, 255}, {255, 210, 0},   {40, 90, 255},
+                                       {230, 30, 30},   {150, 60, 200},  {255, 130, 0},
+                                       {0, 190, 80},    {150, 40, 40},   {30, 30, 30},
+                                       {255, 230, 80}};
   return number >= 0 && number < 10 ? kColours[number] : cv::Vec3b(200, 200, 200);
 }
 
@@ -161,18 +162,10 @@ void FillResponse(const PoolAnalyzer& analyzer, const PoolAnalysis& analysis,
     auto* shot = out->add_shots();
     shot->set_type(s.type == PoolShot::Type::kPocket ? v1::Shot::POCKET : v1::Shot::SAFETY);
     switch (s.kind) {
-      case PoolShot::Kind::kDirect:
-        shot->set_kind(v1::Shot::DIRECT);
-        break;
-      case PoolShot::Kind::kBank:
-        shot->set_kind(v1::Shot::BANK);
-        break;
-      case PoolShot::Kind::kCombination:
-        shot->set_kind(v1::Shot::COMBINATION);
-        break;
-      case PoolShot::Kind::kSafety:
-        shot->set_kind(v1::Shot::SAFETY_PLAY);
-        break;
+      case PoolShot::Kind::kDirect: shot->set_kind(v1::Shot::DIRECT); break;
+      case PoolShot::Kind::kBank: shot->set_kind(v1::Shot::BANK); break;
+      case PoolShot::Kind::kCombination: shot->set_kind(v1::Shot::COMBINATION); break;
+      case PoolShot::Kind::kSafety: shot->set_kind(v1::Shot::SAFETY_PLAY); break;
     }
     shot->set_target_ball(s.target_ball);
     shot->set_pocketed_ball(s.pocketed_ball);
@@ -291,9 +284,10 @@ grpc::Status PoolServiceImpl::CalibrateColors(grpc::ServerContext*,
   auto stored = store_->Get(request->profile_name());
   if (!stored.ok()) return Fail("CalibrateColors", stored.status());
   if (!*stored)
-    return Fail("CalibrateColors", absl::NotFoundError(absl::StrCat(
-                                       "no table profile named '", request->profile_name(),
-                                       "'; create it with SetTableProfile first")));
+    return Fail("CalibrateColors",
+                absl::NotFoundError(absl::StrCat("no table profile named '",
+                                                 request->profile_name(),
+                                                 "'; create it with SetTableProfile first")));
   auto image = ImageFromProto(request->image(), limits_, /*gray=*/false);
   if (!image.ok()) return Fail("CalibrateColors", image.status());
   auto rect = [](const v1::Rect& r) {
@@ -338,8 +332,7 @@ grpc::Status PoolServiceImpl::AnalyzeTable(grpc::ServerContext*,
   if (ColorAngleDeg(cv::Vec3f(seen[0], seen[1], seen[2]), cv::Vec3f(told[0], told[1], told[2])) >
       PoolTableOptions().search_angle_deg)
     spdlog::info(
-        "AnalyzeTable: the table's cloth (BGR {},{},{}) is not the profile's colour (BGR "
-        "{},{},{}); "
+        "AnalyzeTable: the table's cloth (BGR {},{},{}) is not the profile's colour (BGR {},{},{}); "
         "it was found among the image's own colours: set the profile's cloth_color to skip "
         "that search",
         seen[0], seen[1], seen[2], told[0], told[1], told[2]);
@@ -347,8 +340,7 @@ grpc::Status PoolServiceImpl::AnalyzeTable(grpc::ServerContext*,
   std::string note;
   double shots_ms = 0;
   if (!request->skip_shots()) {
-    const int max_shots =
-        request->max_shots() == 0 ? 3 : static_cast<int>(std::min(20u, request->max_shots()));
+    const int max_shots = request->max_shots() == 0 ? 3 : static_cast<int>(std::min(20u, request->max_shots()));
     shots = Shots(*profile, *analysis, max_shots, &note, &shots_ms);
     analysis->timings_ms.emplace_back("shots", shots_ms);
   }
@@ -358,8 +350,9 @@ grpc::Status PoolServiceImpl::AnalyzeTable(grpc::ServerContext*,
   response->set_shots_note(note);
   response->set_state("analysed");
   response->set_server_ms(MillisecondsSince(t0));
-  spdlog::info("AnalyzeTable: {}x{}, {} balls, {} shots, {:.1f} ms (shots {:.1f} ms)", image->cols,
-               image->rows, analysis->balls.size(), shots.size(), response->server_ms(), shots_ms);
+  spdlog::info("AnalyzeTable: {}x{}, {} balls, {} shots, {:.1f} ms (shots {:.1f} ms)",
+               image->cols, image->rows, analysis->balls.size(), shots.size(),
+               response->server_ms(), shots_ms);
   return grpc::Status::OK;
 }
 
@@ -379,8 +372,7 @@ grpc::Status PoolServiceImpl::TrackTable(
   if (!profile.ok()) return Fail("TrackTable", profile.status());
   auto analyzer = PoolAnalyzer::Create(*profile, *camera);
   if (!analyzer.ok()) return Fail("TrackTable", analyzer.status());
-  const int max_shots =
-      config.max_shots() == 0 ? 3 : static_cast<int>(std::min(20u, config.max_shots()));
+  const int max_shots = config.max_shots() == 0 ? 3 : static_cast<int>(std::min(20u, config.max_shots()));
   spdlog::info("TrackTable: stream started, table {} x {} mm", profile->length_mm,
                profile->width_mm);
   // The arrangement found by the last full analysis and the shots computed for it.

@@ -33,8 +33,8 @@ std::string Encode(const cv::Mat& image) {
 
 PoolScene Scene(PoolViewSide side, double elevation) {
   PoolScene scene;
-  scene.balls = {{0, 300, 350}, {1, 520, 200}, {2, 700, 520}, {3, 900, 180},
-                 {5, 200, 560}, {6, 450, 470}, {7, 800, 330}, {9, 620, 110}};
+  scene.balls = {{0, 300, 350}, {1, 520, 200}, {2, 700, 520}, {3, 900, 180}, {5, 200, 560},
+                 {6, 450, 470}, {7, 800, 330}, {9, 620, 110}};
   scene.camera = testdata::FramedPoolCamera(scene.table, side, elevation, 60, 6, 2);
   scene.camera.k1 = -0.03;
   scene.blur_sigma = 0.5;
@@ -73,7 +73,8 @@ class PoolServiceIntegrationTest : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
     long_view_ = new PoolView(testdata::RenderPoolView(Scene(PoolViewSide::kLongNear, 50), 11));
-    short_view_ = new PoolView(testdata::RenderPoolView(Scene(PoolViewSide::kShortRight, 50), 12));
+    short_view_ =
+        new PoolView(testdata::RenderPoolView(Scene(PoolViewSide::kShortRight, 50), 12));
   }
   static void TearDownTestSuite() {
     delete long_view_;
@@ -122,8 +123,8 @@ TEST_F(PoolServiceIntegrationTest, AnalyzeMatchesTheTruthAndSuggestsShots) {
   for (int i = 0; i < 4; ++i) corners[i] = {response.corners(i).x(), response.corners(i).y()};
   std::vector<testdata::EstimatedPoolBall> estimated;
   for (const auto& b : response.balls()) estimated.push_back({b.number(), b.x_mm(), b.y_mm()});
-  const testdata::PoolScore score = testdata::ScorePoolAnalysis(Scene(PoolViewSide::kLongNear, 50),
-                                                                *long_view_, corners, estimated);
+  const testdata::PoolScore score = testdata::ScorePoolAnalysis(
+      Scene(PoolViewSide::kLongNear, 50), *long_view_, corners, estimated);
   EXPECT_LT(score.max_corner_error_px, 1.5);
   EXPECT_EQ(score.position_errors_mm.size(), long_view_->balls.size());
   for (double e : score.position_errors_mm) EXPECT_LT(e, 12);
