@@ -675,21 +675,8 @@ TEST(PoolTouchingBalls, OutlineFitsThatLeaveTheBallForTheClothAreNotKept) {
 // above it: seed 13's frame 3 5 (its top edge points 1.3-1.8 px outside it, 12.7 mm away
 // from the camera before) and seed 11's frame 32 1 (10.0 mm before).
 TEST(PoolTouchingBalls, EdgePointsAgainstADarkBackgroundAreTakenOnTheLuma) {
-  for (const auto& [frame, seed, number] :
-       {std::tuple<int, uint64_t, int>{3, 13, 5}, {32, 11, 1}}) {
-    const auto [scene, view] = RenderBenchFrame(frame, seed);
-    auto scored = AnalyzeAndScore(scene, view);
-    ASSERT_TRUE(scored.ok()) << scored.status();
-    const testdata::PoolScore& score = scored->score;
-    bool seen = false;
-    for (const auto& m : score.matches) {
-      EXPECT_GE(m.error_mm, 0) << "frame " << frame << ", ball " << m.truth_number;
-      EXPECT_LT(m.error_mm, 10.0) << "frame " << frame << ", ball " << m.truth_number;
-      seen |= m.truth_number == number;
-    }
-    EXPECT_TRUE(seen) << "frame " << frame << " has no " << number;
-    EXPECT_EQ(score.separated_identified, score.separated) << "frame " << frame;
-  }
+  ExpectEveryBallWithin10Mm(3, 13);
+  ExpectEveryBallWithin10Mm(32, 11);
   PoolBallOptions options;
   options.edge_shade_brightness = 0;  // off
   EXPECT_TRUE(options.Validate().ok());
