@@ -296,19 +296,16 @@ class EdgeFitter {
   // For a ball darker than the cloth, the outline next to its own shadow on the cloth has
   // no edge to speak of (dark against dark): those outline points are left out.
   void SkipShadowedOutline(bool skip) { skip_shadowed_ = skip; }
+  // Edge points on the far side with a pixel under `level` in `brightness` 0.5-2 px beyond
+  // them are taken on the outward fall of the luma (its gradients luma_gx, luma_gy) when it
+  // has a qualifying peak no farther out. All maps over the fitter's area.
+  struct ShadedOutside {
+    cv::Mat brightness, luma_gx, luma_gy;
+    double level = 0;
+  };
   // How much farther out than its reach a rim scan that starts inside the ball goes on
   // looking for the cloth, on the outline's far side (0: not at all).
   void SetOutwardReach(double px) { outward_reach_px_ = px; }
-  // Edge points on the far side with a pixel under `level` in `brightness` (over `area_`)
-  // 0.5-2 px beyond them are taken on the outward fall of the luma (gradients luma_gx,
-  // luma_gy over `area_`) when it has a qualifying peak no farther out (nullptr: never).
-  void SetShadedOutside(const cv::Mat* brightness, double level, const cv::Mat* luma_gx,
-                        const cv::Mat* luma_gy) {
-    brightness_ = brightness;
-    shade_level_ = level;
-    luma_gx_ = luma_gx;
-    luma_gy_ = luma_gy;
-  }
   // Rim points only on the outline's far side: a ball darker than the cloth has its own
   // shadow, as dark as it, joined to its near side (a camera looking steeply down sees it
   // beside the whole lower half), so only the far rim is against clean cloth. With the
@@ -491,7 +488,8 @@ class EdgeFitter {
   // behind the ball, another ball) is not its outline against the cloth. Scans that meet
   // another ball's pixels are left out.
   std::vector<cv::Point2d> EdgePoints(const cv::Point2d& xy, double reach_px,
-                                      const cv::Mat& distance, double cloth_level) const {
+                                      const cv::Mat& distance, double cloth_level,
+                                      const ShadedOutside* shaded) const {
     std::vector<cv::Point2d> points;
     // A pixel in from the area's border: the Sobel falls there see its reflected border.
     const auto inside_area = [this](double x, double y) {
@@ -532,15 +530,16 @@ class EdgeFitter {
     ForEachOutlinePoint(xy, [&](double u, double v, double nx, double ny, bool far_side) {
       double at = 0;
       if (!outermost_edge(gx_, gy_, u, v, nx, ny, &at)) return;
-      if (far_side && brightness_ != nullptr && luma_gx_ != nullptr) {
+      if (far_side && shaded != nullptr) {
         double darkest = std::numeric_limits<double>::max();
         for (double t = 0.5; t <= 2.0; t += 0.5) {
           const double x = u + (at + t) * nx, y = v + (at + t) * ny;
-          if (inside_area(x, y)) darkest = std::min(darkest, Sample(*brightness_, x, y));
+          if (inside_area(x, y)) darkest = std::min(darkest, Sample(shaded->brightness, x, y));
         }
         double luma_at = 0;
-        if (darkest < shade_level_ &&
-            outermost_edge(*luma_gx_, *luma_gy_, u, v, nx, ny, &luma_at) && luma_at <= at + kStep)
+        if (darkest < shaded->level &&
+            outermost_edge(shaded->luma_gx, shaded->luma_gy, u, v, nx, ny, &luma_at) &&
+            luma_at <= at + kStep)
           at = luma_at;
       }
       points.emplace_back(u + at * nx, v + at * ny);
@@ -550,12 +549,15 @@ class EdgeFitter {
 
   // Fits the sphere's outline to its edge points (as FitToRim, the points found again from
   // each new position), with the start position counting as `prior_points` points on its
-  // outline (a quadratic pull on the image distance from it).
+  // outline (a quadratic pull on the image distance from it). With `shaded`, far-side
+  // points against a dark outside are taken on the luma (ShadedOutside).
   cv::Point2d FitToEdgePoints(cv::Point2d xy, const cv::Mat& distance, double cloth_level,
-                              double reach_px, double prior_points) const {
+                              double reach_px, double prior_points,
+                              const ShadedOutside* shaded) const {
     const cv::Point2d origin = ProjectIdeal(pose_, K_, {xy.x, xy.y, radius_});
     for (int round = 0; round < 3; ++round) {
-      const std::vector<cv::Point2d> points = EdgePoints(xy, reach_px, distance, cloth_level);
+      const std::vector<cv::Point2d> points =
+          EdgePoints(xy, reach_px, distance, cloth_level, shaded);
       if (static_cast<int>(points.size()) < kMinRimPoints) return xy;
       const cv::Point2d start = xy;
       xy = CompassSearch(xy, 0.1 * radius_, radius_, [&](const cv::Point2d& p) {
@@ -618,10 +620,6 @@ class EdgeFitter {
   cv::Vec3d camera_;
   bool skip_shadowed_ = false;
   double outward_reach_px_ = 0;
-  const cv::Mat* brightness_ = nullptr;
-  double shade_level_ = 0;
-  const cv::Mat* luma_gx_ = nullptr;
-  const cv::Mat* luma_gy_ = nullptr;
   bool far_only_ = false;
   std::vector<cv::Vec3d> neighbours_;
   static constexpr double kNeighbourMargin = 1.3;  // apparent radii
@@ -1333,27 +1331,26 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
             std::max(2.0, options.edge_point_reach * ApparentRadiusPx(pose, K, seeds[i], r));
         // Brightness (as the cloth's) and luma over `grown` for the edge points against a
         // shaded background (options.edge_shade_brightness).
-        cv::Mat brightness, luma_gx, luma_gy;
+        EdgeFitter::ShadedOutside shaded;
         if (options.edge_shade_brightness > 0) {
-          brightness.create(grown.size(), CV_32FC1);
+          shaded.brightness.create(grown.size(), CV_32FC1);
           cv::Mat luma(grown.size(), CV_32FC1);
           for (int v = 0; v < grown.height; ++v) {
             const cv::Vec3b* p = bgr.ptr<cv::Vec3b>(v + grown.y) + grown.x;
-            float* b = brightness.ptr<float>(v);
+            float* b = shaded.brightness.ptr<float>(v);
             float* y = luma.ptr<float>(v);
             for (int u = 0; u < grown.width; ++u) {
               b[u] = (p[u][0] + p[u][1] + p[u][2]) / 3.f;
               y[u] = 0.114f * p[u][0] + 0.587f * p[u][1] + 0.299f * p[u][2];  // JPEG's Y
             }
           }
-          cv::Sobel(luma, luma_gx, CV_32F, 1, 0, 3, 1.0 / 8);
-          cv::Sobel(luma, luma_gy, CV_32F, 0, 1, 3, 1.0 / 8);
-          edge.SetShadedOutside(&brightness, options.edge_shade_brightness * cloth_i, &luma_gx,
-                                &luma_gy);
+          cv::Sobel(luma, shaded.luma_gx, CV_32F, 1, 0, 3, 1.0 / 8);
+          cv::Sobel(luma, shaded.luma_gy, CV_32F, 0, 1, 3, 1.0 / 8);
+          shaded.level = options.edge_shade_brightness * cloth_i;
         }
         seeds[i] =
-            edge.FitToEdgePoints(seeds[i], distance, threshold, reach_px, options.edge_point_prior);
-        edge.SetShadedOutside(nullptr, 0, nullptr, nullptr);
+            edge.FitToEdgePoints(seeds[i], distance, threshold, reach_px, options.edge_point_prior,
+                                 options.edge_shade_brightness > 0 ? &shaded : nullptr);
       }
     }
     if (!darker_than_cloth) {

@@ -479,11 +479,15 @@ WordKeypoints WordKeypointExtractor::Extract(const cv::Mat &gray) const {
   double angle = NeighborDirection(blobs, s0);
   // Provisional words: close gaps of 0.45 s0 along the line, then measure word
   // height.
-  cv::Mat words;
-  cv::morphologyEx(ink1, words, cv::MORPH_CLOSE, LineKernel(0.45 * s0, angle));
+  const auto close_along = [&](double bridge) {
+    cv::Mat closed;
+    cv::morphologyEx(ink1, closed, cv::MORPH_CLOSE, LineKernel(bridge * s0, angle));
+    return Blobs(closed, o.min_char_height);
+  };
   double h = 0;
-  std::vector<Blob> word_blobs = Blobs(words, o.min_char_height);
+  std::vector<Blob> word_blobs = close_along(0.45);
   if (!WordHeight(word_blobs, 1.6, &h)) return result;
+  double line_angle = LineDirection(word_blobs, h);
   // Sharp type seen close (serif text above all) can keep its letters further apart than
   // those bridges: then the few elongated blobs are tall letters ('l', 'h', 'd') lying
   // across the line, and their width (a third of the word height) would be taken for it,
@@ -498,21 +502,20 @@ WordKeypoints WordKeypointExtractor::Extract(const cv::Mat &gray) const {
   if (h < s0 && word_blobs.size() >= kMinLettersToMeasureAgain &&
       ElongatedAreaShare(word_blobs, s0, 1.6) < o.min_word_area_share) {
     for (const double bridge : {0.9, 1.35}) {
-      cv::Mat closed;
-      cv::morphologyEx(ink1, closed, cv::MORPH_CLOSE, LineKernel(bridge * s0, angle));
-      std::vector<Blob> closed_blobs = Blobs(closed, o.min_char_height);
+      std::vector<Blob> closed_blobs = close_along(bridge);
       double closed_h = 0;
-      if (ElongatedAreaShare(closed_blobs, s0, 1.6) >= o.min_reclosed_word_area_share &&
-          WordHeight(closed_blobs, 1.6, &closed_h) && closed_h > h &&
-          AngleApart(LineDirection(closed_blobs, closed_h), angle) <= kMaxReclosedLineTurn) {
-        h = closed_h;
-        word_blobs = std::move(closed_blobs);
-        break;
-      }
+      if (ElongatedAreaShare(closed_blobs, s0, 1.6) < o.min_reclosed_word_area_share ||
+          !WordHeight(closed_blobs, 1.6, &closed_h) || closed_h <= h)
+        continue;
+      const double closed_angle = LineDirection(closed_blobs, closed_h);
+      if (AngleApart(closed_angle, angle) > kMaxReclosedLineTurn) continue;
+      h = closed_h;
+      line_angle = closed_angle;
+      break;
     }
   }
   if (h < o.min_char_height || h > o.max_char_height) return result;
-  angle = LineDirection(word_blobs, h);
+  angle = line_angle;
 
   // Pass 2: window matched to the text (a few word heights); letters grouped into words.
   const int block2 = OddAtLeast(3.0 * h, 7);
