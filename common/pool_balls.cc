@@ -719,6 +719,11 @@ absl::Status PoolBallOptions::Validate() const {
     return absl::InvalidArgumentError("edge_max_ballness_drop must be in (0, 1]");
   if (!(edge_shade_brightness >= 0 && edge_shade_brightness <= 1))
     return absl::InvalidArgumentError("edge_shade_brightness must be in [0, 1]");
+  if (!(dark_reflection_brightness >= 0 && dark_reflection_brightness < 1))
+    return absl::InvalidArgumentError(
+        "dark_reflection_brightness must be in [0, 1) (a share of the lit cloth's brightness)");
+  if (!(dark_reflection_hue_deg >= 0 && dark_reflection_hue_deg <= 180))
+    return absl::InvalidArgumentError("dark_reflection_hue_deg must be in [0, 180] degrees");
   if (!(split_hidden_min_visible >= 0 && split_hidden_min_visible <= 1))
     return absl::InvalidArgumentError("split_hidden_min_visible must be in [0, 1]");
   if (!(split_hidden_min_ballness > 0.5 && split_hidden_min_ballness <= 1))
@@ -1572,6 +1577,8 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
     } else {
       light = cloth_intensity / profile_cloth;
     }
+    double cloth_hue, unused_saturation, unused_intensity;
+    HueSaturation(cloth, &cloth_hue, &unused_saturation, &unused_intensity);
     std::array<ColourRef, kPoolBallCount> refs;
     for (int k = 0; k < kPoolBallCount; ++k) {
       const cv::Vec3b& c = profile.ball_bgr[k];
@@ -1618,6 +1625,11 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
               vote = k;
             }
           }
+        }
+        if (vote != 8 && q < options.dark_reflection_brightness) {
+          double hue_gap = std::abs(hue - cloth_hue);
+          if (hue_gap > 180) hue_gap = 360 - hue_gap;
+          if (hue_gap < options.dark_reflection_hue_deg) vote = 8;
         }
         if (vote == 0 || vote == 1) {
           // White and yellow mix at the 9's stripe edges, in the highlight and in any

@@ -106,6 +106,14 @@ struct PoolBallOptions {
   // a pixel or two thick, lost in the blur and JPEG's halved colour resolution, and the
   // shaded cloth beyond a small ball looks the same (the 9-ft set's 3-4 px balls).
   double split_hidden_min_radius_px = 5;
+  // A ball pixel darker than dark_reflection_brightness of the lit cloth whose hue is
+  // within dark_reflection_hue_deg of the cloth's votes for the 8: a glossy black ball
+  // mirrors the cloth on its lower half, and JPEG's colour smear tints its dark pixels
+  // the same way, so on green cloth they read as the dark green 6 (4 of benchmark seed
+  // 19's 8s were read as the 6). A 6's own pixels are 0.35-0.5 of the cloth's brightness
+  // and its lit top brighter: its votes under 0.2 are a few percent. 0 turns this off.
+  double dark_reflection_brightness = 0.2;
+  double dark_reflection_hue_deg = 30;
 
   absl::Status Validate() const;
 };

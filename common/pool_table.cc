@@ -239,6 +239,10 @@ PlanarPose ShiftPlaneToTable(const PlanarPose& plane_pose, double plane_z) {
 // not on the outline.
 constexpr double kMaxSideGapMm = 40;
 
+// Distinct Hough lines of the cloth outline tried as the table's sides (four sides, the
+// pockets' cuts and a cushion's shadow).
+constexpr size_t kMaxOutlineLines = 9;
+
 }  // namespace
 
 absl::Status PoolTableOptions::Validate() const {
@@ -421,7 +425,12 @@ absl::StatusOr<PoolTableDetection> DetectPoolTableFrom(const cv::Mat& bgr, const
   std::vector<cv::Vec3f> hough;
   const int threshold = std::max(10, static_cast<int>(contour.size() / 40));
   cv::HoughLines(outline, hough, 1, kPi / 360, threshold);
+  // A line is distinct when most of the outline points it passes near are not near a
+  // stronger line already kept: the two halves of a side broken by a side pocket, or a
+  // side's slight curve left by the lens, give many Hough lines within a few degrees and
+  // pixels of one another, which must not crowd out a short side seen end-on.
   std::vector<Line> lines;
+  std::vector<uint8_t> explained(contour.size(), 0);
   for (const auto& h : hough) {
     Line l{{std::cos(h[1]), std::sin(h[1])}, h[0]};
     bool distinct = true;
@@ -430,8 +439,18 @@ absl::StatusOr<PoolTableDetection> DetectPoolTableFrom(const cv::Mat& bgr, const
       const double same_rho = dot > 0 ? std::abs(l.rho - k.rho) : std::abs(l.rho + k.rho);
       if (std::abs(dot) > std::cos(6 * kPi / 180) && same_rho < 6) distinct = false;
     }
-    if (distinct) lines.push_back(l);
-    if (lines.size() >= 9) break;
+    if (!distinct) continue;
+    int near_points = 0, new_points = 0;
+    for (size_t k = 0; k < contour.size(); ++k) {
+      if (std::abs(l.Distance(cv::Point2d(contour[k]))) >= 1.5) continue;
+      ++near_points;
+      new_points += !explained[k];
+    }
+    if (2 * new_points < near_points) continue;
+    for (size_t k = 0; k < contour.size(); ++k)
+      if (std::abs(l.Distance(cv::Point2d(contour[k]))) < 1.5) explained[k] = 1;
+    lines.push_back(l);
+    if (lines.size() >= kMaxOutlineLines) break;
   }
   if (lines.size() < 4)
     return absl::FailedPreconditionError(
