@@ -762,17 +762,7 @@ TEST(PoolTablePose, FarCushionSeenAtAGrazingAngleIsTakenAtItsTop) {
 // table was refused as "only part of the table is in view". A line is tried only when
 // most of its outline points are not already near a stronger line.
 TEST(PoolTablePose, AShortSideIsNotCrowdedOutByNearCopiesOfTheLongSides) {
-  const auto [scene, view] = RenderBenchFrame(8, 19);
-  auto scored = AnalyzeAndScore(scene, view);
-  ASSERT_TRUE(scored.ok()) << scored.status();
-  const testdata::PoolScore& score = scored->score;
-  EXPECT_LT(score.max_corner_error_px, 0.5);
-  EXPECT_EQ(score.position_errors_mm.size(), view.balls.size());
-  for (const auto& m : score.matches) {
-    EXPECT_GE(m.error_mm, 0) << "ball " << m.truth_number;
-    EXPECT_LT(m.error_mm, 10.0) << "ball " << m.truth_number;
-  }
-  EXPECT_EQ(score.separated_identified, score.separated);
+  ExpectEveryBallWithin10Mm(8, 19);
 }
 
 // The sides are found on the chromaticity step (which a dark cushion face cannot fake)
