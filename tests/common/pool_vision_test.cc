@@ -424,7 +424,6 @@ TEST(PoolHardBalls, DarkGreenRedAndStripedBallsAreFoundAndNumbered) {
     const PoolView view = testdata::RenderPoolView(scene, 4321 + view_index++);
     auto scored = AnalyzeAndScore(scene, view);
     ASSERT_TRUE(scored.ok()) << scored.status();
-    const PoolAnalysis& analysis = scored->analysis;
     const testdata::PoolScore& score = scored->score;
     EXPECT_EQ(score.false_balls, 0) << view_index;
     double sum = 0;
@@ -456,7 +455,6 @@ TEST(PoolHardBalls, DarkBallsAreFittedOnTheirRimNotTheirHighlight) {
     const PoolView view = testdata::RenderPoolView(scene, 7 * 100003 + frame);
     auto scored = AnalyzeAndScore(scene, view);
     ASSERT_TRUE(scored.ok()) << scored.status();
-    const PoolAnalysis& analysis = scored->analysis;
     const testdata::PoolScore& score = scored->score;
     bool seen = false;
     for (const auto& m : score.matches) {
@@ -762,7 +760,6 @@ TEST(PoolTablePose, FarCushionSeenAtAGrazingAngleIsTakenAtItsTop) {
   const auto [scene, view] = RenderBenchFrame(24);
   auto scored = AnalyzeAndScore(scene, view);
   ASSERT_TRUE(scored.ok()) << scored.status();
-  const PoolAnalysis& analysis = scored->analysis;
   const testdata::PoolScore& score = scored->score;
   EXPECT_LT(score.max_corner_error_px, 1.0);
   EXPECT_EQ(score.position_errors_mm.size(), view.balls.size());
