@@ -123,6 +123,7 @@ absl::StatusOr<PoolAnalysis> PoolAnalyzer::Analyze(const cv::Mat& bgr,
   last_balls_ = detected;
   analysis.long_side_view = table.long_side_view;
   analysis.cloth_bgr = table.cloth_bgr;
+  analysis.cloth_not_profile_colour = table.cloth_not_profile_colour;
   for (auto& b : analysis.balls)
     b.pixel = Project(pose, {b.x_mm, b.y_mm, profile_.ball_radius_mm});
   const cv::Vec3d corners[4] = {{0, 0, 0}, {L, 0, 0}, {L, W, 0}, {0, W, 0}};

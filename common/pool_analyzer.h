@@ -42,6 +42,7 @@ struct PoolAnalysis {
   // True when the origin was chosen by matching a previous ball arrangement.
   bool origin_from_arrangement = false;
   cv::Vec3b cloth_bgr;
+  bool cloth_not_profile_colour = false;  // PoolTableDetection's
   std::vector<PoolBall> balls;
   std::vector<std::pair<std::string, double>> timings_ms;
 };

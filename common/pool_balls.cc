@@ -306,8 +306,16 @@ class EdgeFitter {
   // How much farther out than its reach a rim scan that starts inside the ball goes on
   // looking for the cloth, on the outline's far side (0: not at all).
   void SetOutwardReach(double px) { outward_reach_px_ = px; }
-  // Whether a rim scan takes a thin outer band under the level as the step (RimPoints).
-  void SetThinOuterBand(bool on) { thin_outer_band_ = on; }
+  // The levels of a rim fit in the distance map (RimPoints).
+  struct RimLevels {
+    double outside = 0;    // the cloth's level just outside the ball
+    double threshold = 0;  // the ball's overall half-way level
+    // A point's own step may lower its level down to a fifth of the ball's step (not to
+    // the noise of the cloth).
+    double Floor() const { return outside + 0.4 * (threshold - outside); }
+    // Whether a thin outer band under the level is taken as the step (a dark ball).
+    bool thin_outer_band = false;
+  };
   // Rim points only on the outline's far side: a ball darker than the cloth has its own
   // shadow, as dark as it, joined to its near side (a camera looking steeply down sees it
   // beside the whole lower half), so only the far rim is against clean cloth. With the
@@ -397,14 +405,13 @@ class EdgeFitter {
   // The outermost step is the rim; the ball's own inner edges (a highlight, a lit cap) lie
   // beyond it and are never reached. Points whose scan meets another ball are left out.
   // A point's threshold is half-way up its own step (cloth 1.5-3 px outside the outline,
-  // ball 1 px to half the reach inside) when that is lower than `threshold`, the ball's
-  // overall half-way level, but never below `floor_level`: the green 6's lit cap is much
+  // ball 1 px to half the reach inside) when that is lower than the ball's overall
+  // half-way level, but never below the levels' floor: the green 6's lit cap is much
   // nearer the cloth than its dark lower half, and at the level of the whole ball its top
   // rim was only met inside the cap, which moved the ball towards the camera.
-  // `outside_level`: the cloth's level just outside the ball.
   std::vector<cv::Point2d> RimPoints(const cv::Point2d& xy, const cv::Mat& distance,
-                                     double threshold, double floor_level, double outside_level,
-                                     double reach_px) const {
+                                     const RimLevels& levels, double reach_px) const {
+    const double threshold = levels.threshold, floor_level = levels.Floor();
     std::vector<cv::Point2d> rim;
     const auto inside_area = [this](double x, double y) {
       return x >= area_.x && y >= area_.y && x <= area_.x + area_.width - 2 &&
@@ -450,10 +457,10 @@ class EdgeFitter {
       // dark top rim before its highlight: blur keeps the band below the ball's half-way
       // level, and the rim was met under the highlight, 3-4 px inside): the step is to
       // that band, so the level is half-way from the cloth to its peak (2 px past where
-      // the scan first reaches floor_level). Only for a dark ball (SetThinOuterBand): a
-      // coloured ball's outer band is its own colour, blurred with the cloth.
+      // the scan first reaches the floor). Only for a dark ball (RimLevels): a coloured
+      // ball's outer band is its own colour, blurred with the cloth.
       double below = -1;
-      for (double s = start; thin_outer_band_ && s >= -reach_px; s -= kStep) {
+      for (double s = start; levels.thin_outer_band && s >= -reach_px; s -= kStep) {
         if (!usable(s)) break;
         const double d = Sample(distance, u + s * nx, v + s * ny);
         if (d >= level) break;
@@ -461,7 +468,7 @@ class EdgeFitter {
           double peak = d;
           for (double t = s - kStep; t >= std::max(-reach_px, s - 2.0) && usable(t); t -= kStep)
             peak = std::max(peak, Sample(distance, u + t * nx, v + t * ny));
-          if (peak < level) level = outside_level + 0.5 * (peak - outside_level);
+          if (peak < level) level = levels.outside + 0.5 * (peak - levels.outside);
           break;
         }
         below = d;
@@ -487,12 +494,10 @@ class EdgeFitter {
   // Fits the sphere's outline to rim points (least squares on the signed pixel distance,
   // with points more than kRimHuberPx off given a constant pull), the rim found again from
   // each new position.
-  cv::Point2d FitToRim(cv::Point2d xy, const cv::Mat& distance, double threshold,
-                       double floor_level, double outside_level, double reach_px,
-                       int* used = nullptr) const {
+  cv::Point2d FitToRim(cv::Point2d xy, const cv::Mat& distance, const RimLevels& levels,
+                       double reach_px, int* used = nullptr) const {
     for (int round = 0; round < 3; ++round) {
-      const std::vector<cv::Point2d> rim =
-          RimPoints(xy, distance, threshold, floor_level, outside_level, reach_px);
+      const std::vector<cv::Point2d> rim = RimPoints(xy, distance, levels, reach_px);
       if (used) *used = static_cast<int>(rim.size());
       if (static_cast<int>(rim.size()) < kMinRimPoints) return xy;
       const cv::Point2d start = xy;
@@ -645,7 +650,6 @@ class EdgeFitter {
   cv::Vec3d camera_;
   bool skip_shadowed_ = false;
   double outward_reach_px_ = 0;
-  bool thin_outer_band_ = false;
   bool far_only_ = false;
   std::vector<cv::Vec3d> neighbours_;
   static constexpr double kNeighbourMargin = 1.3;  // apparent radii
@@ -1434,12 +1438,12 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
         }
         edge.SetOutwardReach(options.rim_outward_reach * r_px);
         edge.FarSideOnly(options.rim_far_side_only);
-        edge.SetThinOuterBand(dark_ball);
-        // A point's own step may lower its level down to a fifth of the ball's step (not
-        // to the noise of the cloth).
+        EdgeFitter::RimLevels levels;
+        levels.outside = outside;
+        levels.threshold = threshold;
+        levels.thin_outer_band = dark_ball;
         const cv::Point2d on_rim =
-            edge.FitToRim(seeds[i], distance, threshold, outside + 0.4 * (threshold - outside),
-                          outside, std::max(3.0, 0.6 * r_px), &used);
+            edge.FitToRim(seeds[i], distance, levels, std::max(3.0, 0.6 * r_px), &used);
         // Kept when enough rim was found, unless it leaves the silhouette half cloth where
         // the edge pass's was not: the ball would then be dropped as not a ball at all
         // (on the 9-ft set two separated balls were lost that way).
@@ -1540,6 +1544,8 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
       }
   }
   // Keep distinct, well-supported balls on the table.
+  double cloth_hue, unused_saturation, unused_intensity;  // for the dark reflection votes
+  HueSaturation(cloth, &cloth_hue, &unused_saturation, &unused_intensity);
   std::vector<cv::Point2d> kept;
   for (size_t i = 0; i < seeds.size(); ++i) {
     if (seeds[i].x < -r / 2 || seeds[i].y < -r / 2 || seeds[i].x > L + r / 2 ||
@@ -1604,8 +1610,6 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
     } else {
       light = cloth_intensity / profile_cloth;
     }
-    double cloth_hue, unused_saturation, unused_intensity;
-    HueSaturation(cloth, &cloth_hue, &unused_saturation, &unused_intensity);
     std::array<ColourRef, kPoolBallCount> refs;
     for (int k = 0; k < kPoolBallCount; ++k) {
       const cv::Vec3b& c = profile.ball_bgr[k];

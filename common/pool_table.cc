@@ -430,6 +430,7 @@ absl::StatusOr<PoolTableDetection> DetectPoolTableFrom(const cv::Mat& bgr, const
   // side's slight curve left by the lens, give many Hough lines within a few degrees and
   // pixels of one another, which must not crowd out a short side seen end-on.
   std::vector<Line> lines;
+  std::vector<std::vector<int>> near;  // per kept line, its outline points (within 1.5 px)
   std::vector<uint8_t> explained(contour.size(), 0);
   for (const auto& h : hough) {
     Line l{{std::cos(h[1]), std::sin(h[1])}, h[0]};
@@ -440,16 +441,17 @@ absl::StatusOr<PoolTableDetection> DetectPoolTableFrom(const cv::Mat& bgr, const
       if (std::abs(dot) > std::cos(6 * kPi / 180) && same_rho < 6) distinct = false;
     }
     if (!distinct) continue;
-    int near_points = 0, new_points = 0;
+    std::vector<int> points;
+    int new_points = 0;
     for (size_t k = 0; k < contour.size(); ++k) {
       if (std::abs(l.Distance(cv::Point2d(contour[k]))) >= 1.5) continue;
-      ++near_points;
+      points.push_back(static_cast<int>(k));
       new_points += !explained[k];
     }
-    if (2 * new_points < near_points) continue;
-    for (size_t k = 0; k < contour.size(); ++k)
-      if (std::abs(l.Distance(cv::Point2d(contour[k]))) < 1.5) explained[k] = 1;
+    if (2 * new_points < static_cast<int>(points.size())) continue;
+    for (int k : points) explained[k] = 1;
     lines.push_back(l);
+    near.push_back(std::move(points));
     if (lines.size() >= kMaxOutlineLines) break;
   }
   if (lines.size() < 4)
@@ -461,13 +463,10 @@ absl::StatusOr<PoolTableDetection> DetectPoolTableFrom(const cv::Mat& bgr, const
     for (const auto& p : contour) c += cv::Point2d(p);
     return c / static_cast<double>(contour.size());
   }();
-  std::vector<std::vector<int>> near(lines.size());
   std::vector<double> line_angle(lines.size(), 0);  // of its outline points around the centroid
   for (size_t i = 0; i < lines.size(); ++i) {
     double sx = 0, sy = 0;
-    for (size_t k = 0; k < contour.size(); ++k) {
-      if (std::abs(lines[i].Distance(cv::Point2d(contour[k]))) >= 1.5) continue;
-      near[i].push_back(static_cast<int>(k));
+    for (int k : near[i]) {
       const double a = std::atan2(contour[k].y - centroid.y, contour[k].x - centroid.x);
       sx += std::cos(a);
       sy += std::sin(a);
@@ -667,7 +666,9 @@ absl::StatusOr<PoolTableDetection> DetectPoolTable(const cv::Mat& bgr, const cv:
        DominantColours(small, options.min_cloth_fraction, options.other_cloth_colours)) {
     if (ColorAngleDeg(colour, profile_cloth) < options.search_angle_deg) continue;  // tried
     auto other = DetectPoolTableFrom(bgr, small, K, profile, options, colour);
-    if (other.ok()) return other;
+    if (!other.ok()) continue;
+    other->cloth_not_profile_colour = true;
+    return other;
   }
   return found;
 }

@@ -51,6 +51,8 @@ struct PoolTableDetection {
   PlanarPose rotated_pose;
   cv::Vec3b cloth_bgr;         // measured on this image
   double cloth_brightness;     // mean of B, G, R of the cloth
+  // The cloth was found among the image's own colours, not the profile's (other_cloth_colours).
+  bool cloth_not_profile_colour = false;
   bool long_side_view = true;  // camera stands at a long side
   double rectangle_inconsistency = 0;
   cv::Mat cloth_mask;  // CV_8U, 255 = cloth (largest region), at half resolution

@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <numeric>
 #include <opencv2/imgproc.hpp>
+#include <optional>
 
 #include "absl/strings/str_cat.h"
 #include "common/connected_components.h"
@@ -487,7 +488,7 @@ WordKeypoints WordKeypointExtractor::Extract(const cv::Mat &gray) const {
   double h = 0;
   std::vector<Blob> word_blobs = close_along(0.45);
   if (!WordHeight(word_blobs, 1.6, &h)) return result;
-  double line_angle = LineDirection(word_blobs, h);
+  std::optional<double> reclosed_angle;  // the re-closed words' line direction, when kept
   // Sharp type seen close (serif text above all) can keep its letters further apart than
   // those bridges: then the few elongated blobs are tall letters ('l', 'h', 'd') lying
   // across the line, and their width (a third of the word height) would be taken for it,
@@ -510,12 +511,12 @@ WordKeypoints WordKeypointExtractor::Extract(const cv::Mat &gray) const {
       const double closed_angle = LineDirection(closed_blobs, closed_h);
       if (AngleApart(closed_angle, angle) > kMaxReclosedLineTurn) continue;
       h = closed_h;
-      line_angle = closed_angle;
+      reclosed_angle = closed_angle;
       break;
     }
   }
   if (h < o.min_char_height || h > o.max_char_height) return result;
-  angle = line_angle;
+  angle = reclosed_angle ? *reclosed_angle : LineDirection(word_blobs, h);
 
   // Pass 2: window matched to the text (a few word heights); letters grouped into words.
   const int block2 = OddAtLeast(3.0 * h, 7);

@@ -12,7 +12,6 @@
 #include "absl/strings/str_cat.h"
 #include "common/pool_analyzer.h"
 #include "common/pool_shots.h"
-#include "common/pool_table.h"
 #include "common/status_macros.h"
 #include "common/timing.h"
 #include "server/proto_convert.h"
@@ -329,8 +328,7 @@ grpc::Status PoolServiceImpl::AnalyzeTable(grpc::ServerContext*,
   if (!analysis.ok()) return Fail("AnalyzeTable", analysis.status());
   const cv::Vec3b& seen = analysis->cloth_bgr;
   const cv::Vec3b& told = profile->cloth_bgr;
-  if (ColorAngleDeg(cv::Vec3f(seen[0], seen[1], seen[2]), cv::Vec3f(told[0], told[1], told[2])) >
-      PoolTableOptions().search_angle_deg)
+  if (analysis->cloth_not_profile_colour)
     spdlog::info(
         "AnalyzeTable: the table's cloth (BGR {},{},{}) is not the profile's colour (BGR {},{},{}); "
         "it was found among the image's own colours: set the profile's cloth_color to skip "

@@ -14,6 +14,7 @@
 #include <filesystem>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <optional>
 #include <random>
 #include <string>
 #include <vector>
@@ -29,6 +30,25 @@ namespace {
 
 using namespace texfree;
 using namespace texfree::testdata;
+
+// The cloth's RGB named by --cloth into `rgb`: green (the renderer's own: left empty),
+// tournament blue and a burgundy as cloth makers sell them, or R,G,B. False for any other
+// name.
+bool ParseCloth(const std::string& name, std::optional<cv::Vec3d>* rgb) {
+  int r = 0, g = 0, b = 0;
+  if (name == "green") {
+    rgb->reset();
+  } else if (name == "blue") {
+    *rgb = cv::Vec3d(20, 95, 160);
+  } else if (name == "red") {
+    *rgb = cv::Vec3d(125, 30, 40);
+  } else if (std::sscanf(name.c_str(), "%d,%d,%d", &r, &g, &b) == 3) {
+    *rgb = cv::Vec3d(r, g, b);
+  } else {
+    return false;
+  }
+  return true;
+}
 
 double Percentile(std::vector<double> v, double q) {
   if (v.empty()) return 0;
@@ -75,11 +95,8 @@ int main(int argc, char** argv) {
                  "Cloth colour: green (the renderer's), blue, red or R,G,B; the profile is told "
                  "the cloth colour, as table.json's cloth_color tells the server")
       ->check([](const std::string& v) {
-        int r, g, b;
-        return v == "green" || v == "blue" || v == "red" ||
-                       std::sscanf(v.c_str(), "%d,%d,%d", &r, &g, &b) == 3
-                   ? std::string()
-                   : "expected green, blue, red or R,G,B";
+        std::optional<cv::Vec3d> rgb;
+        return ParseCloth(v, &rgb) ? std::string() : "expected green, blue, red or R,G,B";
       });
   bool cloth_unknown = false;
   app.add_flag("--cloth-unknown", cloth_unknown,
@@ -89,23 +106,16 @@ int main(int argc, char** argv) {
   cv::setNumThreads(1);  // one core
 
   PoolTableSpec spec = nine_foot ? PoolTableSpec::NineFoot() : PoolTableSpec::Bench();
-  // Tournament blue and a burgundy, as cloth makers sell them.
-  if (cloth == "blue") {
-    spec.cloth_rgb = {20, 95, 160};
-  } else if (cloth == "red") {
-    spec.cloth_rgb = {125, 30, 40};
-  } else if (cloth != "green") {
-    int r = 0, g = 0, b = 0;
-    std::sscanf(cloth.c_str(), "%d,%d,%d", &r, &g, &b);
-    spec.cloth_rgb = {static_cast<double>(r), static_cast<double>(g), static_cast<double>(b)};
-  }
+  std::optional<cv::Vec3d> cloth_rgb;
+  ParseCloth(cloth, &cloth_rgb);  // checked by --cloth's validator
+  if (cloth_rgb) spec.cloth_rgb = *cloth_rgb;
   PoolTableProfile profile = nine_foot ? NineFootPoolProfile() : BenchPoolProfile();
   profile.length_mm = spec.length_mm;
   profile.width_mm = spec.width_mm;
   profile.ball_radius_mm = spec.ball_radius_mm;
   profile.cushion_height_mm = spec.cushion_height_mm;
   profile.cushion_width_mm = spec.cushion_width_mm;
-  if (cloth != "green" && !cloth_unknown)
+  if (cloth_rgb && !cloth_unknown)
     profile.cloth_bgr = cv::Vec3b(cv::saturate_cast<uchar>(spec.cloth_rgb[2]),
                                   cv::saturate_cast<uchar>(spec.cloth_rgb[1]),
                                   cv::saturate_cast<uchar>(spec.cloth_rgb[0]));
