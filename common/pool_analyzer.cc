@@ -2,6 +2,7 @@
 #include "common/pool_analyzer.h"
 
 #include <cmath>
+#include <opencv2/imgproc.hpp>
 
 #include "absl/strings/str_cat.h"
 #include "common/status_macros.h"
@@ -11,8 +12,25 @@ namespace texfree {
 
 absl::Status PoolAnalyzerOptions::Validate() const {
   RETURN_IF_ERROR(table.Validate());
-  return balls.Validate();
+  RETURN_IF_ERROR(balls.Validate());
+  if (max_working_pixels != 0 && max_working_pixels < 320 * 240)
+    return absl::InvalidArgumentError(absl::StrCat(
+        "max_working_pixels must be 0 (never reduce) or at least 320x240 = 76800, got ",
+        max_working_pixels));
+  return absl::OkStatus();
 }
+
+namespace {
+
+// The intrinsics of the same sensor read out at `size` (pixel centres kept aligned).
+cv::Matx33d ScaledIntrinsics(const cv::Matx33d& K, const cv::Size& from, const cv::Size& to) {
+  const double sx = static_cast<double>(to.width) / from.width;
+  const double sy = static_cast<double>(to.height) / from.height;
+  return cv::Matx33d(K(0, 0) * sx, 0, (K(0, 2) + 0.5) * sx - 0.5, 0, K(1, 1) * sy,
+                     (K(1, 2) + 0.5) * sy - 0.5, 0, 0, 1);
+}
+
+}  // namespace
 
 absl::StatusOr<PoolAnalyzer> PoolAnalyzer::Create(const PoolTableProfile& profile,
                                                   const CameraModel& camera,
@@ -23,30 +41,38 @@ absl::StatusOr<PoolAnalyzer> PoolAnalyzer::Create(const PoolTableProfile& profil
   return PoolAnalyzer(profile, camera, options);
 }
 
-absl::Status PoolAnalyzer::PrepareFor(const cv::Size& size) {
-  if (undistorter_ && undistorter_->camera().size == size) return absl::OkStatus();
+absl::Status PoolAnalyzer::PrepareFor(const cv::Size& image_size, const cv::Size& working_size) {
+  if (undistorter_ && image_size_ == image_size && undistorter_->camera().size == working_size)
+    return absl::OkStatus();
   CameraModel camera = camera_;
-  if (camera.size.area() > 0 && camera.size != size) {
+  if (camera.size.area() > 0 && camera.size != image_size) {
     // Same sensor at another resolution: scale the intrinsics; anything else is a mistake.
-    const double sx = static_cast<double>(size.width) / camera.size.width;
-    const double sy = static_cast<double>(size.height) / camera.size.height;
+    const double sx = static_cast<double>(image_size.width) / camera.size.width;
+    const double sy = static_cast<double>(image_size.height) / camera.size.height;
     if (std::abs(sx / sy - 1) > 0.01) {
       return absl::InvalidArgumentError(absl::StrCat(
-          "the image is ", size.width, "x", size.height, " but the intrinsics are for ",
+          "the image is ", image_size.width, "x", image_size.height, " but the intrinsics are for ",
           camera.size.width, "x", camera.size.height, " (a different aspect ratio)"));
     }
-    camera.K = cv::Matx33d(camera.K(0, 0) * sx, 0, (camera.K(0, 2) + 0.5) * sx - 0.5, 0,
-                           camera.K(1, 1) * sy, (camera.K(1, 2) + 0.5) * sy - 0.5, 0, 0, 1);
+    camera.K = ScaledIntrinsics(camera.K, camera.size, image_size);
   }
-  camera.size = size;
+  if (working_size != image_size) camera.K = ScaledIntrinsics(camera.K, image_size, working_size);
+  camera.size = working_size;
   undistorter_.emplace(camera);
+  image_size_ = image_size;
+  to_image_x_ = static_cast<double>(image_size.width) / working_size.width;
+  to_image_y_ = static_cast<double>(image_size.height) / working_size.height;
   return absl::OkStatus();
+}
+
+cv::Point2d PoolAnalyzer::ToImage(const cv::Point2d& working) const {
+  return {(working.x + 0.5) * to_image_x_ - 0.5, (working.y + 0.5) * to_image_y_ - 0.5};
 }
 
 cv::Point2d PoolAnalyzer::Project(const PlanarPose& pose, const cv::Vec3d& point_mm) const {
   if (!undistorter_) return {};
   const CameraModel& camera = undistorter_->camera();
-  return undistorter_->Distort(ProjectIdeal(pose, camera.K, point_mm));
+  return ToImage(undistorter_->Distort(ProjectIdeal(pose, camera.K, point_mm)));
 }
 
 cv::Mat PoolAnalyzer::EmptyTable() const {
@@ -73,11 +99,24 @@ absl::StatusOr<PoolAnalysis> PoolAnalyzer::Analyze(const cv::Mat& bgr,
                                                    const std::vector<PoolBall>* reference) {
   if (bgr.empty() || bgr.depth() != CV_8U || bgr.channels() != 3)
     return absl::InvalidArgumentError("pool analysis needs an 8-bit colour (BGR) image");
-  RETURN_IF_ERROR(PrepareFor(bgr.size()));
   PoolAnalysis analysis;
   auto t0 = SteadyClock::now();
+  cv::Size working = bgr.size();
+  const int64_t pixels = static_cast<int64_t>(bgr.cols) * bgr.rows;
+  if (options_.max_working_pixels > 0 && pixels > options_.max_working_pixels) {
+    const double s = std::sqrt(static_cast<double>(options_.max_working_pixels) / pixels);
+    working = cv::Size(std::max(1, static_cast<int>(bgr.cols * s)),
+                       std::max(1, static_cast<int>(bgr.rows * s)));
+  }
+  RETURN_IF_ERROR(PrepareFor(bgr.size(), working));
+  cv::Mat reduced;
+  if (working != bgr.size()) {
+    cv::resize(bgr, reduced, working, 0, 0, cv::INTER_AREA);
+    analysis.timings_ms.emplace_back("reduce", MillisecondsSince(t0));
+    t0 = SteadyClock::now();
+  }
   const cv::Matx33d& K = undistorter_->camera().K;
-  last_ideal_ = undistorter_->Undistort(bgr);
+  last_ideal_ = undistorter_->Undistort(reduced.empty() ? bgr : reduced);
   analysis.timings_ms.emplace_back("undistort", MillisecondsSince(t0));
   t0 = SteadyClock::now();
   ASSIGN_OR_RETURN(PoolTableDetection table,
@@ -96,7 +135,7 @@ absl::StatusOr<PoolAnalysis> PoolAnalyzer::Analyze(const cv::Mat& bgr,
       b.number = d.number;
       b.x_mm = rotated ? L - d.x_mm : d.x_mm;
       b.y_mm = rotated ? W - d.y_mm : d.y_mm;
-      b.radius_px = d.radius_px;
+      b.radius_px = d.radius_px * to_image_x_;
       b.confidence = d.confidence;
       out.push_back(b);
     }
@@ -121,6 +160,10 @@ absl::StatusOr<PoolAnalysis> PoolAnalyzer::Analyze(const cv::Mat& bgr,
   analysis.pose = pose;
   last_pose_ = pose;
   last_balls_ = detected;
+  for (auto& d : last_balls_) {
+    d.ideal_pixel = ToImage(d.ideal_pixel);
+    d.radius_px *= to_image_x_;
+  }
   analysis.long_side_view = table.long_side_view;
   analysis.cloth_bgr = table.cloth_bgr;
   analysis.cloth_not_profile_colour = table.cloth_not_profile_colour;

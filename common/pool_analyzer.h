@@ -23,6 +23,13 @@ namespace texfree {
 struct PoolAnalyzerOptions {
   PoolTableOptions table;
   PoolBallOptions balls;
+  // Larger images are analysed reduced (area-averaged, intrinsics scaled alike) to at most
+  // this many pixels; every result is still given in the pixels of the image as passed.
+  // The ball fits sample the rim and the cloth beside it a pixel or two apart, as a
+  // 640x480 view's blur spans: at 1280x960 (the default) the benchmark's balls were all
+  // within 10 mm, at 1920x1440 dark balls whose blurred rim spans several pixels were
+  // fitted 11-21 mm off, in 1.6 times the time. 0: never reduce.
+  int64_t max_working_pixels = 1280 * 960;
   absl::Status Validate() const;
 };
 
@@ -62,26 +69,34 @@ class PoolAnalyzer {
   absl::StatusOr<PoolAnalysis> Analyze(const cv::Mat& bgr,
                                        const std::vector<PoolBall>* reference = nullptr);
 
-  // Projects a table point (mm) into the distorted image of the last analysed size.
+  // Projects a table point (mm) into the last analysed image (distorted pixels, at the size
+  // it was passed).
   cv::Point2d Project(const PlanarPose& pose, const cv::Vec3d& point_mm) const;
 
-  // Figure 4.10 for the last analysed image: the table without its balls.
+  // Figure 4.10 for the last analysed image: the table without its balls (undistorted, at
+  // the working size: max_working_pixels).
   cv::Mat EmptyTable() const;
 
   const PoolTableProfile& profile() const { return profile_; }
   // The balls of the last analysis with their colour evidence (votes, white share, lit
   // brightness), in the order of PoolAnalysis::balls.
+  // Their ideal pixels and radii are of the image at the size it was passed.
   const std::vector<PoolDetectedBall>& last_detected_balls() const { return last_balls_; }
 
  private:
   PoolAnalyzer(PoolTableProfile profile, CameraModel camera, PoolAnalyzerOptions options)
       : profile_(std::move(profile)), camera_(std::move(camera)), options_(options) {}
-  absl::Status PrepareFor(const cv::Size& size);
+  // Undistortion for an image of `image_size` analysed at `working_size`.
+  absl::Status PrepareFor(const cv::Size& image_size, const cv::Size& working_size);
+  // A working-size pixel in the image as passed.
+  cv::Point2d ToImage(const cv::Point2d& working) const;
 
   PoolTableProfile profile_;
   CameraModel camera_;  // as given
   PoolAnalyzerOptions options_;
-  std::optional<PoolUndistorter> undistorter_;  // for the current image size
+  std::optional<PoolUndistorter> undistorter_;  // for the current working size
+  cv::Size image_size_;                         // of the image as passed
+  double to_image_x_ = 1, to_image_y_ = 1;      // image size over working size
   cv::Mat last_ideal_;
   PlanarPose last_pose_;
   std::vector<PoolDetectedBall> last_balls_;

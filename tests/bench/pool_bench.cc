@@ -102,6 +102,15 @@ int main(int argc, char** argv) {
   app.add_flag("--cloth-unknown", cloth_unknown,
                "Keep the profile's default cloth colour whatever the cloth (a user who did not "
                "set it)");
+  double scale = 1;
+  app.add_option("--scale", scale,
+                 "Render at this many times 640x480 (the same views, blur scaled alike): a "
+                 "camera of higher resolution")
+      ->check(CLI::Range(0.5, 4.0));
+  PoolAnalyzerOptions analyzer_options;
+  app.add_option("--max-working-pixels", analyzer_options.max_working_pixels,
+                 "Larger images are analysed reduced to this many pixels (0: never)")
+      ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
   cv::setNumThreads(1);  // one core
 
@@ -134,6 +143,11 @@ int main(int argc, char** argv) {
       scene.jpeg_quality = 0;
       scene.camera.k1 = scene.camera.k2 = 0;
     }
+    if (scale != 1) {
+      scene.camera.image_size = cv::Size(static_cast<int>(std::lround(640 * scale)),
+                                         static_cast<int>(std::lround(480 * scale)));
+      scene.blur_sigma *= scale;
+    }
     if (only >= 0 && f != only) continue;
     const PoolView view = RenderPoolView(scene, seed * 100003 + f);
     if (!save.empty()) {
@@ -145,7 +159,7 @@ int main(int argc, char** argv) {
     camera.K = view.camera_matrix;
     camera.distortion = view.distortion;
     camera.size = view.image.size();
-    auto analyzer = PoolAnalyzer::Create(profile, camera);
+    auto analyzer = PoolAnalyzer::Create(profile, camera, analyzer_options);
     if (!analyzer.ok()) {
       std::fprintf(stderr, "%s\n", analyzer.status().ToString().c_str());
       return 1;
@@ -247,10 +261,10 @@ int main(int argc, char** argv) {
     }
   }
   std::printf(
-      "\nPool analysis benchmark: %d frames of 640x480, %s table (%.0f x %.0f mm, ball "
+      "\nPool analysis benchmark: %d frames of %ldx%ld, %s table (%.0f x %.0f mm, ball "
       "radius %.3f mm), seed %llu, one core\n\n",
-      frames, nine_foot ? "9-ft" : "bench", spec.length_mm, spec.width_mm, spec.ball_radius_mm,
-      static_cast<unsigned long long>(seed));
+      frames, std::lround(640 * scale), std::lround(480 * scale), nine_foot ? "9-ft" : "bench",
+      spec.length_mm, spec.width_mm, spec.ball_radius_mm, static_cast<unsigned long long>(seed));
   std::printf("| measure | value |\n|---|---|\n");
   std::printf("| table found | %d / %d frames |\n", found, frames);
   std::printf("| corner error (max per frame), median / p95 | %.2f / %.2f px |\n",
