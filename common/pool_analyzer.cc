@@ -22,7 +22,8 @@ absl::Status PoolAnalyzerOptions::Validate() const {
 
 namespace {
 
-// The intrinsics of the same sensor read out at `size` (pixel centres kept aligned).
+// Intrinsics for `from`-size images, for the same sensor read out at `to` (pixel centres
+// kept aligned).
 cv::Matx33d ScaledIntrinsics(const cv::Matx33d& K, const cv::Size& from, const cv::Size& to) {
   const double sx = static_cast<double>(to.width) / from.width;
   const double sy = static_cast<double>(to.height) / from.height;

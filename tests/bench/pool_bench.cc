@@ -143,11 +143,7 @@ int main(int argc, char** argv) {
       scene.jpeg_quality = 0;
       scene.camera.k1 = scene.camera.k2 = 0;
     }
-    if (scale != 1) {
-      scene.camera.image_size = cv::Size(static_cast<int>(std::lround(640 * scale)),
-                                         static_cast<int>(std::lround(480 * scale)));
-      scene.blur_sigma *= scale;
-    }
+    ScalePoolCamera(&scene, scale);
     if (only >= 0 && f != only) continue;
     const PoolView view = RenderPoolView(scene, seed * 100003 + f);
     if (!save.empty()) {

@@ -74,11 +74,7 @@ BenchFrame RenderBenchFrame(int frame, uint64_t seed = 7, double scale = 1) {
   std::mt19937_64 rng(seed);
   BenchFrame out;
   for (int i = 0; i <= frame; ++i) out.scene = testdata::RandomPoolScene(rng, spec);
-  if (scale != 1) {
-    out.scene.camera.image_size = cv::Size(static_cast<int>(std::lround(640 * scale)),
-                                           static_cast<int>(std::lround(480 * scale)));
-    out.scene.blur_sigma *= scale;
-  }
+  testdata::ScalePoolCamera(&out.scene, scale);
   out.view = testdata::RenderPoolView(out.scene, seed * 100003 + frame);
   return out;
 }
@@ -608,34 +604,31 @@ void ExpectEveryBallWithin10Mm(int frame, uint64_t seed) {
 // spans. Reduced to max_working_pixels, every ball is within 10 mm, and the corners and
 // the balls' pixels are those of the image as passed.
 TEST(PoolResolution, LargeImagesAreAnalysedAtTheWorkingSize) {
-  double worst_full_size = 0;
-  {
-    const auto [scene, view] = RenderBenchFrame(31, 7, 3);
-    ASSERT_EQ(view.image.cols, 1920);
-    auto scored = AnalyzeAndScore(scene, view);
-    ASSERT_TRUE(scored.ok()) << scored.status();
-    const testdata::PoolScore& score = scored->score;
-    EXPECT_LT(score.max_corner_error_px, 1.0);
-    EXPECT_EQ(score.false_balls, 0);
-    for (const auto& m : score.matches) {
-      EXPECT_GE(m.error_mm, 0) << "ball " << m.truth_number;
-      EXPECT_LT(m.error_mm, 10.0) << "ball " << m.truth_number;
-    }
-    EXPECT_EQ(score.separated_identified, score.separated);
-    for (const PoolBall& b : scored->analysis.balls)
-      for (const auto& t : view.balls)
-        if (t.number == b.number) {
-          EXPECT_GT(b.radius_px, 12) << "ball " << b.number << ": radius in passed pixels";
-          EXPECT_LT(cv::norm(b.pixel - t.pixel), 0.5 * b.radius_px) << "ball " << b.number;
-        }
-    // The frame shows the failure: analysed at full size, a ball is fitted over 10 mm off.
-    PoolAnalyzerOptions full_size;
-    full_size.max_working_pixels = 0;
-    auto full = AnalyzeAndScore(scene, view, full_size);
-    ASSERT_TRUE(full.ok()) << full.status();
-    for (const auto& m : full->score.matches)
-      worst_full_size = std::max(worst_full_size, m.error_mm);
+  const auto [scene, view] = RenderBenchFrame(31, 7, 3);
+  ASSERT_EQ(view.image.cols, 1920);
+  auto scored = AnalyzeAndScore(scene, view);
+  ASSERT_TRUE(scored.ok()) << scored.status();
+  const testdata::PoolScore& score = scored->score;
+  EXPECT_LT(score.max_corner_error_px, 1.0);
+  EXPECT_EQ(score.false_balls, 0);
+  for (const auto& m : score.matches) {
+    EXPECT_GE(m.error_mm, 0) << "ball " << m.truth_number;
+    EXPECT_LT(m.error_mm, 10.0) << "ball " << m.truth_number;
   }
+  EXPECT_EQ(score.separated_identified, score.separated);
+  for (const PoolBall& b : scored->analysis.balls)
+    for (const auto& t : view.balls)
+      if (t.number == b.number) {
+        EXPECT_GT(b.radius_px, 12) << "ball " << b.number << ": radius in passed pixels";
+        EXPECT_LT(cv::norm(b.pixel - t.pixel), 0.5 * b.radius_px) << "ball " << b.number;
+      }
+  // The frame shows the failure: analysed at full size, a ball is fitted over 10 mm off.
+  PoolAnalyzerOptions full_size;
+  full_size.max_working_pixels = 0;
+  auto full = AnalyzeAndScore(scene, view, full_size);
+  ASSERT_TRUE(full.ok()) << full.status();
+  double worst_full_size = 0;
+  for (const auto& m : full->score.matches) worst_full_size = std::max(worst_full_size, m.error_mm);
   EXPECT_GT(worst_full_size, 10.0);
   PoolAnalyzerOptions bad;
   bad.max_working_pixels = 1000;

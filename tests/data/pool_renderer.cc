@@ -633,6 +633,14 @@ std::vector<PoolBallPlacement> RandomPoolLayout(std::mt19937_64& rng, const Pool
   return balls;
 }
 
+void ScalePoolCamera(PoolScene* scene, double scale) {
+  if (scale == 1) return;
+  const cv::Size& size = scene->camera.image_size;
+  scene->camera.image_size = cv::Size(static_cast<int>(std::lround(size.width * scale)),
+                                      static_cast<int>(std::lround(size.height * scale)));
+  scene->blur_sigma *= scale;
+}
+
 PoolScene RandomPoolScene(std::mt19937_64& rng, const PoolTableSpec& table, bool allow_touching) {
   PoolScene scene;
   scene.table = table;

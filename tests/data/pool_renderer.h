@@ -121,6 +121,10 @@ std::vector<PoolBallPlacement> RandomPoolLayout(std::mt19937_64& rng, const Pool
 PoolScene RandomPoolScene(std::mt19937_64& rng, const PoolTableSpec& table,
                           bool allow_touching = true);
 
+// The same view from a camera with `scale` times the pixels each way (the image size and
+// the blur in pixels scaled alike, as a sharper sensor behind the same optics would see).
+void ScalePoolCamera(PoolScene* scene, double scale);
+
 // Ground truth as JSON text (camera, pose, corners, balls) for writing beside an image.
 std::string PoolViewGroundTruthJson(const PoolScene& scene, const PoolView& view);
 
