@@ -61,13 +61,17 @@ absl::Status PoolAnalyzer::PrepareFor(const cv::Size& image_size, const cv::Size
   camera.size = working_size;
   undistorter_.emplace(camera);
   image_size_ = image_size;
-  to_image_x_ = static_cast<double>(image_size.width) / working_size.width;
-  to_image_y_ = static_cast<double>(image_size.height) / working_size.height;
   return absl::OkStatus();
 }
 
 cv::Point2d PoolAnalyzer::ToImage(const cv::Point2d& working) const {
-  return {(working.x + 0.5) * to_image_x_ - 0.5, (working.y + 0.5) * to_image_y_ - 0.5};
+  const cv::Size& w = undistorter_->camera().size;
+  return {(working.x + 0.5) * image_size_.width / w.width - 0.5,
+          (working.y + 0.5) * image_size_.height / w.height - 0.5};
+}
+
+double PoolAnalyzer::ToImageScale() const {
+  return static_cast<double>(image_size_.width) / undistorter_->camera().size.width;
 }
 
 cv::Point2d PoolAnalyzer::Project(const PlanarPose& pose, const cv::Vec3d& point_mm) const {
@@ -136,7 +140,7 @@ absl::StatusOr<PoolAnalysis> PoolAnalyzer::Analyze(const cv::Mat& bgr,
       b.number = d.number;
       b.x_mm = rotated ? L - d.x_mm : d.x_mm;
       b.y_mm = rotated ? W - d.y_mm : d.y_mm;
-      b.radius_px = d.radius_px * to_image_x_;
+      b.radius_px = d.radius_px * ToImageScale();
       b.confidence = d.confidence;
       out.push_back(b);
     }
@@ -163,7 +167,7 @@ absl::StatusOr<PoolAnalysis> PoolAnalyzer::Analyze(const cv::Mat& bgr,
   last_balls_ = detected;
   for (auto& d : last_balls_) {
     d.ideal_pixel = ToImage(d.ideal_pixel);
-    d.radius_px *= to_image_x_;
+    d.radius_px *= ToImageScale();
   }
   analysis.long_side_view = table.long_side_view;
   analysis.cloth_bgr = table.cloth_bgr;

@@ -88,15 +88,15 @@ class PoolAnalyzer {
       : profile_(std::move(profile)), camera_(std::move(camera)), options_(options) {}
   // Undistortion for an image of `image_size` analysed at `working_size`.
   absl::Status PrepareFor(const cv::Size& image_size, const cv::Size& working_size);
-  // A working-size pixel in the image as passed.
+  // A working-size pixel in the image as passed, and the scale from one to the other.
   cv::Point2d ToImage(const cv::Point2d& working) const;
+  double ToImageScale() const;
 
   PoolTableProfile profile_;
   CameraModel camera_;  // as given
   PoolAnalyzerOptions options_;
   std::optional<PoolUndistorter> undistorter_;  // for the current working size
   cv::Size image_size_;                         // of the image as passed
-  double to_image_x_ = 1, to_image_y_ = 1;      // image size over working size
   cv::Mat last_ideal_;
   PlanarPose last_pose_;
   std::vector<PoolDetectedBall> last_balls_;

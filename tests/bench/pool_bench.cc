@@ -136,6 +136,7 @@ int main(int argc, char** argv) {
   std::vector<double> errors, separated_errors, corner_errors, times, cpu_times, per_frame_max,
       shot_times;
   std::string failures;
+  cv::Size image_size;  // of the rendered frames
   for (int f = 0; f < frames; ++f) {
     PoolScene scene = RandomPoolScene(rng, spec);
     if (clean) {
@@ -146,6 +147,7 @@ int main(int argc, char** argv) {
     ScalePoolCamera(&scene, scale);
     if (only >= 0 && f != only) continue;
     const PoolView view = RenderPoolView(scene, seed * 100003 + f);
+    image_size = view.image.size();
     if (!save.empty()) {
       char name[64];
       std::snprintf(name, sizeof(name), "%s/pool_%04d", save.c_str(), f);
@@ -257,10 +259,10 @@ int main(int argc, char** argv) {
     }
   }
   std::printf(
-      "\nPool analysis benchmark: %d frames of %ldx%ld, %s table (%.0f x %.0f mm, ball "
+      "\nPool analysis benchmark: %d frames of %dx%d, %s table (%.0f x %.0f mm, ball "
       "radius %.3f mm), seed %llu, one core\n\n",
-      frames, std::lround(640 * scale), std::lround(480 * scale), nine_foot ? "9-ft" : "bench",
-      spec.length_mm, spec.width_mm, spec.ball_radius_mm, static_cast<unsigned long long>(seed));
+      frames, image_size.width, image_size.height, nine_foot ? "9-ft" : "bench", spec.length_mm,
+      spec.width_mm, spec.ball_radius_mm, static_cast<unsigned long long>(seed));
   std::printf("| measure | value |\n|---|---|\n");
   std::printf("| table found | %d / %d frames |\n", found, frames);
   std::printf("| corner error (max per frame), median / p95 | %.2f / %.2f px |\n",
