@@ -240,9 +240,16 @@ double WordGapThreshold(const std::vector<float> &gaps, double fallback) {
   constexpr int kBins = static_cast<int>((kHigh - kLow) / kBin);
   std::array<double, kBins> hist{};
   double total = 0;
+  // Gaps past the histogram are word gaps too (wide or justified monospace sets them at
+  // 1.5-3 text heights): they count towards the word-gap share below, not the split.
+  double beyond = 0;
   for (float g : gaps) {
     const int b = static_cast<int>((g - kLow) / kBin);
-    if (b < 0 || b >= kBins) continue;
+    if (b < 0) continue;
+    if (g >= kHigh || b >= kBins) {
+      beyond += 1;
+      continue;
+    }
     hist[static_cast<size_t>(b)] += 1;
     total += 1;
   }
@@ -273,8 +280,15 @@ double WordGapThreshold(const std::vector<float> &gaps, double fallback) {
   const double mean_low = kLow + kBin * (s_low / w_low + 0.5);
   const double mean_high = kLow + kBin * ((sum_all - s_low) / w_high + 0.5);
   // Letter gaps must be the majority and well apart from word gaps.
-  if (w_low < 0.4 * total || w_high < 0.08 * total || mean_high - mean_low < 0.25) return fallback;
-  return std::clamp(kLow + kBin * (split + 1), 0.5 * fallback, 4.0 * fallback);
+  if (w_low < 0.4 * total || mean_high - mean_low < 0.25) return fallback;
+  const double threshold = std::clamp(kLow + kBin * (split + 1), 0.5 * fallback, 4.0 * fallback);
+  if (w_high >= 0.08 * total) return threshold;
+  // Few word gaps within the histogram: a split is trusted only when the gaps past it make
+  // up the word gaps (wide monospace), and only to raise the threshold, since blurred views
+  // with letters fused leave a spurious upper mode of line ends and columns.
+  const double all = total + beyond;
+  if (w_low < 0.4 * all || w_high + beyond < 0.08 * all) return fallback;
+  return std::max(threshold, fallback);
 }
 
 // Letters -> words with sizes measured locally, so that one image may hold text
@@ -367,8 +381,8 @@ std::vector<Word> GroupLettersIntoWords(const cv::Mat &ink, double h, double ang
       if (overlap < 0.5f * std::min(ga.height(), gb.height())) continue;
       const float lh = std::max(local_h[a], local_h[static_cast<size_t>(b)]);
       const float gap = (std::max(ga.min_u, gb.min_u) - std::min(ga.max_u, gb.max_u)) / lh;
-      if (gap > 2.0f) continue;
       if (gb.min_u + gb.max_u > ga.min_u + ga.max_u) nearest = std::min(nearest, gap);
+      if (gap > 2.0f) continue;
       if (static_cast<int>(a) < b) pairs.push_back({static_cast<int>(a), b, gap});
     }
     if (nearest < FLT_MAX) next_gap.push_back(nearest);
