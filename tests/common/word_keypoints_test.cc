@@ -136,8 +136,8 @@ TEST(WordKeypointsTest, LetterGraphCutsJustifiedMonospaceIntoWords) {
   const auto &page = Page(kMonospaceSeed);
   const WordKeypoints kp = Extractor(WordGrouping::kLetterGraph).Extract(Gray(kMonospaceSeed));
   const size_t words = page.word_boxes.size();
-  EXPECT_LE(kp.points.size(), 1.1 * words) << kp.points.size() << " keypoints, " << words
-                                           << " words";
+  EXPECT_LE(kp.points.size(), 1.1 * words)
+      << kp.points.size() << " keypoints, " << words << " words";
   int once = 0;
   for (const auto &box : page.word_boxes) {
     int inside = 0;
