@@ -5,7 +5,6 @@
 
 #include <algorithm>
 #include <chrono>
-#include <cmath>
 #include <opencv2/imgproc.hpp>
 #include <sstream>
 
@@ -84,19 +83,9 @@ std::vector<WordKeypointOptions> DefaultFallbackKeypointOptions() {
 
 std::vector<RegistrationLayer> DefaultRegistrationLayers() { return {RegistrationLayer{}}; }
 
-double RegistrationLayer::ScaleFor(cv::Size page) const {
-  const double side = std::sqrt(static_cast<double>(page.width) * page.height);
-  if (reference_side_px <= 0 || side <= 0) return scale;
-  return std::min(1.0, scale * reference_side_px / side);
-}
-
 absl::Status RegistrationLayer::Validate() const {
   if (!(scale > 0 && scale <= 1))
     return absl::InvalidArgumentError(absl::StrCat("scale must be in (0, 1], got ", scale));
-  if (!(reference_side_px >= 0 && reference_side_px <= 100000))
-    return absl::InvalidArgumentError(absl::StrCat(
-        "reference_side_px must be in [0, 100000] pixels (0: scale the image as given), got ",
-        reference_side_px));
   if (!(blur_sigma >= 0 && blur_sigma <= 10))
     return absl::InvalidArgumentError(
         absl::StrCat("blur_sigma must be in [0, 10] pixels, got ", blur_sigma));
@@ -354,9 +343,8 @@ void DocumentRegistry::ExtractLayers(const cv::Mat &gray, size_t base_keypoints,
   size_t total = base_keypoints;
   for (size_t i = 0; i < options_.registration_layers.size(); ++i) {
     const RegistrationLayer &layer = options_.registration_layers[i];
-    const double scale = layer.ScaleFor(gray.size());
-    const cv::Size size(std::max(1, static_cast<int>(std::lround(gray.cols * scale))),
-                        std::max(1, static_cast<int>(std::lround(gray.rows * scale))));
+    const cv::Size size(std::max(1, static_cast<int>(std::lround(gray.cols * layer.scale))),
+                        std::max(1, static_cast<int>(std::lround(gray.rows * layer.scale))));
     cv::Mat seen;
     cv::resize(gray, seen, size, 0, 0, cv::INTER_AREA);
     if (layer.blur_sigma > 0) cv::GaussianBlur(seen, seen, cv::Size(), layer.blur_sigma);

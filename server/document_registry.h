@@ -31,26 +31,15 @@ WordKeypointOptions DefaultKeypointOptions();
 std::vector<WordKeypointOptions> DefaultFallbackKeypointOptions();
 
 // An extra keypoint layer registered with every page (generative learning, as Kise's group
-// trained LLAH on degraded renditions): the page downscaled and blurred by `blur_sigma`, cut
-// into words by `keypoints`, mapped back to page pixels. A camera sees small, soft text,
-// which joins and splits letters differently than the sharp page does; the layer's
-// descriptors are those a query cut alike produces.
-//
-// The layer's size is relative to the page, not to the registration image's pixels: a
-// camera sees a printed page at the same size whether it was registered from a 120 dpi or
-// a 300 dpi rendering. `scale` is the layer's pixels per pixel of a page whose geometric-mean
-// side is `reference_side_px` (A4 at 120 dpi, 1000 x 1414); other images are scaled to the
-// same size (a 300 dpi A4 page by 0.24), never up.
+// trained LLAH on degraded renditions): the page downscaled by `scale` and blurred by
+// `blur_sigma`, cut into words by `keypoints`, mapped back to page pixels. A camera sees
+// small, soft text, which joins and splits letters differently than the sharp page does;
+// the layer's descriptors are those a query cut alike produces.
 struct RegistrationLayer {
-  double scale = 0.6;                             // (0, 1]
-  double reference_side_px = kReferencePageSide;  // 0: `scale` applies to the image as given
+  double scale = 0.6;       // image pixels per page pixel, (0, 1]
   double blur_sigma = 1.2;  // Gaussian blur after downscaling, pixels (0: none)
   WordKeypointOptions keypoints = DefaultKeypointOptions();
 
-  static constexpr double kReferencePageSide = 1189.11731969558;  // sqrt(1000 * 1414)
-
-  // Image pixels per registration-image pixel for a page image of `page` pixels, (0, 1].
-  double ScaleFor(cv::Size page) const;
   absl::Status Validate() const;
 };
 // The layers new pages get.

@@ -246,8 +246,7 @@ int main(int argc, char **argv) {
   std::string layers = "default";
   app.add_option("--layers", layers,
                  "extra keypoint layers of registered pages: 'default', 'none', or "
-                 "SCALE:BLUR[:closing],... (new pages only; SCALE of a 1000x1414 page, other "
-                 "page sizes scaled alike)");
+                 "SCALE:BLUR[:closing],... (new pages only)");
   bool no_rectify = false;
   app.add_flag("--no-rectify", no_rectify,
                "describe steep views' keypoints as seen (no perspective rectification)");

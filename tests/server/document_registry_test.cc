@@ -165,60 +165,6 @@ TEST_F(DocumentRegistryTest, HeldOutFontPageIsRetrievedFromATiltedView) {
   ExpectRetrieved(*registry, serif_page, id, 3);
 }
 
-// Share of `a`'s points with a point of `b` within `tolerance` pixels.
-double NearShare(const std::vector<cv::Point2f>& a, const std::vector<cv::Point2f>& b,
-                 double tolerance) {
-  if (a.empty()) return 0;
-  int near = 0;
-  for (const cv::Point2f& p : a)
-    near += std::any_of(b.begin(), b.end(),
-                        [&](const cv::Point2f& q) { return cv::norm(p - q) <= tolerance; });
-  return static_cast<double>(near) / a.size();
-}
-
-// The layer is the page as a camera sees it, so its size follows the page, not the pixels it
-// was rendered at: the same page registered from a 300 dpi rendering (2,480 px wide) gets the
-// layer keypoints a 120 dpi rendering (1,000 px) gets. Scaled by the image's own pixels, the
-// 300 dpi layer was a sharp 1,488 px page cut like the base, not like a camera view.
-TEST_F(DocumentRegistryTest, RegistrationLayerFollowsThePageNotItsResolution) {
-  EXPECT_DOUBLE_EQ(RegistrationLayer{}.ScaleFor({1000, 1414}), 0.6);
-  EXPECT_NEAR(RegistrationLayer{}.ScaleFor({2480, 3507}), 0.2419, 1e-4);
-  EXPECT_DOUBLE_EQ(RegistrationLayer{}.ScaleFor({500, 707}), 1.0) << "never upsampled";
-  RegistrationLayer as_given;
-  as_given.reference_side_px = 0;
-  EXPECT_DOUBLE_EQ(as_given.ScaleFor({2480, 3507}), 0.6);
-
-  // The 120 dpi page is the 300 dpi rendering downscaled, so both hold the same layout.
-  testdata::PageOptions dpi300;
-  dpi300.width = 2480;
-  dpi300.height = 3507;
-  const cv::Mat fine = Gray(testdata::RenderTextPage(31, dpi300).image);
-  cv::Mat coarse;
-  cv::resize(fine, coarse, cv::Size(1000, 1414), 0, 0, cv::INTER_AREA);
-  std::vector<std::vector<cv::Point2f>> layers;  // in 1,000 px page pixels
-  for (const cv::Mat& page : {coarse, fine, fine}) {
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-    DocumentRegistryOptions options;
-    if (layers.size() == 2) options.registration_layers[0].reference_side_px = 0;  // unscaled
-    auto registry = Open(options);
-    ASSERT_NE(registry, nullptr);
-    auto record = registry->Register(page, "page", {});
-    ASSERT_TRUE(record.ok()) << record.status();
-    const float to_1000 = 1000.0f / page.cols;
-    layers.emplace_back();
-    for (const cv::Point2f& p : record->layer_keypoints) layers.back().push_back(p * to_1000);
-  }
-  const double same =
-      std::min(NearShare(layers[0], layers[1], 3.0), NearShare(layers[1], layers[0], 3.0));
-  const double unscaled =
-      std::min(NearShare(layers[0], layers[2], 3.0), NearShare(layers[2], layers[0], 3.0));
-  // Measured: 454 and 441 keypoints, 0.88 within 3 px; the 300 dpi page's layer at 0.6 of its
-  // own pixels: 933 keypoints (letters apart), 0.27.
-  EXPECT_GE(same, 0.8) << layers[0].size() << " and " << layers[1].size() << " keypoints";
-  EXPECT_GT(same, unscaled + 0.3) << unscaled;
-}
-
 TEST(DocumentRegistryOptionsTest, RegistrationLayersAreValidated) {
   DocumentRegistryOptions options;
   EXPECT_TRUE(options.Validate().ok());
@@ -232,11 +178,6 @@ TEST(DocumentRegistryOptionsTest, RegistrationLayersAreValidated) {
     EXPECT_EQ(s.code(), absl::StatusCode::kInvalidArgument) << scale << " " << blur;
     EXPECT_NE(s.message().find("registration_layers[0]"), absl::string_view::npos) << s;
   }
-  options.registration_layers = {RegistrationLayer{}};
-  options.registration_layers[0].reference_side_px = -1;
-  const absl::Status s = options.Validate();
-  EXPECT_EQ(s.code(), absl::StatusCode::kInvalidArgument);
-  EXPECT_NE(s.message().find("reference_side_px"), absl::string_view::npos) << s;
 }
 
 TEST_F(DocumentRegistryTest, NewDatabaseKeepsItsGroupingWhateverTheServerIsConfiguredWith) {
