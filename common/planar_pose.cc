@@ -8,6 +8,49 @@
 
 namespace texfree {
 
+cv::Matx33d PixelScaling(const cv::Size &from, const cv::Size &to) {
+  const double sx = static_cast<double>(to.width) / from.width;
+  const double sy = static_cast<double>(to.height) / from.height;
+  return cv::Matx33d(sx, 0, 0.5 * sx - 0.5, 0, sy, 0.5 * sy - 0.5, 0, 0, 1);
+}
+
+cv::Matx33d ScaledIntrinsics(const cv::Matx33d &K, const cv::Size &from, const cv::Size &to) {
+  // K' = S K with S = PixelScaling (no skew): focal lengths and principal point scale alike.
+  return PixelScaling(from, to) * K;
+}
+
+absl::StatusOr<CameraModel> CameraForImage(const CameraModel &camera, const cv::Size &image) {
+  if (camera.size.area() <= 0 || camera.size == image) return camera;
+  const double sx = static_cast<double>(image.width) / camera.size.width;
+  const double sy = static_cast<double>(image.height) / camera.size.height;
+  if (std::abs(sx / sy - 1) > 0.01) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "the image is ", image.width, "x", image.height, " but the intrinsics are for ",
+        camera.size.width, "x", camera.size.height, " (a different aspect ratio)"));
+  }
+  CameraModel scaled = camera;
+  scaled.K = ScaledIntrinsics(camera.K, camera.size, image);
+  scaled.size = image;
+  return scaled;
+}
+
+cv::Size WorkingSize(const cv::Size &image, int64_t max_pixels) {
+  const int64_t pixels = static_cast<int64_t>(image.width) * image.height;
+  if (max_pixels <= 0 || pixels <= max_pixels) return image;
+  const double s = std::sqrt(static_cast<double>(max_pixels) / pixels);
+  return {std::max(1, static_cast<int>(image.width * s)),
+          std::max(1, static_cast<int>(image.height * s))};
+}
+
+cv::Size WholeFactorWorkingSize(const cv::Size &image, int64_t max_pixels) {
+  const int64_t pixels = static_cast<int64_t>(image.width) * image.height;
+  if (max_pixels <= 0 || pixels <= max_pixels) return image;
+  int factor = static_cast<int>(std::ceil(std::sqrt(static_cast<double>(pixels) / max_pixels)));
+  while (static_cast<int64_t>(image.width / factor) * (image.height / factor) > max_pixels)
+    ++factor;
+  return {std::max(1, image.width / factor), std::max(1, image.height / factor)};
+}
+
 absl::Status CameraModel::Validate() const {
   if (!(K(0, 0) > 0) || !(K(1, 1) > 0))
     return absl::InvalidArgumentError("camera focal lengths fx, fy must be positive");

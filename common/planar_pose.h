@@ -24,6 +24,23 @@ struct PlanarPose {
   cv::Vec3d t;
 };
 
+// Resizing: pixel centres are kept, x' = (x + 0.5) * s - 0.5 along each axis.
+// The intrinsics of the same camera in the image resized from `from` to `to` pixels.
+cv::Matx33d ScaledIntrinsics(const cv::Matx33d &K, const cv::Size &from, const cv::Size &to);
+// The homography taking pixels of an image of `from` pixels to the image resized to `to`.
+cv::Matx33d PixelScaling(const cv::Size &from, const cv::Size &to);
+// The camera's model for pictures of `image` pixels: as given when its size is unset (0) or
+// `image`; the same sensor read out at another resolution (the same aspect ratio within 1%)
+// gets its intrinsics scaled; another aspect ratio is an InvalidArgument error naming both.
+absl::StatusOr<CameraModel> CameraForImage(const CameraModel &camera, const cv::Size &image);
+// `image` reduced to at most `max_pixels` pixels with its aspect ratio; `image` itself when it
+// is not larger or max_pixels <= 0 (no limit).
+cv::Size WorkingSize(const cv::Size &image, int64_t max_pixels);
+// The same, divided by the smallest whole factor that brings it to at most `max_pixels`
+// (INTER_AREA's fast path: a 12 MP picture is reduced by 3 in ~5 ms instead of ~22 ms by
+// 2.5), with the sides rounded down.
+cv::Size WholeFactorWorkingSize(const cv::Size &image, int64_t max_pixels);
+
 // Appendix A: [r1 r2 t] = K^-1 H up to scale, r3 = r1 x r2, then the closest
 // rotation (SVD). The sign is fixed so that visible_point (a plane point seen
 // in the image, e.g. the centre of the inliers) lies in front of the camera.

@@ -20,19 +20,6 @@ absl::Status PoolAnalyzerOptions::Validate() const {
   return absl::OkStatus();
 }
 
-namespace {
-
-// Intrinsics for `from`-size images, for the same sensor read out at `to` (pixel centres
-// kept aligned).
-cv::Matx33d ScaledIntrinsics(const cv::Matx33d& K, const cv::Size& from, const cv::Size& to) {
-  const double sx = static_cast<double>(to.width) / from.width;
-  const double sy = static_cast<double>(to.height) / from.height;
-  return cv::Matx33d(K(0, 0) * sx, 0, (K(0, 2) + 0.5) * sx - 0.5, 0, K(1, 1) * sy,
-                     (K(1, 2) + 0.5) * sy - 0.5, 0, 0, 1);
-}
-
-}  // namespace
-
 absl::StatusOr<PoolAnalyzer> PoolAnalyzer::Create(const PoolTableProfile& profile,
                                                   const CameraModel& camera,
                                                   const PoolAnalyzerOptions& options) {
@@ -45,18 +32,8 @@ absl::StatusOr<PoolAnalyzer> PoolAnalyzer::Create(const PoolTableProfile& profil
 absl::Status PoolAnalyzer::PrepareFor(const cv::Size& image_size, const cv::Size& working_size) {
   if (undistorter_ && image_size_ == image_size && undistorter_->camera().size == working_size)
     return absl::OkStatus();
-  CameraModel camera = camera_;
-  if (camera.size.area() > 0 && camera.size != image_size) {
-    // Same sensor at another resolution: scale the intrinsics; anything else is a mistake.
-    const double sx = static_cast<double>(image_size.width) / camera.size.width;
-    const double sy = static_cast<double>(image_size.height) / camera.size.height;
-    if (std::abs(sx / sy - 1) > 0.01) {
-      return absl::InvalidArgumentError(absl::StrCat(
-          "the image is ", image_size.width, "x", image_size.height, " but the intrinsics are for ",
-          camera.size.width, "x", camera.size.height, " (a different aspect ratio)"));
-    }
-    camera.K = ScaledIntrinsics(camera.K, camera.size, image_size);
-  }
+  // Same sensor at another resolution: intrinsics scaled; anything else is a mistake.
+  ASSIGN_OR_RETURN(CameraModel camera, CameraForImage(camera_, image_size));
   if (working_size != image_size) camera.K = ScaledIntrinsics(camera.K, image_size, working_size);
   camera.size = working_size;
   undistorter_.emplace(camera);
@@ -106,13 +83,7 @@ absl::StatusOr<PoolAnalysis> PoolAnalyzer::Analyze(const cv::Mat& bgr,
     return absl::InvalidArgumentError("pool analysis needs an 8-bit colour (BGR) image");
   PoolAnalysis analysis;
   auto t0 = SteadyClock::now();
-  cv::Size working = bgr.size();
-  const int64_t pixels = static_cast<int64_t>(bgr.cols) * bgr.rows;
-  if (options_.max_working_pixels > 0 && pixels > options_.max_working_pixels) {
-    const double s = std::sqrt(static_cast<double>(options_.max_working_pixels) / pixels);
-    working = cv::Size(std::max(1, static_cast<int>(bgr.cols * s)),
-                       std::max(1, static_cast<int>(bgr.rows * s)));
-  }
+  const cv::Size working = WorkingSize(bgr.size(), options_.max_working_pixels);
   RETURN_IF_ERROR(PrepareFor(bgr.size(), working));
   cv::Mat reduced;
   if (working != bgr.size()) {
@@ -172,8 +143,7 @@ absl::StatusOr<PoolAnalysis> PoolAnalyzer::Analyze(const cv::Mat& bgr,
   analysis.long_side_view = table.long_side_view;
   analysis.cloth_bgr = table.cloth_bgr;
   analysis.cloth_not_profile_colour = table.cloth_not_profile_colour;
-  for (auto& b : analysis.balls)
-    b.pixel = Project(pose, {b.x_mm, b.y_mm, profile_.ball_radius_mm});
+  for (auto& b : analysis.balls) b.pixel = Project(pose, {b.x_mm, b.y_mm, profile_.ball_radius_mm});
   const cv::Vec3d corners[4] = {{0, 0, 0}, {L, 0, 0}, {L, W, 0}, {0, W, 0}};
   for (int i = 0; i < 4; ++i) analysis.cloth_corners[i] = Project(pose, corners[i]);
   return analysis;

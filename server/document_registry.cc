@@ -140,6 +140,10 @@ absl::Status DocumentRegistryOptions::Validate() const {
   if (log2_buckets < 10 || log2_buckets > 30)
     return absl::InvalidArgumentError("log2_buckets must be in [10, 30]");
   if (rebuild_threads < 1) return absl::InvalidArgumentError("rebuild_threads must be >= 1");
+  if (max_query_pixels != 0 && max_query_pixels < 320 * 240)
+    return absl::InvalidArgumentError(
+        absl::StrCat("max_query_pixels must be 0 (never reduce) or at least 320x240 = 76800, got ",
+                     max_query_pixels));
   return absl::OkStatus();
 }
 
@@ -383,6 +387,33 @@ absl::Status DocumentRegistry::Delete(const std::string &id) {
 absl::StatusOr<RetrievalResult> DocumentRegistry::Retrieve(const cv::Mat &gray,
                                                            const std::optional<CameraModel> &camera,
                                                            int max_results) const {
+  // Intrinsics calibrated at another resolution of the same sensor are scaled to the picture.
+  std::optional<CameraModel> picture_camera;
+  if (camera) {
+    ASSIGN_OR_RETURN(picture_camera, CameraForImage(*camera, gray.size()));
+  }
+  const cv::Size working = WholeFactorWorkingSize(gray.size(), options_.max_query_pixels);
+  if (working == gray.size()) return RetrieveAsGiven(gray, picture_camera, max_results);
+  const auto t = Clock::now();
+  cv::Mat reduced;
+  cv::resize(gray, reduced, working, 0, 0, cv::INTER_AREA);
+  std::optional<CameraModel> reduced_camera = picture_camera;
+  if (reduced_camera) {
+    // The distortion coefficients act on normalised coordinates and stay as they are.
+    reduced_camera->K = ScaledIntrinsics(picture_camera->K, gray.size(), working);
+    reduced_camera->size = working;
+  }
+  const double reduce_ms = MillisecondsSince(t);
+  ASSIGN_OR_RETURN(RetrievalResult result, RetrieveAsGiven(reduced, reduced_camera, max_results));
+  // Homographies back to the picture's pixels; poses are the camera's and stay.
+  const cv::Matx33d to_given = PixelScaling(working, gray.size());
+  for (RetrievedDocument &doc : result.documents) doc.homography = to_given * doc.homography;
+  result.timings.stages.insert(result.timings.stages.begin(), {"reduce", reduce_ms});
+  return result;
+}
+
+absl::StatusOr<RetrievalResult> DocumentRegistry::RetrieveAsGiven(
+    const cv::Mat &gray, const std::optional<CameraModel> &camera, int max_results) const {
   RetrievalResult result;
   std::shared_ptr<LlahRetriever> retriever;
   {

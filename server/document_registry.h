@@ -73,6 +73,15 @@ struct DocumentRegistryOptions {
   // rectifying a steep view (RetrievalOptions::perspective.focal_px), a phone's main camera
   // (60-75 degrees). 0: the rectification stays affine unless intrinsics are given.
   double assumed_horizontal_fov_deg = 65;
+  // Query pictures with more pixels are retrieved reduced by the smallest whole factor that
+  // brings them to this many (INTER_AREA), every result in the pixels of the picture as
+  // given. A phone's 12 MP photo (4032x3024 -> 1344x1008) holds words of 15-60 px, which the
+  // reduction keeps above the 3-4 px the extractor needs: on 12 MP views of 1,000 pages the
+  // same views were found, whole pages included, at 58 ms median instead of 216 (extraction
+  // 19 ms instead of 190). 1920x1440 leaves 1080p and 1600x1200 frames as they are.
+  // 0: never reduce.
+  int64_t max_query_pixels = kDefaultMaxQueryPixels;
+  static constexpr int64_t kDefaultMaxQueryPixels = 1920 * 1440;
   // Extra keypoint layers of every page registered (pages registered earlier keep the
   // layers they were registered with). Empty: the page as given only.
   std::vector<RegistrationLayer> registration_layers = DefaultRegistrationLayers();
@@ -151,6 +160,10 @@ class DocumentRegistry {
   void UseRegistrationGrouping(WordGrouping grouping);
   absl::Status CreateRetriever(const std::vector<cv::Point2f> &training_points);
   std::optional<DocumentSummary> Summary(uint32_t index_id) const;
+  // Retrieve() on the picture at the size given (Retrieve reduces large pictures first).
+  absl::StatusOr<RetrievalResult> RetrieveAsGiven(const cv::Mat &gray,
+                                                  const std::optional<CameraModel> &camera,
+                                                  int max_results) const;
 
   DocumentRegistryOptions options_;
   std::unique_ptr<DocumentStore> store_;

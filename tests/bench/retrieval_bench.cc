@@ -247,6 +247,8 @@ int main(int argc, char **argv) {
   app.add_option("--layers", layers,
                  "extra keypoint layers of registered pages: 'default', 'none', or "
                  "SCALE:BLUR[:closing],... (new pages only)");
+  app.add_option("--max-query-pixels", registry_options.max_query_pixels,
+                 "query pictures with more pixels are retrieved reduced to this many (0: never)");
   bool no_rectify = false;
   app.add_flag("--no-rectify", no_rectify,
                "describe steep views' keypoints as seen (no perspective rectification)");

@@ -254,5 +254,68 @@ TEST(CameraModelTest, ValidateRejectsBadModels) {
   }
 }
 
+// Resizing keeps pixel centres: the pixel grid's centres map onto each other, and a camera's
+// projection in the resized image is its projection in the original, resized.
+TEST(ResizingTest, PixelScalingAndScaledIntrinsicsAgree) {
+  const cv::Size from(4032, 3024), to(1344, 1008);
+  const cv::Matx33d S = PixelScaling(from, to);
+  const cv::Point2d first = ApplyHomography(S, {1.0, 1.0});  // centre of the 3x3 block at 0
+  EXPECT_NEAR(first.x, 0, 1e-12);
+  EXPECT_NEAR(first.y, 0, 1e-12);
+  const cv::Point2d last = ApplyHomography(S, {4031 - 1.0, 3023 - 1.0});
+  EXPECT_NEAR(last.x, 1343, 1e-9);
+  EXPECT_NEAR(last.y, 1007, 1e-9);
+  const cv::Matx33d back = PixelScaling(to, from) * S;
+  EXPECT_LT(cv::norm(back - cv::Matx33d::eye()), 1e-12);
+
+  const cv::Matx33d K2 = ScaledIntrinsics(kK, from, to);
+  const cv::Vec3d X(0.3, -0.2, 2.0);
+  const cv::Vec3d a = kK * X, b = K2 * X;
+  const cv::Point2d expected = ApplyHomography(S, {a[0] / a[2], a[1] / a[2]});
+  EXPECT_NEAR(b[0] / b[2], expected.x, 1e-9);
+  EXPECT_NEAR(b[1] / b[2], expected.y, 1e-9);
+}
+
+TEST(ResizingTest, WorkingSizes) {
+  EXPECT_EQ(WorkingSize({640, 480}, 1280 * 960), cv::Size(640, 480));
+  EXPECT_EQ(WorkingSize({4032, 3024}, 0), cv::Size(4032, 3024)) << "0: no limit";
+  const cv::Size w = WorkingSize({2560, 1920}, 1280 * 960);
+  EXPECT_EQ(w, cv::Size(1280, 960));
+  // Whole factors: the smallest that fits, sides rounded down.
+  EXPECT_EQ(WholeFactorWorkingSize({4032, 3024}, 1920 * 1440), cv::Size(1344, 1008));
+  EXPECT_EQ(WholeFactorWorkingSize({3840, 2160}, 1920 * 1440), cv::Size(1920, 1080));
+  EXPECT_EQ(WholeFactorWorkingSize({1920, 1080}, 1920 * 1440), cv::Size(1920, 1080));
+  EXPECT_EQ(WholeFactorWorkingSize({8000, 6000}, 1920 * 1440), cv::Size(1600, 1200));
+  EXPECT_EQ(WholeFactorWorkingSize({4031, 3023}, 1920 * 1440), cv::Size(1343, 1007));
+  for (const cv::Size image : {cv::Size(5000, 10), cv::Size(12345, 6789), cv::Size(2881, 1921)}) {
+    const cv::Size r = WholeFactorWorkingSize(image, 1920 * 1440);
+    EXPECT_LE(static_cast<int64_t>(r.width) * r.height, 1920 * 1440) << image;
+    EXPECT_GE(r.width, 1);
+  }
+}
+
+TEST(ResizingTest, CameraForImageScalesTheSameSensorAndRefusesAnotherAspect) {
+  CameraModel camera;
+  camera.K = kK;
+  camera.distortion = {-0.1, 0.01, 0, 0, 0};
+  auto as_given = CameraForImage(camera, {1234, 999});
+  ASSERT_TRUE(as_given.ok());
+  EXPECT_EQ(as_given->K, kK) << "size unset: the intrinsics are the picture's";
+
+  camera.size = {640, 480};
+  auto same = CameraForImage(camera, {640, 480});
+  ASSERT_TRUE(same.ok());
+  EXPECT_EQ(same->K, kK);
+  auto larger = CameraForImage(camera, {1920, 1440});
+  ASSERT_TRUE(larger.ok()) << larger.status();
+  EXPECT_EQ(larger->size, cv::Size(1920, 1440));
+  EXPECT_LT(cv::norm(larger->K - ScaledIntrinsics(kK, {640, 480}, {1920, 1440})), 1e-12);
+  EXPECT_EQ(larger->distortion, camera.distortion) << "normalised coordinates: unchanged";
+
+  auto wide = CameraForImage(camera, {1920, 1080});
+  EXPECT_EQ(wide.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(wide.status().message().find("640x480"), std::string::npos) << wide.status();
+}
+
 }  // namespace
 }  // namespace texfree

@@ -165,6 +165,62 @@ TEST_F(DocumentRegistryTest, HeldOutFontPageIsRetrievedFromATiltedView) {
   ExpectRetrieved(*registry, serif_page, id, 3);
 }
 
+// A phone's picture (here 2,560 x 1,920, the page seen whole at 0.8 of its pixels) is
+// retrieved reduced to max_query_pixels, with the homography in the picture's own pixels and
+// the same pose as from the picture at full size; intrinsics calibrated at another resolution
+// of the same sensor are scaled to the picture, and intrinsics of another aspect ratio are
+// refused.
+TEST_F(DocumentRegistryTest, LargePicturesAreRetrievedReducedInTheirOwnPixels) {
+  const auto page = testdata::RenderTextPage(31);
+  DocumentRegistryOptions options;
+  options.max_query_pixels = 1280 * 960;
+  auto registry = Open(options);
+  ASSERT_NE(registry, nullptr);
+  auto record = registry->Register(Gray(page.image), "thirty-one", {});
+  ASSERT_TRUE(record.ok()) << record.status();
+
+  testdata::CameraViewOptions view = TiltedView();
+  view.image_size = {2560, 1920};
+  view.scale = 0.8 * 4;  // the tilted view's page scale, at 4 times the pixels
+  view.blur_sigma = 2.0;
+  const auto photo = testdata::RenderCameraView(page.image, view, 5);
+  CameraModel camera;
+  camera.K = photo.camera_matrix;
+  camera.size = view.image_size;
+
+  auto reduced = registry->Retrieve(Gray(photo.image), camera, 0);
+  ASSERT_TRUE(reduced.ok()) << reduced.status();
+  ASSERT_EQ(reduced->documents.size(), 1u);
+  EXPECT_EQ(reduced->documents[0].document.id, record->id);
+  ASSERT_FALSE(reduced->timings.stages.empty());
+  EXPECT_EQ(reduced->timings.stages[0].first, "reduce") << "2 times 1280x960: reduced by 2";
+  EXPECT_LT(testdata::MeanHomographyError(reduced->documents[0].homography, photo.homography,
+                                          page.image.size(), photo.image.size()),
+            3.0)
+      << "homography in the 2560x1920 picture's pixels";
+  ASSERT_TRUE(reduced->documents[0].pose.has_value());
+  const PlanarPose& pose = *reduced->documents[0].pose;
+  // Page pixels are world units: the camera stands ~1,000 page pixels away.
+  EXPECT_LT(cv::norm(pose.t - photo.translation), 0.01 * cv::norm(photo.translation));
+  EXPECT_LT(cv::norm(pose.R - photo.rotation), 0.01);
+
+  // Intrinsics of the same camera calibrated at 640x480: scaled to the picture, same pose.
+  CameraModel at_vga = camera;
+  at_vga.K = ScaledIntrinsics(camera.K, camera.size, {640, 480});
+  at_vga.size = {640, 480};
+  auto scaled = registry->Retrieve(Gray(photo.image), at_vga, 0);
+  ASSERT_TRUE(scaled.ok()) << scaled.status();
+  ASSERT_EQ(scaled->documents.size(), 1u);
+  ASSERT_TRUE(scaled->documents[0].pose.has_value());
+  EXPECT_LT(cv::norm(scaled->documents[0].pose->t - pose.t), 1e-6 * cv::norm(pose.t));
+
+  CameraModel other_aspect = camera;
+  other_aspect.size = {1920, 1080};
+  auto refused = registry->Retrieve(Gray(photo.image), other_aspect, 0);
+  EXPECT_EQ(refused.status().code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(refused.status().message().find("1920x1080"), std::string::npos) << refused.status();
+}
+
 TEST(DocumentRegistryOptionsTest, RegistrationLayersAreValidated) {
   DocumentRegistryOptions options;
   EXPECT_TRUE(options.Validate().ok());
