@@ -50,6 +50,8 @@ const std::vector<Setting>& Settings() {
        Kind::kInt},
       {"max_image_pixels", "TEXFREE_MAX_IMAGE_PIXELS", "--max-image-pixels",
        Kind::kInt},
+      {"max_query_pixels", "TEXFREE_MAX_QUERY_PIXELS", "--max-query-pixels",
+       Kind::kInt},
       {"log_level", "TEXFREE_LOG_LEVEL", "--log-level", Kind::kString},
       {"idle_stream_timeout_s", "TEXFREE_IDLE_STREAM_TIMEOUT_S",
        "--idle-stream-timeout-s", Kind::kInt},
@@ -104,6 +106,10 @@ absl::Status Assign(const Setting& setting, const std::string& value,
     const std::string key = setting.key;
     if (key == "max_image_pixels") {
       config->max_image_pixels = n;
+      return absl::OkStatus();
+    }
+    if (key == "max_query_pixels") {
+      config->max_query_pixels = n;
       return absl::OkStatus();
     }
     if (n < INT32_MIN || n > INT32_MAX) {
@@ -246,6 +252,12 @@ absl::Status ServerConfig::Validate() const {
     return absl::InvalidArgumentError(
         absl::StrCat("max_image_pixels = ", max_image_pixels,
                      " must be positive (default 50000000)"));
+  }
+  if (max_query_pixels != 0 && max_query_pixels < 320 * 240) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "max_query_pixels = ", max_query_pixels,
+        " must be 0 (never reduce) or at least 76800 (320x240; default ",
+        DocumentRegistryOptions::kDefaultMaxQueryPixels, ")"));
   }
   if (idle_stream_timeout_s <= 0) {
     return absl::InvalidArgumentError(

@@ -9,6 +9,7 @@
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
+#include "server/document_registry.h"
 
 namespace texfree::server {
 
@@ -22,6 +23,9 @@ struct ServerConfig {
   int max_message_mb = 64;
   // Largest decoded image (width * height) a request may carry.
   int64_t max_image_pixels = 50'000'000;
+  // Document retrieval reduces larger pictures by a whole factor to at most
+  // this many pixels (0: never); results stay in the picture's pixels.
+  int64_t max_query_pixels = DocumentRegistryOptions::kDefaultMaxQueryPixels;
   // spdlog level: trace, debug, info, warn, error, critical, off.
   std::string log_level = "info";
   // A streaming call with no message for this many seconds is ended.
@@ -33,11 +37,12 @@ struct ServerConfig {
 
 // Names of the settings, as written in the config file and as keys of the
 // `flags` map below: listen, data_dir, max_message_mb, max_image_pixels,
-// log_level, idle_stream_timeout_s. The flags map may also hold "config" (the
+// max_query_pixels, log_level, idle_stream_timeout_s. The flags map may also hold "config" (the
 // config file path), which ResolveServerConfig ignores.
 //
 // Environment variables (keys of `env`): TEXFREE_LISTEN, TEXFREE_DATA_DIR,
-// TEXFREE_MAX_MESSAGE_MB, TEXFREE_MAX_IMAGE_PIXELS, TEXFREE_LOG_LEVEL,
+// TEXFREE_MAX_MESSAGE_MB, TEXFREE_MAX_IMAGE_PIXELS, TEXFREE_MAX_QUERY_PIXELS,
+// TEXFREE_LOG_LEVEL,
 // TEXFREE_IDLE_STREAM_TIMEOUT_S (and TEXFREE_CONFIG, the config file path,
 // used by LoadServerConfig). Other keys of `env` are ignored.
 //

@@ -55,7 +55,7 @@ int main(int argc, char** argv) {
   // environment and the config file can fill the others.
   std::map<std::string, std::string> flags;
   std::string listen, data_dir, config_path, max_message_mb, max_image_pixels,
-      log_level, idle_timeout;
+      max_query_pixels, log_level, idle_timeout;
   const ServerConfig defaults;
   auto* listen_opt =
       app.add_option("--listen", listen,
@@ -77,6 +77,11 @@ int main(int argc, char** argv) {
       "--max-image-pixels", max_image_pixels,
       "largest image, width*height (env TEXFREE_MAX_IMAGE_PIXELS, default " +
           std::to_string(defaults.max_image_pixels) + ")");
+  auto* query_pixels_opt = app.add_option(
+      "--max-query-pixels", max_query_pixels,
+      "document retrieval reduces larger pictures to this many pixels, 0 = "
+      "never (env TEXFREE_MAX_QUERY_PIXELS, default " +
+          std::to_string(defaults.max_query_pixels) + ")");
   auto* level_opt = app.add_option(
       "--log-level", log_level,
       "trace|debug|info|warn|error|critical|off (env TEXFREE_LOG_LEVEL, "
@@ -92,6 +97,7 @@ int main(int argc, char** argv) {
   config_opt->type_name("FILE");
   mb_opt->type_name("N");
   pixels_opt->type_name("N");
+  query_pixels_opt->type_name("N");
   level_opt->type_name("LEVEL");
   idle_opt->type_name("SECONDS");
   CLI11_PARSE(app, argc, argv);
@@ -102,6 +108,7 @@ int main(int argc, char** argv) {
        {config_opt, {"config", &config_path}},
        {mb_opt, {"max_message_mb", &max_message_mb}},
        {pixels_opt, {"max_image_pixels", &max_image_pixels}},
+       {query_pixels_opt, {"max_query_pixels", &max_query_pixels}},
        {level_opt, {"log_level", &log_level}},
        {idle_opt, {"idle_stream_timeout_s", &idle_timeout}}};
   for (const auto& [option, key_value] : given) {
@@ -175,8 +182,11 @@ int main(int argc, char** argv) {
   // Machine-readable line (integration tests parse it): keep it exact.
   std::fprintf(stderr, "texfree-server listening on %s\n", address.c_str());
   std::fflush(stderr);
-  spdlog::info("data dir {}, max message {} MiB, max image {} pixels",
-               config.data_dir, config.max_message_mb, config.max_image_pixels);
+  spdlog::info(
+      "data dir {}, max message {} MiB, max image {} pixels, documents "
+      "retrieved at most {} pixels",
+      config.data_dir, config.max_message_mb, config.max_image_pixels,
+      config.max_query_pixels);
 
   std::thread signal_thread([&server, &stop_signals] {
     int signal_number = 0;

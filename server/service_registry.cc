@@ -43,7 +43,9 @@ absl::StatusOr<std::unique_ptr<ServiceRegistry>> ServiceRegistry::Create(
   const std::string db_path = (std::filesystem::path(config.data_dir) / "texfree.db").string();
   ASSIGN_OR_RETURN(auto store, DocumentStore::Open(db_path));
   spdlog::info("database {}", db_path);
-  ASSIGN_OR_RETURN(auto documents, DocumentRegistry::Open(std::move(store), {}));
+  DocumentRegistryOptions document_options;
+  document_options.max_query_pixels = config.max_query_pixels;
+  ASSIGN_OR_RETURN(auto documents, DocumentRegistry::Open(std::move(store), document_options));
 
   std::unique_ptr<ServiceRegistry> registry(new ServiceRegistry());
   registry->impl_ = std::make_unique<Impl>();

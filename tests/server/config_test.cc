@@ -23,6 +23,7 @@ TEST(ServerConfigTest, DefaultsAreValid) {
   EXPECT_EQ(config.data_dir, "./data");
   EXPECT_EQ(config.max_message_mb, 64);
   EXPECT_EQ(config.max_image_pixels, 50'000'000);
+  EXPECT_EQ(config.max_query_pixels, 1920 * 1440);
   EXPECT_EQ(config.log_level, "info");
   EXPECT_EQ(config.idle_stream_timeout_s, 60);
   EXPECT_TRUE(config.Validate().ok()) << config.Validate();
@@ -80,6 +81,13 @@ TEST(ServerConfigTest, ValidateExplainsEachBadField) {
   config.max_image_pixels = -5;
   EXPECT_THAT(std::string(config.Validate().message()),
               HasSubstr("max_image_pixels = -5 must be positive"));
+
+  config = ServerConfig();
+  config.max_query_pixels = 1000;
+  EXPECT_THAT(std::string(config.Validate().message()),
+              HasSubstr("max_query_pixels = 1000 must be 0 (never reduce)"));
+  config.max_query_pixels = 0;
+  EXPECT_TRUE(config.Validate().ok()) << "0: never reduce";
 
   config = ServerConfig();
   config.idle_stream_timeout_s = 0;
@@ -164,6 +172,7 @@ TEST(ServerConfigTest, EnvironmentOverridesConfigFile) {
       "max_message_mb = 10\n";
   const StringMap env = {{"TEXFREE_LISTEN", "127.0.0.1:2000"},
                          {"TEXFREE_MAX_IMAGE_PIXELS", "1234"},
+                         {"TEXFREE_MAX_QUERY_PIXELS", "0"},
                          {"TEXFREE_LOG_LEVEL", "warn"},
                          {"HOME", "/root"}};
   absl::StatusOr<ServerConfig> config = ResolveServerConfig({}, env, text);
@@ -172,6 +181,7 @@ TEST(ServerConfigTest, EnvironmentOverridesConfigFile) {
   EXPECT_EQ(config->data_dir, "/from/file");
   EXPECT_EQ(config->max_message_mb, 10);
   EXPECT_EQ(config->max_image_pixels, 1234);
+  EXPECT_EQ(config->max_query_pixels, 0);
   EXPECT_EQ(config->log_level, "warn");
 }
 
