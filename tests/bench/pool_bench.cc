@@ -244,6 +244,19 @@ int main(int argc, char** argv) {
         std::printf("  white share %.2f  red saturation %.2f brightness %.2f  radius %.1f px\n",
                     b.white_share, b.colour_saturation, b.colour_brightness, b.radius_px);
       }
+      // Balls found where no ball is (false balls), with what they were taken for.
+      std::vector<bool> matched(detected.size(), false);
+      for (const auto& m : score.matches)
+        if (m.estimated_index >= 0) matched[static_cast<size_t>(m.estimated_index)] = true;
+      for (size_t i = 0; i < detected.size(); ++i) {
+        if (matched[i]) continue;
+        const PoolDetectedBall& b = detected[i];
+        std::printf(
+            "    false ball as %d at ideal px (%.0f, %.0f) mm (%.1f, %.1f), radius %.1f px, votes:",
+            b.number, b.ideal_pixel.x, b.ideal_pixel.y, b.x_mm, b.y_mm, b.radius_px);
+        for (int v : b.votes) std::printf(" %d", v);
+        std::printf("\n");
+      }
     }
     if (verbose) {
       const cv::Vec3d c = -(view.rotation.t() * view.translation);
