@@ -253,10 +253,11 @@ absl::Status ServerConfig::Validate() const {
         absl::StrCat("max_image_pixels = ", max_image_pixels,
                      " must be positive (default 50000000)"));
   }
-  if (max_query_pixels != 0 && max_query_pixels < 320 * 240) {
+  if (!DocumentRegistryOptions::ValidMaxQueryPixels(max_query_pixels)) {
     return absl::InvalidArgumentError(absl::StrCat(
         "max_query_pixels = ", max_query_pixels,
-        " must be 0 (never reduce) or at least 76800 (320x240; default ",
+        " must be 0 (never reduce) or at least ",
+        DocumentRegistryOptions::kMinMaxQueryPixels, " (default ",
         DocumentRegistryOptions::kDefaultMaxQueryPixels, ")"));
   }
   if (idle_stream_timeout_s <= 0) {

@@ -140,10 +140,10 @@ absl::Status DocumentRegistryOptions::Validate() const {
   if (log2_buckets < 10 || log2_buckets > 30)
     return absl::InvalidArgumentError("log2_buckets must be in [10, 30]");
   if (rebuild_threads < 1) return absl::InvalidArgumentError("rebuild_threads must be >= 1");
-  if (max_query_pixels != 0 && max_query_pixels < 320 * 240)
-    return absl::InvalidArgumentError(
-        absl::StrCat("max_query_pixels must be 0 (never reduce) or at least 320x240 = 76800, got ",
-                     max_query_pixels));
+  if (!ValidMaxQueryPixels(max_query_pixels))
+    return absl::InvalidArgumentError(absl::StrCat("max_query_pixels must be 0 (never reduce) or ",
+                                                   "at least ", kMinMaxQueryPixels, ", got ",
+                                                   max_query_pixels));
   return absl::OkStatus();
 }
 

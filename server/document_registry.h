@@ -82,6 +82,8 @@ struct DocumentRegistryOptions {
   // 0: never reduce.
   int64_t max_query_pixels = kDefaultMaxQueryPixels;
   static constexpr int64_t kDefaultMaxQueryPixels = 1920 * 1440;
+  static constexpr int64_t kMinMaxQueryPixels = 320 * 240;  // smallest limit but 0
+  static bool ValidMaxQueryPixels(int64_t n) { return n == 0 || n >= kMinMaxQueryPixels; }
   // Extra keypoint layers of every page registered (pages registered earlier keep the
   // layers they were registered with). Empty: the page as given only.
   std::vector<RegistrationLayer> registration_layers = DefaultRegistrationLayers();
