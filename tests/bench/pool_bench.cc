@@ -6,9 +6,10 @@
 // Shot search is timed separately on the found arrangements.
 //
 //   texfree-bench-pool [--frames 60] [--seed 7] [--nine-foot] [--save DIR] [--verbose]
-//                      [--clean] [--only FRAME]
+//                      [--clean] [--only FRAME] [--cache DIR]
 #include <CLI/CLI.hpp>
 #include <algorithm>
+#include <cctype>
 #include <cstdio>
 #include <ctime>
 #include <filesystem>
@@ -70,6 +71,85 @@ double Mean(const std::vector<double>& v) {
   return v.empty() ? 0 : s / v.size();
 }
 
+// The options that change what is rendered, as a file name stem (analysis options left out).
+std::string CacheKey(int argc, char** argv, int frame) {
+  std::string key;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a == "--seed" || a == "--nine-foot" || a == "--clean" || a == "--cloth" || a == "--scale") {
+      key += a.substr(2);
+      if (a != "--nine-foot" && a != "--clean" && i + 1 < argc) key += std::string("_") + argv[++i];
+      key += "_";
+    }
+  }
+  for (char& c : key)
+    if (!std::isalnum(static_cast<unsigned char>(c)) && c != '.' && c != '-') c = '_';
+  return key + "f" + std::to_string(frame);
+}
+
+// Renders the view, or reads it back from `dir` (PNG + YAML) when an earlier run wrote it.
+PoolView CachedPoolView(const std::string& dir, const std::string& key, const PoolScene& scene,
+                        uint64_t seed) {
+  if (dir.empty()) return RenderPoolView(scene, seed);
+  std::filesystem::create_directories(dir);
+  const std::string stem = dir + "/" + key;
+  PoolView v;
+  cv::FileStorage in(stem + ".yml", cv::FileStorage::READ);
+  if (in.isOpened()) {
+    v.image = cv::imread(stem + ".png", cv::IMREAD_COLOR);
+    if (!v.image.empty()) {
+      cv::Mat K, R, t, corners, cushion, balls;
+      in["K"] >> K;
+      in["R"] >> R;
+      in["t"] >> t;
+      in["distortion"] >> v.distortion;
+      in["corners"] >> corners;
+      in["cushion"] >> cushion;
+      in["balls"] >> balls;
+      v.camera_matrix = cv::Matx33d(K);
+      v.rotation = cv::Matx33d(R);
+      v.translation = cv::Vec3d(t);
+      for (int k = 0; k < 4; ++k) {
+        v.cloth_corners[k] = {corners.at<double>(k, 0), corners.at<double>(k, 1)};
+        v.cushion_corners[k] = {cushion.at<double>(k, 0), cushion.at<double>(k, 1)};
+      }
+      for (int i = 0; i < balls.rows; ++i) {
+        PoolBallTruth b;
+        b.number = static_cast<int>(balls.at<double>(i, 0));
+        b.x_mm = balls.at<double>(i, 1);
+        b.y_mm = balls.at<double>(i, 2);
+        b.pixel = {balls.at<double>(i, 3), balls.at<double>(i, 4)};
+        b.visible_pixels = static_cast<int>(balls.at<double>(i, 5));
+        b.separated = balls.at<double>(i, 6) != 0;
+        v.balls.push_back(b);
+      }
+      return v;
+    }
+  }
+  v = RenderPoolView(scene, seed);
+  cv::imwrite(stem + ".png", v.image);
+  cv::FileStorage out(stem + ".yml", cv::FileStorage::WRITE);
+  cv::Mat corners(4, 2, CV_64F), cushion(4, 2, CV_64F);
+  for (int k = 0; k < 4; ++k) {
+    corners.at<double>(k, 0) = v.cloth_corners[k].x;
+    corners.at<double>(k, 1) = v.cloth_corners[k].y;
+    cushion.at<double>(k, 0) = v.cushion_corners[k].x;
+    cushion.at<double>(k, 1) = v.cushion_corners[k].y;
+  }
+  cv::Mat balls(static_cast<int>(v.balls.size()), 7, CV_64F);
+  for (size_t i = 0; i < v.balls.size(); ++i) {
+    const PoolBallTruth& b = v.balls[i];
+    const double row[7] = {
+        double(b.number),       b.x_mm, b.y_mm, b.pixel.x, b.pixel.y, double(b.visible_pixels),
+        b.separated ? 1.0 : 0.0};
+    for (int c = 0; c < 7; ++c) balls.at<double>(static_cast<int>(i), c) = row[c];
+  }
+  out << "K" << cv::Mat(v.camera_matrix) << "R" << cv::Mat(v.rotation) << "t"
+      << cv::Mat(v.translation) << "distortion" << v.distortion << "corners" << corners << "cushion"
+      << cushion << "balls" << balls;
+  return v;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -82,6 +162,10 @@ int main(int argc, char** argv) {
   app.add_option("--seed", seed, "Seed of the rendered set");
   app.add_flag("--nine-foot", nine_foot, "A 9-ft table instead of the 1330x700 mm bench table");
   app.add_option("--save", save, "Write each image and its ground truth to this folder");
+  std::string cache;
+  app.add_option("--cache", cache,
+                 "Keep rendered views (lossless) in this folder and reuse them on later runs "
+                 "with the same options: the ray caster is most of a run's time");
   app.add_flag("--verbose", verbose, "One line per frame");
   int only = -1;
   app.add_option("--only", only, "Analyse only this frame of the set (to look into one case)");
@@ -146,7 +230,7 @@ int main(int argc, char** argv) {
     }
     ScalePoolCamera(&scene, scale);
     if (only >= 0 && f != only) continue;
-    const PoolView view = RenderPoolView(scene, seed * 100003 + f);
+    const PoolView view = CachedPoolView(cache, CacheKey(argc, argv, f), scene, seed * 100003 + f);
     image_size = view.image.size();
     if (!save.empty()) {
       char name[64];
