@@ -733,6 +733,8 @@ absl::Status PoolBallOptions::Validate() const {
     return absl::InvalidArgumentError("dark_fraction must be in (0.05, 0.9)");
   if (!(min_area_fraction > 0 && min_area_fraction <= 1))
     return absl::InvalidArgumentError("min_area_fraction must be in (0, 1]");
+  if (!(min_fit_ballness > 0 && min_fit_ballness < 1))
+    return absl::InvalidArgumentError("min_fit_ballness must be in (0, 1)");
   if (!(one_white_share > 0 && one_white_share < cue_white_share && cue_white_share < 1))
     return absl::InvalidArgumentError("need 0 < one_white_share < cue_white_share < 1");
   if (!(five_orange_share > 0 && five_orange_share < 0.5))
@@ -1567,7 +1569,7 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
     SilhouetteScorer scorer(ballness_in_region, roi, claimed, K, pose, profile);
     double mean_ballness = 0;
     scorer.Score(xy, &mean_ballness);
-    if (mean_ballness < 0.5) continue;
+    if (mean_ballness < options.min_fit_ballness) continue;
     // Votes: pixels not covered by a nearer ball (by distance now: a ball split off a
     // blob behind another one was added after the others).
     {
