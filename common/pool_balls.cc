@@ -1475,7 +1475,11 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
   // half from its votes: frame 13's yellow 1 was left with its highlight and read as the
   // 9), or it is a touching ball of another colour whose fit slid into its neighbour (it
   // is moved straight out to touch it: frame 58's 4, in front of the 1 on the line of
-  // sight, was 21 mm into it).
+  // sight, was 21 mm into it). When the better fit has no colour of its own (the 8, or a
+  // shadow fitted as a ball) and the worse one has, the dark one is moved instead: the
+  // coloured fit is held by its colour, the dark one by shadows that lie around any
+  // touching pair (seed 13's frame 46: the 3 was pushed 15.6 mm out of a dark fit, which
+  // then stood as a false 6).
   // Median chromaticity (opponent chroma over intensity) of a fit's lit ball pixels that
   // the other balls (painted in `claimed`) leave to it; false when it has too few of them.
   const auto fit_chroma = [&](const cv::Point2d& xy, cv::Point2d* chroma) {
@@ -1506,6 +1510,8 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
   // Each round drops a seed or moves one out of another; a moved ball may land in a third
   // one, so the rounds are capped rather than run until nothing overlaps.
   const size_t max_rounds = 2 * seeds.size();
+  // Seeds moved out of a neighbour: placed by the rule, not by their own pixels.
+  std::vector<char> moved(seeds.size(), 0);
   bool changed = true;
   for (size_t round = 0; changed && round < max_rounds; ++round) {
     changed = false;
@@ -1536,11 +1542,17 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
         const bool other_colour =
             coloured[w] && (!coloured[1 - w] ||
                             cv::norm(chroma[w] - chroma[1 - w]) > options.ball_chroma_distance);
-        if (other_colour) {
+        if (other_colour && !coloured[1 - w]) {
+          const cv::Point2d out = better == j ? apart : -apart;
+          seeds[better] = seeds[worse] + out * (2 * r / std::max(1e-6, gap));
+          moved[better] = 1;
+        } else if (other_colour) {
           const cv::Point2d out = worse == j ? apart : -apart;
           seeds[worse] = seeds[better] + out * (2 * r / std::max(1e-6, gap));
+          moved[worse] = 1;
         } else {
           seeds.erase(seeds.begin() + static_cast<std::ptrdiff_t>(worse));
+          moved.erase(moved.begin() + static_cast<std::ptrdiff_t>(worse));
         }
         changed = true;
       }
@@ -1569,7 +1581,8 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
     SilhouetteScorer scorer(ballness_in_region, roi, claimed, K, pose, profile);
     double mean_ballness = 0;
     scorer.Score(xy, &mean_ballness);
-    if (mean_ballness < options.min_fit_ballness) continue;
+    // A ball moved out of its neighbour is where the rule put it: it must be half ball.
+    if (mean_ballness < (moved[i] ? 0.5 : options.min_fit_ballness)) continue;
     // Votes: pixels not covered by a nearer ball (by distance now: a ball split off a
     // blob behind another one was added after the others).
     {
