@@ -1478,8 +1478,9 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
   // sight, was 21 mm into it). When the better fit has no colour of its own (the 8, or a
   // shadow fitted as a ball) and the worse one has, the dark one is moved instead: the
   // coloured fit is held by its colour, the dark one by shadows that lie around any
-  // touching pair (seed 13's frame 46: the 3 was pushed 15.6 mm out of a dark fit, which
-  // then stood as a false 6).
+  // touching pair (seed 13's frame 46: a dark fit in the shadows between the 3 and the 4
+  // pushed the 4 13.8 mm out and stood as a false ball beside the 3, 15.6 mm off; moved
+  // out of the 4, it met the 3 and, of no colour of its own, was dropped).
   // Median chromaticity (opponent chroma over intensity) of a fit's lit ball pixels that
   // the other balls (painted in `claimed`) leave to it; false when it has too few of them.
   const auto fit_chroma = [&](const cv::Point2d& xy, cv::Point2d* chroma) {

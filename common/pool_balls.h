@@ -37,8 +37,9 @@ struct PoolBallOptions {
   // balls leave to it) is at least this. A small, soft green 6 on green cloth is a dark
   // ring around a lit cap and a highlight of nearly the cloth's colour: fitted within
   // 6 mm, it scored 0.40-0.48, and at 0.5 seven separated 6s of six benchmark sets were
-  // lost; at 0.4 they are found and no false ball is added (a shadow or a gap between
-  // balls that survives the pair rules is far below or far above).
+  // lost; at 0.4 they are found. A ball that the pair rule moved out of its neighbour
+  // (placed by the rule, not by its own pixels) must still be half ball: at 0.4 one of
+  // them, behind a touching pair, stood as a false ball in seed 37's frame 48.
   double min_fit_ballness = 0.4;
   // Seed eq. 4.3 thresholds on the white share of the cue/1/9 votes (seed: 0.7 and 0.3).
   // The 1's white is its number circle and the highlight, rarely over a fifth of its
