@@ -1475,8 +1475,8 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
   // half from its votes: frame 13's yellow 1 was left with its highlight and read as the
   // 9), or it is a touching ball of another colour whose fit slid into its neighbour (it
   // is moved straight out to touch it: frame 58's 4, in front of the 1 on the line of
-  // sight, was 21 mm into it). When the better fit has no colour of its own (the 8, or a
-  // shadow fitted as a ball) and the worse one has, the dark one is moved instead: the
+  // sight, was 21 mm into it). When the better fit is dark and has no colour of its own
+  // (the 8, or a shadow fitted as a ball) and the worse one has, the dark one is moved: the
   // coloured fit is held by its colour, the dark one by shadows that lie around any
   // touching pair (seed 13's frame 46: a dark fit in the shadows between the 3 and the 4
   // pushed the 4 13.8 mm out and stood as a false ball beside the 3, 15.6 mm off; moved
@@ -1508,6 +1508,30 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
     *chroma = {cx[cx.size() / 2], cy[cy.size() / 2]};
     return true;
   };
+  // Whether a fit is dark: the median brightness of its ball pixels inside the outline
+  // (other balls as painted in `claimed`, the dark zone under it left out) is under half
+  // the cloth's. A ball whose colour pixels another fit claims has no colour left, yet is
+  // not dark.
+  const auto fit_dark = [&](const cv::Point2d& xy) {
+    const cv::Vec3d centre(xy.x, xy.y, r);
+    const cv::Matx33d Q = SphereSilhouetteConic(pose, K, centre, r);
+    SilhouetteScorer boxer(ballness_in_region, roi, claimed, K, pose, profile);
+    const cv::Rect box = boxer.Box(centre);
+    std::vector<float> brightness;
+    for (int v = box.y; v < box.y + box.height; ++v)
+      for (int u = box.x; u < box.x + box.width; ++u) {
+        if (SilhouetteScorer::Coverage(Q, u, v) < 0.99) continue;
+        if (claimed.at<float>(v - roi.y, u - roi.x) > 0.5) continue;
+        if (ballness_in_region.at<float>(v - roi.y, u - roi.x) < 0.5) continue;
+        if (boxer.InShadowZone(centre, u, v)) continue;
+        const cv::Vec3b& p = bgr.at<cv::Vec3b>(v, u);
+        brightness.push_back((p[0] + p[1] + p[2]) / 3.f);
+      }
+    if (brightness.empty()) return false;
+    std::nth_element(brightness.begin(), brightness.begin() + brightness.size() / 2,
+                     brightness.end());
+    return brightness[brightness.size() / 2] < 0.5 * cloth_intensity;
+  };
   // Each round drops a seed or moves one out of another; a moved ball may land in a third
   // one, so the rounds are capped rather than run until nothing overlaps.
   const size_t max_rounds = 2 * seeds.size();
@@ -1523,7 +1547,7 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
         if (gap >= 1.6 * r) continue;
         double fit[2];
         cv::Point2d chroma[2];
-        bool coloured[2];
+        bool coloured[2], dark[2];
         for (int k = 0; k < 2; ++k) {
           const size_t self = k == 0 ? i : j;
           std::vector<cv::Point2d> rest;
@@ -1537,13 +1561,14 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
           claim(rest, rest.size(), rest.size());
           SilhouetteScorer scorer(ballness_in_region, roi, claimed, K, pose, profile);
           scorer.Score(seeds[self], &fit[k]);
+          dark[k] = fit_dark(seeds[self]);
         }
         const size_t worse = fit[0] >= fit[1] ? j : i, better = worse == i ? j : i;
         const int w = worse == i ? 0 : 1;
         const bool other_colour =
             coloured[w] && (!coloured[1 - w] ||
                             cv::norm(chroma[w] - chroma[1 - w]) > options.ball_chroma_distance);
-        if (other_colour && !coloured[1 - w]) {
+        if (other_colour && !coloured[1 - w] && dark[1 - w]) {
           const cv::Point2d out = better == j ? apart : -apart;
           seeds[better] = seeds[worse] + out * (2 * r / std::max(1e-6, gap));
           moved[better] = 1;
