@@ -212,6 +212,61 @@ void PrintMiss(const DocumentRegistry &registry, const Query &q, const cv::Mat &
                                                      : result->documents[0].document.title.c_str());
 }
 
+// The upper bound of a better rectification: a missed view rectified by the renderer's own
+// homography (scaled so that its text keeps its size at the view's centre), retrieved (1) as
+// an image, cut anew by the extractors, and (2) as the view's own keypoints of each
+// extractor mapped through it (the way Retrieve's rectification describes them).
+void PrintTrueRectification(const DocumentRegistry &registry, const Query &q, const cv::Mat &gray,
+                            const std::string &id) {
+  const cv::Matx33d inv = q.truth.inv();  // view -> registered page
+  const cv::Point2d centre = texfree::ApplyHomography(inv, {gray.cols / 2.0, gray.rows / 2.0});
+  const cv::Point2d c = texfree::ApplyHomography(q.truth, centre);
+  const cv::Point2d dx = texfree::ApplyHomography(q.truth, centre + cv::Point2d(1, 0)) - c;
+  const cv::Point2d dy = texfree::ApplyHomography(q.truth, centre + cv::Point2d(0, 1)) - c;
+  const double scale = std::sqrt(std::abs(dx.cross(dy)));  // view px per page px there
+  double min_x = 1e18, min_y = 1e18, max_x = -1e18, max_y = -1e18;
+  for (const cv::Point2d &corner : {cv::Point2d(0, 0), cv::Point2d(gray.cols, 0),
+                                    cv::Point2d(gray.cols, gray.rows), cv::Point2d(0, gray.rows)}) {
+    const cv::Point2d p = texfree::ApplyHomography(inv, corner) * scale;
+    min_x = std::min(min_x, p.x);
+    min_y = std::min(min_y, p.y);
+    max_x = std::max(max_x, p.x);
+    max_y = std::max(max_y, p.y);
+  }
+  const cv::Matx33d rectify =
+      cv::Matx33d(scale, 0, -min_x, 0, scale, -min_y, 0, 0, 1) * inv;  // view -> rectified
+  cv::Mat rectified;
+  cv::warpPerspective(gray, rectified, cv::Mat(rectify),
+                      cv::Size(std::min(4000, static_cast<int>(max_x - min_x)),
+                               std::min(4000, static_cast<int>(max_y - min_y))),
+                      cv::INTER_LINEAR, cv::BORDER_CONSTANT, cv::Scalar(255));
+  auto as_image = registry.Retrieve(rectified, std::nullopt, 0);
+  const bool image_found =
+      as_image.ok() && !as_image->documents.empty() && as_image->documents[0].document.id == id;
+  auto record = registry.Get(id);
+  std::string per_extractor;
+  std::vector<texfree::WordKeypointOptions> extractors{registry.options().keypoints};
+  for (const auto &o : registry.options().fallback_keypoints) extractors.push_back(o);
+  for (const auto &o : extractors) {
+    const auto kp = texfree::WordKeypointExtractor(o).Extract(gray);
+    std::vector<cv::Point2f> mapped;
+    for (const cv::Point2f &p : kp.points) {
+      const cv::Point2d m = texfree::ApplyHomography(rectify, cv::Point2d(p.x, p.y));
+      mapped.emplace_back(static_cast<float>(m.x), static_cast<float>(m.y));
+    }
+    texfree::RetrievalOptions ro = registry.options().retrieval;
+    ro.rectify_perspective = false;
+    const auto hits = registry.retriever()->Retrieve(mapped, kp.char_height, ro, nullptr);
+    const bool found = record.ok() && !hits.empty() && hits[0].document == record->index_id;
+    per_extractor += " " + std::to_string(kp.points.size()) + (found ? " found" : " missed");
+  }
+  std::fprintf(stderr,
+               "true rectification, page %d (tilt %.0f): as an image %s (%d keypoints); its "
+               "keypoints mapped:%s\n",
+               q.page, q.view.tilt_deg, image_found ? "found" : "missed",
+               as_image.ok() ? as_image->query_keypoints : -1, per_extractor.c_str());
+}
+
 }  // namespace
 
 int main(int argc, char **argv) {
@@ -330,6 +385,10 @@ int main(int argc, char **argv) {
   std::string save_misses;
   app.add_option("--save-misses", save_misses, "with --misses: write each missed view here (PNG)");
   app.add_flag("--no-fallback", no_fallback, "query with the registration extractor only");
+  bool true_rectification = false;
+  app.add_flag("--true-rectification", true_rectification,
+               "retry each missed view rectified by the renderer's homography (as an image, and "
+               "its keypoints mapped): what a perfect perspective estimate would find");
   CLI11_PARSE(app, argc, argv);
   if (layers != "default") {
     registry_options.registration_layers.clear();
@@ -478,8 +537,10 @@ int main(int argc, char **argv) {
             result->documents[0].homography, q.truth, q.page_size, gray->size());
         errors.push_back(err);
         if (err < 10) ++correct;
-      } else if (misses) {
-        PrintMiss(*registry, q, *gray, id_of_page[q.page], result.ok() ? &*result : nullptr);
+      } else if (misses || true_rectification) {
+        if (true_rectification) PrintTrueRectification(*registry, q, *gray, id_of_page[q.page]);
+        if (misses)
+          PrintMiss(*registry, q, *gray, id_of_page[q.page], result.ok() ? &*result : nullptr);
         if (!save_misses.empty())
           cv::imwrite(save_misses + "/miss_page" + std::to_string(q.page) + ".png", *gray);
       }
