@@ -72,6 +72,9 @@ absl::Status RetrievalOptions::Validate() const {
     return absl::InvalidArgumentError(
         absl::StrCat("max_border_lost must be >= 0 (0: off), got ", max_border_lost));
   if (max_results < 0) return absl::InvalidArgumentError("max_results must be >= 0");
+  if (refine_max_keypoints < 0)
+    return absl::InvalidArgumentError(
+        absl::StrCat("refine_max_keypoints must be >= 0, got ", refine_max_keypoints));
   if (deep_max_keypoints < 0)
     return absl::InvalidArgumentError("deep_max_keypoints must be >= 0 (0: no second pass)");
   if (deep_min_strong_votes < 0 || deep_min_strong_votes > min_strong_votes)
@@ -529,7 +532,22 @@ std::vector<DocumentHit> LlahRetriever::Retrieve(const std::vector<cv::Point2f> 
   // The few-keypoint pass (deep_max_keypoints) votes on the descriptors tried first.
   const bool deep =
       o.deep_max_keypoints > 0 && static_cast<int>(query.size()) <= o.deep_max_keypoints;
-  if (!rectification) return RetrieveDescribed(query, query, query_char_height, o, trace, deep);
+  // The last try of a view nothing found: rectified by its text lines (text_angle_rad).
+  const auto by_text_lines = [&]() -> std::vector<DocumentHit> {
+    if (!o.refine_perspective || !std::isfinite(o.text_angle_rad) ||
+        static_cast<int>(query.size()) > o.refine_max_keypoints)
+      return {};
+    const auto refined =
+        RefineTextPerspective(query, o.text_angle_rad, rectification, o.perspective);
+    if (!refined) return {};
+    return RetrieveDescribed(query, ApplyPerspective(*refined, query), query_char_height, o,
+                             nullptr, deep);
+  };
+  if (!rectification) {
+    auto plain = RetrieveDescribed(query, query, query_char_height, o, trace, deep);
+    if (!plain.empty()) return plain;
+    return by_text_lines();
+  }
   RetrievalTrace rectified_trace;
   if (trace) rectified_trace.watch = trace->watch;
   rectified_trace.rectified = true;
@@ -543,6 +561,7 @@ std::vector<DocumentHit> LlahRetriever::Retrieve(const std::vector<cv::Point2f> 
     // had: weak or no evidence is checked against the view as seen.
     auto plain = RetrieveDescribed(query, query, query_char_height, o, trace);
     if (!plain.empty() && plain[0].inliers > rectified_inliers) return plain;
+    if (plain.empty() && rectified.empty()) return by_text_lines();
   }
   if (trace) *trace = rectified_trace;
   return rectified;
@@ -753,7 +772,7 @@ std::vector<DocumentHit> LlahRetriever::RetrieveDescribed(const std::vector<cv::
     const int min_weak = deep ? o.deep_min_weak_inliers : o.min_weak_inliers;
     std::vector<char> used(query.size(), 0);
     const cv::Rect query_box = cv::boundingRect(query);  // whole pixels around every point
-    std::vector<cv::Point2f> query_hull;  // computed when a layout check needs it
+    std::vector<cv::Point2f> query_hull;                 // computed when a layout check needs it
     std::vector<int> nearest;
     for (const Candidate &candidate : ranked) {
       const uint32_t doc = candidate.document;

@@ -1,4 +1,5 @@
-// EstimateTextPerspective: a robust linear fit of keypoint spacing^(2/3) over the image.
+// EstimateTextPerspective: a robust linear fit of keypoint spacing^(2/3) over the image;
+// RefineTextPerspective: the horizon that makes the text lines parallel and evenly spaced.
 #include "common/text_perspective.h"
 
 #include <algorithm>
@@ -27,6 +28,11 @@ absl::Status TextPerspectiveOptions::Validate() const {
     return absl::InvalidArgumentError(absl::StrCat("max_stretch must be >= 1, got ", max_stretch));
   return absl::OkStatus();
 }
+
+namespace {
+cv::Matx33d WithForeshortening(const cv::Matx33d &P, double gx, double gy, double cx, double cy,
+                               const TextPerspectiveOptions &o);
+}  // namespace
 
 std::optional<cv::Matx33d> EstimateTextPerspective(const std::vector<cv::Point2f> &points,
                                                    const TextPerspectiveOptions &o) {
@@ -103,11 +109,18 @@ std::optional<cv::Matx33d> EstimateTextPerspective(const std::vector<cv::Point2f
   const cv::Matx33d Pn(1, 0, 0, 0, 1, 0, ga, gb, 1);
   const cv::Matx33d P = Ti * Pn * T;
   if (!(o.focal_px > 0) || n < static_cast<size_t>(o.min_points_metric)) return P;
+  return WithForeshortening(P, ga / s, gb / s, cx, cy, o);
+}
+
+namespace {
+
+cv::Matx33d WithForeshortening(const cv::Matx33d &P, double gx, double gy, double cx, double cy,
+                               const TextPerspectiveOptions &o) {
   // 1/depth is affine in the image, w = 1 + gx (x - cx) + gy (y - cy) up to scale; for a plane
   // N.X = d seen by a pinhole it equals (N.(x - pp, y - pp, f)) / (f d), so the plane's normal
   // is N ~ (f gx, f gy, w(pp)). Around the keypoints' centre (fixed by P) the affine image is
   // squeezed along the slope by the cosine between N and the ray there; stretch it back.
-  const double f = o.focal_px, gx = ga / s, gy = gb / s;
+  const double f = o.focal_px;
   const double w_pp = 1 + gx * (o.principal_point.x - cx) + gy * (o.principal_point.y - cy);
   const cv::Vec3d normal(f * gx, f * gy, w_pp);
   const cv::Vec3d ray((cx - o.principal_point.x) / f, (cy - o.principal_point.y) / f, 1);
@@ -119,6 +132,130 @@ std::optional<cv::Matx33d> EstimateTextPerspective(const std::vector<cv::Point2f
   const cv::Matx33d S(1 + e * dx * dx, e * dx * dy, 0, e * dx * dy, 1 + e * dy * dy, 0, 0, 0, 1);
   const cv::Matx33d to_centre(1, 0, -cx, 0, 1, -cy, 0, 0, 1), back(1, 0, cx, 0, 1, cy, 0, 0, 1);
   return back * S * to_centre * P;
+}
+
+}  // namespace
+
+std::optional<cv::Matx33d> RefineTextPerspective(const std::vector<cv::Point2f> &points,
+                                                 double text_angle_rad,
+                                                 const std::optional<cv::Matx33d> &start,
+                                                 const TextPerspectiveOptions &o) {
+  const size_t n = points.size();
+  if (n < 12) return std::nullopt;
+  double cx = 0, cy = 0;
+  for (const cv::Point2f &p : points) {
+    cx += p.x;
+    cy += p.y;
+  }
+  cx /= n;
+  cy /= n;
+  double s = 0;
+  for (const cv::Point2f &p : points) s += (p.x - cx) * (p.x - cx) + (p.y - cy) * (p.y - cy);
+  s = std::sqrt(s / n);
+  if (s < 1e-6) return std::nullopt;
+  std::vector<cv::Point2d> q(n);
+  for (size_t i = 0; i < n; ++i) q[i] = {(points[i].x - cx) / s, (points[i].y - cy) / s};
+  // Neighbour pairs as seen: along the lines (the 2 nearest within 20 degrees of the text
+  // direction, either way) and across them (the nearest within 25 degrees of the normal).
+  const cv::Point2d along(std::cos(text_angle_rad), std::sin(text_angle_rad));
+  const cv::Point2d across(-along.y, along.x);
+  NeighborGrid grid(points);
+  std::vector<int> nearest;
+  std::vector<std::pair<int, int>> line_pairs, cross_pairs;
+  for (size_t i = 0; i < n; ++i) {
+    grid.Nearest(static_cast<int>(i), 12, &nearest);
+    int taken = 0, next_line = -1;
+    double next_offset = 1e18;
+    for (int j : nearest) {
+      const cv::Point2d d = q[j] - q[i];
+      const double len = std::hypot(d.x, d.y);
+      if (len <= 0) continue;
+      const double c_along = std::abs(d.dot(along)) / len;
+      if (taken < 2 && c_along > std::cos(20 * CV_PI / 180)) {
+        if (static_cast<int>(i) < j) line_pairs.emplace_back(static_cast<int>(i), j);
+        ++taken;
+      }
+      // The next line on the normal's side: the neighbour there (within 60 degrees of the
+      // normal) nearest across the lines, wherever it lies along its line.
+      const double offset = d.dot(across);
+      if (offset > 0 && std::abs(d.dot(along)) < std::tan(60 * CV_PI / 180) * offset &&
+          offset < next_offset) {
+        next_offset = offset;
+        next_line = j;
+      }
+    }
+    if (next_line >= 0) cross_pairs.emplace_back(static_cast<int>(i), next_line);
+  }
+  if (line_pairs.size() < 8 || cross_pairs.size() < 8) return std::nullopt;
+  const auto rectify = [](const cv::Point2d &p, const cv::Vec2d &g) {
+    const double w = 1 + g[0] * p.x + g[1] * p.y;
+    return cv::Point2d(p.x / w, p.y / w);
+  };
+  std::vector<double> a, l;
+  // Robust spread (median absolute deviation) of the line directions and of the log line
+  // spacing after rectification by g.
+  const auto cost = [&](const cv::Vec2d &g) {
+    a.clear();
+    l.clear();
+    for (const auto &[i, j] : line_pairs) {
+      const double wi = 1 + g[0] * q[i].x + g[1] * q[i].y, wj = 1 + g[0] * q[j].x + g[1] * q[j].y;
+      if (wi < 0.2 || wj < 0.2) return 1e9;
+      const cv::Point2d d = rectify(q[j], g) - rectify(q[i], g);
+      double angle = std::atan2(d.y, d.x);
+      angle = std::remainder(angle - text_angle_rad, CV_PI);
+      a.push_back(angle);
+    }
+    // The line pitch: each pair's offset across the rectified lines' median direction.
+    std::vector<double> sorted_a = a;
+    std::nth_element(sorted_a.begin(), sorted_a.begin() + sorted_a.size() / 2, sorted_a.end());
+    const double direction = text_angle_rad + sorted_a[sorted_a.size() / 2];
+    const cv::Point2d normal(-std::sin(direction), std::cos(direction));
+    for (const auto &[i, j] : cross_pairs) {
+      const double offset = std::abs((rectify(q[j], g) - rectify(q[i], g)).dot(normal));
+      if (offset > 0) l.push_back(std::log(offset));
+    }
+    if (l.size() < 8) return 1e9;
+    const auto mad = [](std::vector<double> &v) {
+      std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+      const double m = v[v.size() / 2];
+      for (double &x : v) x = std::abs(x - m);
+      std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+      return v[v.size() / 2];
+    };
+    return mad(a) / 0.035 + mad(l) / 0.08;  // ~2 degrees, ~8% of a line pitch
+  };
+  cv::Vec2d g(0, 0);
+  if (start) {
+    const cv::Matx33d T(1 / s, 0, -cx / s, 0, 1 / s, -cy / s, 0, 0, 1);
+    const cv::Matx33d Ti(s, 0, cx, 0, s, cy, 0, 0, 1);
+    const cv::Matx33d Pn = T * (*start) * Ti;
+    if (std::abs(Pn(2, 2)) > 1e-12) g = cv::Vec2d(Pn(2, 0) / Pn(2, 2), Pn(2, 1) / Pn(2, 2));
+  }
+  double best = cost(g);
+  // Also from no perspective at all.
+  if (cost(cv::Vec2d(0, 0)) < best) {
+    g = cv::Vec2d(0, 0);
+    best = cost(g);
+  }
+  for (double step = 0.2; step > 0.004; step *= 0.5) {
+    for (bool moved = true; moved;) {
+      moved = false;
+      for (const cv::Vec2d &d :
+           {cv::Vec2d(step, 0), cv::Vec2d(-step, 0), cv::Vec2d(0, step), cv::Vec2d(0, -step)}) {
+        const double c = cost(g + d);
+        if (c < best) {
+          best = c;
+          g += d;
+          moved = true;
+        }
+      }
+    }
+  }
+  const cv::Matx33d T(1 / s, 0, -cx / s, 0, 1 / s, -cy / s, 0, 0, 1);
+  const cv::Matx33d Ti(s, 0, cx, 0, s, cy, 0, 0, 1);
+  const cv::Matx33d P = Ti * cv::Matx33d(1, 0, 0, 0, 1, 0, g[0], g[1], 1) * T;
+  if (!(o.focal_px > 0) || n < static_cast<size_t>(o.min_points_metric)) return P;
+  return WithForeshortening(P, g[0] / s, g[1] / s, cx, cy, o);
 }
 
 std::vector<cv::Point2f> ApplyPerspective(const cv::Matx33d &P,

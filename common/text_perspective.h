@@ -63,6 +63,18 @@ std::optional<cv::Matx33d> EstimateTextPerspective(const std::vector<cv::Point2f
                                                    const TextPerspectiveOptions &options = {});
 
 // points mapped through P.
+// Refines a rectification's horizon so that, rectified, the text lines are parallel and
+// evenly spaced: each keypoint's neighbours along `text_angle_rad` (within 20 degrees, as
+// seen) should lie in one direction everywhere, and its nearest neighbour across the lines
+// at one distance. Returns the rectification minimising that, searched from `start`'s
+// horizon and from none: [I 0; g] about the keypoints' centre, with the foreshortening
+// undone as EstimateTextPerspective does when options give the focal length; nothing with
+// too few neighbour pairs.
+std::optional<cv::Matx33d> RefineTextPerspective(const std::vector<cv::Point2f> &points,
+                                                 double text_angle_rad,
+                                                 const std::optional<cv::Matx33d> &start,
+                                                 const TextPerspectiveOptions &options = {});
+
 std::vector<cv::Point2f> ApplyPerspective(const cv::Matx33d &P,
                                           const std::vector<cv::Point2f> &points);
 

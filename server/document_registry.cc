@@ -470,6 +470,10 @@ absl::StatusOr<RetrievalResult> DocumentRegistry::RetrieveAsGiven(
         hits.empty() && static_cast<int>(attempt) < options_.deep_pass_extractors
             ? options_.retrieval.deep_max_keypoints
             : 0;
+    // The text-line rectification is tried with the registration extractor's keypoints
+    // only: each try costs a view of an unregistered page one more retrieval.
+    ro.text_angle_rad = measured.text_angle_rad;
+    ro.refine_perspective = options_.retrieval.refine_perspective && attempt == 0;
     std::vector<DocumentHit> found = retriever->Retrieve(kp.points, kp.char_height, ro);
     match_ms += MillisecondsSince(t);
     // A page confirmed only by the layout check (fewer than min_inliers LLAH inliers) may

@@ -797,6 +797,7 @@ TEST(RetrievalOptionsTest, ValidateRejectsBadValuesWithAMessage) {
       {"layout_chance", [](RetrievalOptions& o) { o.layout_chance = 1; }},
       {"max_layout_tail", [](RetrievalOptions& o) { o.max_layout_tail = -1; }},
       {"deep_max_keypoints", [](RetrievalOptions& o) { o.deep_max_keypoints = -1; }},
+      {"refine_max_keypoints", [](RetrievalOptions& o) { o.refine_max_keypoints = -1; }},
       {"deep_min_strong_votes", [](RetrievalOptions& o) { o.deep_min_strong_votes = 3; }},
       {"deep_min_weak_inliers", [](RetrievalOptions& o) { o.deep_min_weak_inliers = 3; }},
       {"deep_min_weak_inliers", [](RetrievalOptions& o) { o.deep_min_weak_inliers = 7; }},
