@@ -30,6 +30,23 @@ absl::Status TextPerspectiveOptions::Validate() const {
 }
 
 namespace {
+// The keypoints' centroid and RMS distance from it: the normalisation that keeps the fits
+// well conditioned. False when the keypoints are (nearly) one point.
+bool CentreAndSpread(const std::vector<cv::Point2f> &points, double *cx, double *cy, double *s) {
+  const size_t n = points.size();
+  *cx = *cy = *s = 0;
+  if (n == 0) return false;
+  for (const cv::Point2f &p : points) {
+    *cx += p.x;
+    *cy += p.y;
+  }
+  *cx /= n;
+  *cy /= n;
+  for (const cv::Point2f &p : points) *s += (p.x - *cx) * (p.x - *cx) + (p.y - *cy) * (p.y - *cy);
+  *s = std::sqrt(*s / n);
+  return *s >= 1e-6;
+}
+
 cv::Matx33d WithForeshortening(const cv::Matx33d &P, double gx, double gy, double cx, double cy,
                                const TextPerspectiveOptions &o);
 }  // namespace
@@ -39,17 +56,8 @@ std::optional<cv::Matx33d> EstimateTextPerspective(const std::vector<cv::Point2f
   const size_t n = points.size();
   if (n < static_cast<size_t>(std::max(o.min_points, o.neighbour + 1))) return std::nullopt;
   // Normalised coordinates around the centroid, so the fit is well conditioned.
-  double cx = 0, cy = 0;
-  for (const cv::Point2f &p : points) {
-    cx += p.x;
-    cy += p.y;
-  }
-  cx /= n;
-  cy /= n;
-  double s = 0;
-  for (const cv::Point2f &p : points) s += (p.x - cx) * (p.x - cx) + (p.y - cy) * (p.y - cy);
-  s = std::sqrt(s / n);
-  if (s < 1e-6) return std::nullopt;
+  double cx = 0, cy = 0, s = 0;
+  if (!CentreAndSpread(points, &cx, &cy, &s)) return std::nullopt;
 
   NeighborGrid grid(points);
   std::vector<double> u(n), v(n), y(n), w(n, 1.0);
@@ -142,17 +150,8 @@ std::optional<cv::Matx33d> RefineTextPerspective(const std::vector<cv::Point2f> 
                                                  const TextPerspectiveOptions &o) {
   const size_t n = points.size();
   if (n < 12) return std::nullopt;
-  double cx = 0, cy = 0;
-  for (const cv::Point2f &p : points) {
-    cx += p.x;
-    cy += p.y;
-  }
-  cx /= n;
-  cy /= n;
-  double s = 0;
-  for (const cv::Point2f &p : points) s += (p.x - cx) * (p.x - cx) + (p.y - cy) * (p.y - cy);
-  s = std::sqrt(s / n);
-  if (s < 1e-6) return std::nullopt;
+  double cx = 0, cy = 0, s = 0;
+  if (!CentreAndSpread(points, &cx, &cy, &s)) return std::nullopt;
   std::vector<cv::Point2d> q(n);
   for (size_t i = 0; i < n; ++i) q[i] = {(points[i].x - cx) / s, (points[i].y - cy) / s};
   // Neighbour pairs as seen: along the lines (the 2 nearest within 20 degrees of the text
