@@ -13,6 +13,7 @@
 #include "absl/strings/str_join.h"
 #include "absl/strings/str_split.h"
 #include "common/status_macros.h"
+#include "common/text_perspective.h"
 #include "common/timing.h"
 
 namespace texfree::server {
@@ -436,7 +437,7 @@ absl::StatusOr<RetrievalResult> DocumentRegistry::RetrieveAsGiven(
   // extractors (other ways of joining letters into words, for fonts and blur
   // the first one splits or merges differently than on the registered page).
   // Verification keeps false matches out.
-  WordKeypoints kp, hits_kp;
+  WordKeypoints kp, hits_kp, first_kp;
   std::vector<DocumentHit> hits;
   double extract_ms = 0, match_ms = 0;
   // Every extractor measures the text alike (pass 1); the fallbacks reuse the first's
@@ -448,6 +449,7 @@ absl::StatusOr<RetrievalResult> DocumentRegistry::RetrieveAsGiven(
     if (attempt == 0) {
       kp = extractor_.Extract(gray);
       measured = {kp.char_height, kp.text_angle_rad};
+      first_kp = kp;
     } else {
       kp = fallback_extractors_[attempt - 1].Extract(gray, measured);
     }
@@ -483,6 +485,53 @@ absl::StatusOr<RetrievalResult> DocumentRegistry::RetrieveAsGiven(
       hits_kp = kp;
     }
     if (!hits.empty() && hits[0].inliers >= ro.min_inliers) break;
+  }
+  // Last: the picture itself rectified by the text-line horizon of the first keypoints and
+  // cut anew (words that perspective merged or split are cut as on the page), its
+  // homographies and keypoints mapped back to the picture's pixels.
+  if (hits.empty() && retriever && options_.rectified_picture_retry &&
+      options_.retrieval.refine_perspective && measured.char_height > 0 &&
+      first_kp.points.size() >= 12 &&
+      static_cast<int>(first_kp.points.size()) <= options_.retrieval.refine_max_keypoints) {
+    const auto estimate = EstimateTextPerspective(first_kp.points, ro.perspective);
+    const auto refined =
+        RefineTextPerspective(first_kp.points, measured.text_angle_rad, estimate, ro.perspective);
+    if (refined) {
+      std::vector<cv::Point2f> corners{
+          {0, 0},
+          {static_cast<float>(gray.cols), 0},
+          {static_cast<float>(gray.cols), static_cast<float>(gray.rows)},
+          {0, static_cast<float>(gray.rows)}};
+      const std::vector<cv::Point2f> moved = ApplyPerspective(*refined, corners);
+      const cv::Rect2f box = cv::boundingRect(moved);
+      if (box.width > 0 && box.height > 0 && box.area() < 4.0 * gray.total()) {
+        const cv::Matx33d shift(1, 0, -box.x, 0, 1, -box.y, 0, 0, 1);
+        const cv::Matx33d to_warped = shift * (*refined);
+        cv::Mat warped;
+        auto tw = Clock::now();
+        cv::warpPerspective(gray, warped, cv::Mat(to_warped),
+                            cv::Size(static_cast<int>(box.width), static_cast<int>(box.height)),
+                            cv::INTER_LINEAR, cv::BORDER_CONSTANT, cv::Scalar(255));
+        WordKeypoints wkp = extractor_.Extract(warped);
+        extract_ms += MillisecondsSince(tw);
+        tw = Clock::now();
+        RetrievalOptions warped_options = ro;
+        warped_options.rectify_perspective = false;
+        warped_options.refine_perspective = false;
+        warped_options.frame = warped.size();
+        warped_options.deep_max_keypoints = options_.retrieval.deep_max_keypoints;
+        std::vector<DocumentHit> found =
+            retriever->Retrieve(wkp.points, wkp.char_height, warped_options);
+        match_ms += MillisecondsSince(tw);
+        if (!found.empty()) {
+          const cv::Matx33d back = to_warped.inv();
+          for (DocumentHit &h : found) h.homography = back * h.homography;
+          hits = std::move(found);
+          hits_kp = wkp;
+          hits_kp.points = ApplyPerspective(back, wkp.points);
+        }
+      }
+    }
   }
   kp = std::move(hits_kp);
   result.timings.Add("extract", extract_ms);

@@ -385,6 +385,10 @@ int main(int argc, char **argv) {
   std::string save_misses;
   app.add_option("--save-misses", save_misses, "with --misses: write each missed view here (PNG)");
   app.add_flag("--no-fallback", no_fallback, "query with the registration extractor only");
+  bool no_rectified_picture = false;
+  app.add_flag("--no-rectified-picture", no_rectified_picture,
+               "no last try of views nothing found on the picture warped by their text-line "
+               "horizon and cut anew");
   bool no_line_refinement = false;
   app.add_flag("--no-line-refinement", no_line_refinement,
                "no last try of views nothing found, rectified by the horizon that makes their "
@@ -432,6 +436,7 @@ int main(int argc, char **argv) {
   if (line_closing) std::swap(registry_options.keypoints, registry_options.fallback_keypoints[0]);
   if (no_fallback) registry_options.fallback_keypoints.clear();
   if (no_line_refinement) registry_options.retrieval.refine_perspective = false;
+  if (no_rectified_picture) registry_options.rectified_picture_retry = false;
   spdlog::set_level(spdlog::level::warn);
   cv::setNumThreads(1);  // one core per query, as the targets count it (and CPU time is exact)
   std::sort(checkpoints.begin(), checkpoints.end());
