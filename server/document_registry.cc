@@ -505,12 +505,19 @@ absl::StatusOr<RetrievalResult> DocumentRegistry::RetrieveAsGiven(
       const std::vector<cv::Point2f> moved = ApplyPerspective(*refined, corners);
       const cv::Rect2f box = cv::boundingRect(moved);
       if (box.width > 0 && box.height > 0 && box.area() < 4.0 * gray.total()) {
-        const cv::Matx33d shift(1, 0, -box.x, 0, 1, -box.y, 0, 0, 1);
+        // At most max_query_pixels: a large picture of few words (or of none, a photo of
+        // something else) must not cost an extraction of many megapixels.
+        const double limit = options_.max_query_pixels > 0
+                                 ? static_cast<double>(options_.max_query_pixels)
+                                 : 4.0 * gray.total();
+        const double fit = std::min(1.0, std::sqrt(limit / box.area()));
+        const cv::Matx33d shift(fit, 0, -fit * box.x, 0, fit, -fit * box.y, 0, 0, 1);
         const cv::Matx33d to_warped = shift * (*refined);
         cv::Mat warped;
         auto tw = Clock::now();
         cv::warpPerspective(gray, warped, cv::Mat(to_warped),
-                            cv::Size(static_cast<int>(box.width), static_cast<int>(box.height)),
+                            cv::Size(std::max(1, static_cast<int>(fit * box.width)),
+                                     std::max(1, static_cast<int>(fit * box.height))),
                             cv::INTER_LINEAR, cv::BORDER_CONSTANT, cv::Scalar(255));
         WordKeypoints wkp = extractor_.Extract(warped);
         extract_ms += MillisecondsSince(tw);
