@@ -152,6 +152,9 @@ std::optional<cv::Matx33d> RefineTextPerspective(const std::vector<cv::Point2f> 
   if (n < 12) return std::nullopt;
   double cx = 0, cy = 0, s = 0;
   if (!CentreAndSpread(points, &cx, &cy, &s)) return std::nullopt;
+  // Image pixels -> normalised coordinates and back.
+  const cv::Matx33d T(1 / s, 0, -cx / s, 0, 1 / s, -cy / s, 0, 0, 1);
+  const cv::Matx33d Ti(s, 0, cx, 0, s, cy, 0, 0, 1);
   std::vector<cv::Point2d> q(n);
   for (size_t i = 0; i < n; ++i) q[i] = {(points[i].x - cx) / s, (points[i].y - cy) / s};
   // Neighbour pairs as seen: along the lines (the 2 nearest within 20 degrees of the text
@@ -225,16 +228,14 @@ std::optional<cv::Matx33d> RefineTextPerspective(const std::vector<cv::Point2f> 
   };
   cv::Vec2d g(0, 0);
   if (start) {
-    const cv::Matx33d T(1 / s, 0, -cx / s, 0, 1 / s, -cy / s, 0, 0, 1);
-    const cv::Matx33d Ti(s, 0, cx, 0, s, cy, 0, 0, 1);
     const cv::Matx33d Pn = T * (*start) * Ti;
     if (std::abs(Pn(2, 2)) > 1e-12) g = cv::Vec2d(Pn(2, 0) / Pn(2, 2), Pn(2, 1) / Pn(2, 2));
   }
   double best = cost(g);
   // Also from no perspective at all.
-  if (cost(cv::Vec2d(0, 0)) < best) {
+  if (const double flat = cost(cv::Vec2d(0, 0)); flat < best) {
     g = cv::Vec2d(0, 0);
-    best = cost(g);
+    best = flat;
   }
   for (double step = 0.2; step > 0.004; step *= 0.5) {
     for (bool moved = true; moved;) {
@@ -250,8 +251,6 @@ std::optional<cv::Matx33d> RefineTextPerspective(const std::vector<cv::Point2f> 
       }
     }
   }
-  const cv::Matx33d T(1 / s, 0, -cx / s, 0, 1 / s, -cy / s, 0, 0, 1);
-  const cv::Matx33d Ti(s, 0, cx, 0, s, cy, 0, 0, 1);
   const cv::Matx33d P = Ti * cv::Matx33d(1, 0, 0, 0, 1, 0, g[0], g[1], 1) * T;
   if (!(o.focal_px > 0) || n < static_cast<size_t>(o.min_points_metric)) return P;
   return WithForeshortening(P, g[0] / s, g[1] / s, cx, cy, o);

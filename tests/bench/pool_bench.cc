@@ -71,20 +71,16 @@ double Mean(const std::vector<double>& v) {
   return v.empty() ? 0 : s / v.size();
 }
 
-// The options that change what is rendered, as a file name stem (analysis options left out).
-std::string CacheKey(int argc, char** argv, int frame) {
-  std::string key;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    if (a == "--seed" || a == "--nine-foot" || a == "--clean" || a == "--cloth" || a == "--scale") {
-      key += a.substr(2);
-      if (a != "--nine-foot" && a != "--clean" && i + 1 < argc) key += std::string("_") + argv[++i];
-      key += "_";
-    }
-  }
+// The options that change what is rendered, as parsed, as a file name stem (analysis
+// options left out).
+std::string CacheKey(uint64_t seed, bool nine_foot, bool clean, const std::string& cloth,
+                     double scale, int frame) {
+  std::string key = "seed" + std::to_string(seed) + (nine_foot ? "_ninefoot" : "") +
+                    (clean ? "_clean" : "") + "_cloth_" + cloth + "_scale" + std::to_string(scale) +
+                    "_f" + std::to_string(frame);
   for (char& c : key)
     if (!std::isalnum(static_cast<unsigned char>(c)) && c != '.' && c != '-') c = '_';
-  return key + "f" + std::to_string(frame);
+  return key;
 }
 
 // Renders the view, or reads it back from `dir` (PNG + YAML) when an earlier run wrote it.
@@ -230,7 +226,8 @@ int main(int argc, char** argv) {
     }
     ScalePoolCamera(&scene, scale);
     if (only >= 0 && f != only) continue;
-    const PoolView view = CachedPoolView(cache, CacheKey(argc, argv, f), scene, seed * 100003 + f);
+    const PoolView view = CachedPoolView(cache, CacheKey(seed, nine_foot, clean, cloth, scale, f),
+                                         scene, seed * 100003 + f);
     image_size = view.image.size();
     if (!save.empty()) {
       char name[64];
