@@ -522,8 +522,8 @@ std::vector<char> CutByFrame(const std::vector<cv::Point2f> &points, const Neigh
 
 std::vector<DocumentHit> LlahRetriever::Retrieve(const std::vector<cv::Point2f> &query,
                                                  double query_char_height,
-                                                 const RetrievalOptions &o,
-                                                 RetrievalTrace *trace) const {
+                                                 const RetrievalOptions &o, RetrievalTrace *trace,
+                                                 std::optional<cv::Matx33d> *text_line_horizon) const {
   // Descriptors of a steep view are computed on its keypoints rectified to an affine image
   // of the page (text_perspective.h); positions stay the query's.
   std::optional<cv::Matx33d> rectification;
@@ -540,6 +540,7 @@ std::vector<DocumentHit> LlahRetriever::Retrieve(const std::vector<cv::Point2f> 
     const auto refined =
         RefineTextPerspective(query, o.text_angle_rad, rectification, o.perspective);
     if (!refined) return {};
+    if (text_line_horizon) *text_line_horizon = refined;
     return RetrieveDescribed(query, ApplyPerspective(*refined, query), query_char_height, o,
                              nullptr, deep);
   };

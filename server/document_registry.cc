@@ -136,6 +136,13 @@ absl::Status DocumentRegistryOptions::Validate() const {
     return absl::InvalidArgumentError("deep_pass_extractors must be >= 0");
   if (fallback_retry_max_keypoints < 0)
     return absl::InvalidArgumentError("fallback_retry_max_keypoints must be >= 0");
+  if (rectified_picture_rounds < 1)
+    return absl::InvalidArgumentError(absl::StrCat(
+        "rectified_picture_rounds must be >= 1 (rectified_picture_retry turns the retry off), got ",
+        rectified_picture_rounds));
+  if (rectified_picture_max_keypoints < 0)
+    return absl::InvalidArgumentError(absl::StrCat(
+        "rectified_picture_max_keypoints must be >= 0, got ", rectified_picture_max_keypoints));
   if (duplicate_min_inliers < retrieval.min_inliers)
     return absl::InvalidArgumentError("duplicate_min_inliers must be >= retrieval.min_inliers");
   if (log2_buckets < 10 || log2_buckets > 30)
@@ -444,6 +451,8 @@ absl::StatusOr<RetrievalResult> DocumentRegistry::RetrieveAsGiven(
   // measurement, and when it found no text there is nothing for them to group either.
   TextGeometry measured;
   std::vector<cv::Point2f> tried;  // the previous extractor's keypoints
+  // The first keypoints' text-line horizon, when the retriever's last try fitted it.
+  std::optional<cv::Matx33d> text_line_horizon;
   for (size_t attempt = 0; attempt <= fallback_extractors_.size(); ++attempt) {
     auto t = Clock::now();
     if (attempt == 0) {
@@ -476,7 +485,8 @@ absl::StatusOr<RetrievalResult> DocumentRegistry::RetrieveAsGiven(
     // only: each try costs a view of an unregistered page one more retrieval.
     ro.text_angle_rad = measured.text_angle_rad;
     ro.refine_perspective = options_.retrieval.refine_perspective && attempt == 0;
-    std::vector<DocumentHit> found = retriever->Retrieve(kp.points, kp.char_height, ro);
+    std::vector<DocumentHit> found = retriever->Retrieve(
+        kp.points, kp.char_height, ro, nullptr, attempt == 0 ? &text_line_horizon : nullptr);
     match_ms += MillisecondsSince(t);
     // A page confirmed only by the layout check (fewer than min_inliers LLAH inliers) may
     // be found firmly by the next extractor: the firmest answer is kept.
@@ -492,51 +502,71 @@ absl::StatusOr<RetrievalResult> DocumentRegistry::RetrieveAsGiven(
   if (hits.empty() && retriever && options_.rectified_picture_retry &&
       options_.retrieval.refine_perspective && measured.char_height > 0 &&
       first_kp.points.size() >= 12 &&
-      static_cast<int>(first_kp.points.size()) <= options_.retrieval.refine_max_keypoints) {
-    const auto estimate = EstimateTextPerspective(first_kp.points, ro.perspective);
-    const auto refined =
-        RefineTextPerspective(first_kp.points, measured.text_angle_rad, estimate, ro.perspective);
-    if (refined) {
+      static_cast<int>(first_kp.points.size()) <= options_.rectified_picture_max_keypoints) {
+    // The retriever's last try fitted the horizon (or found none) for the first keypoints
+    // when there were at most refine_max_keypoints of them; larger views are fitted here.
+    std::optional<cv::Matx33d> refined = text_line_horizon;
+    if (static_cast<int>(first_kp.points.size()) > options_.retrieval.refine_max_keypoints) {
+      refined = RefineTextPerspective(first_kp.points, measured.text_angle_rad,
+                                      EstimateTextPerspective(first_kp.points, ro.perspective),
+                                      ro.perspective);
+    }
+    // Each round warps the picture by `rectification`, cuts it anew and retrieves; a round
+    // that finds nothing fits the horizon again on the warped picture's own keypoints (cut
+    // more evenly than the picture's on the far side) and the next round warps by both.
+    std::optional<cv::Matx33d> rectification = refined;
+    const int rounds = options_.rectified_picture_rounds;
+    for (int round = 0; round < rounds && rectification && hits.empty(); ++round) {
       std::vector<cv::Point2f> corners{
           {0, 0},
           {static_cast<float>(gray.cols), 0},
           {static_cast<float>(gray.cols), static_cast<float>(gray.rows)},
           {0, static_cast<float>(gray.rows)}};
-      const std::vector<cv::Point2f> moved = ApplyPerspective(*refined, corners);
+      const std::vector<cv::Point2f> moved = ApplyPerspective(*rectification, corners);
       const cv::Rect2f box = cv::boundingRect(moved);
-      if (box.width > 0 && box.height > 0 && box.area() < 4.0 * gray.total()) {
-        // At most max_query_pixels: a large picture of few words (or of none, a photo of
-        // something else) must not cost an extraction of many megapixels.
-        const double limit = options_.max_query_pixels > 0
-                                 ? static_cast<double>(options_.max_query_pixels)
-                                 : 4.0 * gray.total();
-        const double fit = std::min(1.0, std::sqrt(limit / box.area()));
-        const cv::Matx33d shift(fit, 0, -fit * box.x, 0, fit, -fit * box.y, 0, 0, 1);
-        const cv::Matx33d to_warped = shift * (*refined);
-        cv::Mat warped;
-        auto tw = Clock::now();
-        cv::warpPerspective(gray, warped, cv::Mat(to_warped),
-                            cv::Size(std::max(1, static_cast<int>(fit * box.width)),
-                                     std::max(1, static_cast<int>(fit * box.height))),
-                            cv::INTER_LINEAR, cv::BORDER_CONSTANT, cv::Scalar(255));
-        WordKeypoints wkp = extractor_.Extract(warped);
-        extract_ms += MillisecondsSince(tw);
-        tw = Clock::now();
-        RetrievalOptions warped_options = ro;
-        warped_options.rectify_perspective = false;
-        warped_options.refine_perspective = false;
-        warped_options.frame = warped.size();
-        warped_options.deep_max_keypoints = options_.retrieval.deep_max_keypoints;
-        std::vector<DocumentHit> found =
-            retriever->Retrieve(wkp.points, wkp.char_height, warped_options);
-        match_ms += MillisecondsSince(tw);
-        if (!found.empty()) {
-          const cv::Matx33d back = to_warped.inv();
-          for (DocumentHit &h : found) h.homography = back * h.homography;
-          hits = std::move(found);
-          hits_kp = wkp;
-          hits_kp.points = ApplyPerspective(back, wkp.points);
-        }
+      if (!(box.width > 0 && box.height > 0 && box.area() < 4.0 * gray.total())) break;
+      // At most max_query_pixels: a large picture of few words (or of none, a photo of
+      // something else) must not cost an extraction of many megapixels.
+      const double limit = options_.max_query_pixels > 0
+                               ? static_cast<double>(options_.max_query_pixels)
+                               : 4.0 * gray.total();
+      const double fit = std::min(1.0, std::sqrt(limit / box.area()));
+      const cv::Matx33d shift(fit, 0, -fit * box.x, 0, fit, -fit * box.y, 0, 0, 1);
+      const cv::Matx33d to_warped = shift * (*rectification);
+      cv::Mat warped;
+      auto tw = Clock::now();
+      cv::warpPerspective(gray, warped, cv::Mat(to_warped),
+                          cv::Size(std::max(1, static_cast<int>(fit * box.width)),
+                                   std::max(1, static_cast<int>(fit * box.height))),
+                          cv::INTER_LINEAR, cv::BORDER_CONSTANT, cv::Scalar(255));
+      WordKeypoints wkp = extractor_.Extract(warped);
+      extract_ms += MillisecondsSince(tw);
+      tw = Clock::now();
+      RetrievalOptions warped_options = ro;
+      warped_options.rectify_perspective = false;
+      warped_options.refine_perspective = false;
+      warped_options.frame = warped.size();
+      warped_options.deep_max_keypoints = options_.retrieval.deep_max_keypoints;
+      std::vector<DocumentHit> found =
+          retriever->Retrieve(wkp.points, wkp.char_height, warped_options);
+      match_ms += MillisecondsSince(tw);
+      if (!found.empty()) {
+        const cv::Matx33d back = to_warped.inv();
+        for (DocumentHit &h : found) h.homography = back * h.homography;
+        hits = std::move(found);
+        hits_kp = wkp;
+        hits_kp.points = ApplyPerspective(back, wkp.points);
+        break;
+      }
+      if (round + 1 < rounds && wkp.char_height > 0 && wkp.points.size() >= 12) {
+        // The warped picture's foreshortening is already undone: the horizon alone.
+        TextPerspectiveOptions affine = ro.perspective;
+        affine.focal_px = 0;
+        const auto again =
+            RefineTextPerspective(wkp.points, wkp.text_angle_rad, std::nullopt, affine);
+        rectification = again ? std::optional<cv::Matx33d>((*again) * to_warped) : std::nullopt;
+      } else {
+        rectification.reset();
       }
     }
   }

@@ -385,6 +385,13 @@ int main(int argc, char **argv) {
   std::string save_misses;
   app.add_option("--save-misses", save_misses, "with --misses: write each missed view here (PNG)");
   app.add_flag("--no-fallback", no_fallback, "query with the registration extractor only");
+  int picture_max_keypoints = -1, refine_max_keypoints = -1;
+  app.add_option("--picture-max-keypoints", picture_max_keypoints,
+                 "the rectified-picture retry is for pictures of at most this many keypoints");
+  app.add_option("--refine-max-keypoints", refine_max_keypoints,
+                 "the text-line refinement is for views of at most this many keypoints");
+  app.add_option("--picture-rounds", registry_options.rectified_picture_rounds,
+                 "warps of the rectified-picture retry (each refits the horizon on the last)");
   bool no_rectified_picture = false;
   app.add_flag("--no-rectified-picture", no_rectified_picture,
                "no last try of views nothing found on the picture warped by their text-line "
@@ -437,6 +444,10 @@ int main(int argc, char **argv) {
   if (no_fallback) registry_options.fallback_keypoints.clear();
   if (no_line_refinement) registry_options.retrieval.refine_perspective = false;
   if (no_rectified_picture) registry_options.rectified_picture_retry = false;
+  if (picture_max_keypoints >= 0)
+    registry_options.rectified_picture_max_keypoints = picture_max_keypoints;
+  if (refine_max_keypoints >= 0)
+    registry_options.retrieval.refine_max_keypoints = refine_max_keypoints;
   spdlog::set_level(spdlog::level::warn);
   cv::setNumThreads(1);  // one core per query, as the targets count it (and CPU time is exact)
   std::sort(checkpoints.begin(), checkpoints.end());
@@ -506,13 +517,17 @@ int main(int argc, char **argv) {
 
     // Titles map back to page numbers.
     std::vector<std::string> id_of_page(registered);
+    std::vector<uint32_t> index_of_page(registered, 0);
     uint32_t after = 0;
     while (true) {
       auto page = registry->List(after, 1000);
       if (!page.ok() || page->empty()) break;
       for (const auto &d : *page) {
         const int n = std::stoi(d.title.substr(5));
-        if (n < registered) id_of_page[n] = d.id;
+        if (n < registered) {
+          id_of_page[n] = d.id;
+          index_of_page[n] = d.index_id;
+        }
         after = d.index_id;
       }
     }
@@ -525,7 +540,22 @@ int main(int argc, char **argv) {
     std::vector<double> times, cpu_times, errors;
     std::map<std::string, double> stage_ms;
     int correct = 0, false_matches = 0;
+    // Top-1 by how many of the page's registered words the view shows: a view of a figure
+    // or a margin shows too few for any text descriptor (LLAH needs n + 1 words around each).
+    const std::vector<int> word_bins{0, 20, 50, 100};
+    std::vector<int> bin_views(word_bins.size(), 0), bin_correct(word_bins.size(), 0);
     for (const Query &q : queries_now) {
+      int words_in_view = 0;
+      for (const cv::Point2f &r : registry->retriever()->Keypoints(index_of_page[q.page])) {
+        const cv::Point2d v = texfree::ApplyHomography(q.truth, cv::Point2d(r.x, r.y));
+        if (v.x >= 0 && v.y >= 0 && v.x < q.view.image_size.width &&
+            v.y < q.view.image_size.height)
+          ++words_in_view;
+      }
+      size_t bin = 0;
+      while (bin + 1 < word_bins.size() && words_in_view >= word_bins[bin + 1]) ++bin;
+      ++bin_views[bin];
+      const int correct_before = correct;
       const auto t0 = Clock::now();
       const double c0 = texfree::ThreadCpuMilliseconds();
       auto gray = texfree::DecodeImage(q.jpeg, limits);
@@ -558,8 +588,18 @@ int main(int argc, char **argv) {
         for (const auto &d : result->documents)
           if (d.document.id != id_of_page[q.page]) ++false_matches;
       }
+      bin_correct[bin] += correct - correct_before;
     }
+    std::fprintf(stderr, "top-1 by registered words in view:");
+    for (size_t b = 0; b < word_bins.size(); ++b) {
+      std::fprintf(stderr, "  %d%s: %d/%d", word_bins[b],
+                   b + 1 < word_bins.size() ? ("-" + std::to_string(word_bins[b + 1] - 1)).c_str()
+                                            : "+",
+                   bin_correct[b], bin_views[b]);
+    }
+    std::fprintf(stderr, "\n");
     int unreg_false = 0;
+    std::vector<double> unreg_cpu_times;
     for (const Query &q : unregistered_queries) {
       const auto t0 = Clock::now();
       const double c0 = texfree::ThreadCpuMilliseconds();
@@ -567,8 +607,17 @@ int main(int argc, char **argv) {
       auto result = registry->Retrieve(*gray, std::nullopt, 0);
       times.push_back(texfree::MillisecondsSince(t0));
       cpu_times.push_back(texfree::ThreadCpuMilliseconds() - c0);
+      unreg_cpu_times.push_back(cpu_times.back());
       if (result.ok()) unreg_false += static_cast<int>(result->documents.size());
     }
+    // Views of unregistered pages take every fallback and last try: their own figures.
+    const std::vector<double> reg_cpu_times(cpu_times.begin(),
+                                            cpu_times.begin() + queries_now.size());
+    std::fprintf(stderr,
+                 "CPU ms median / p95: views of registered pages %.1f / %.1f, of unregistered "
+                 "pages %.1f / %.1f\n",
+                 Percentile(reg_cpu_times, 0.5), Percentile(reg_cpu_times, 0.95),
+                 Percentile(unreg_cpu_times, 0.5), Percentile(unreg_cpu_times, 0.95));
     std::printf(
         "| %d | %.1f%% (%d/%d) | %.2f | %d of %d unregistered (+%d "
         "wrong) | %.1f | %.1f | %.1f | %.1f | %.0f | "
