@@ -520,10 +520,9 @@ std::vector<char> CutByFrame(const std::vector<cv::Point2f> &points, const Neigh
   return cut;
 }
 
-std::vector<DocumentHit> LlahRetriever::Retrieve(const std::vector<cv::Point2f> &query,
-                                                 double query_char_height,
-                                                 const RetrievalOptions &o, RetrievalTrace *trace,
-                                                 std::optional<cv::Matx33d> *text_line_horizon) const {
+std::vector<DocumentHit> LlahRetriever::Retrieve(
+    const std::vector<cv::Point2f> &query, double query_char_height, const RetrievalOptions &o,
+    RetrievalTrace *trace, std::optional<cv::Matx33d> *text_line_horizon) const {
   // Descriptors of a steep view are computed on its keypoints rectified to an affine image
   // of the page (text_perspective.h); positions stay the query's.
   std::optional<cv::Matx33d> rectification;

@@ -232,10 +232,10 @@ class LlahRetriever {
   // `text_line_horizon`, when given, receives the text-line rectification (query pixels ->
   // rectified) of the last try when that try ran and found a horizon, so that a caller
   // that goes on to rectify the picture itself need not fit it again.
-  std::vector<DocumentHit> Retrieve(
-      const std::vector<cv::Point2f> &query, double query_char_height,
-      const RetrievalOptions &options, RetrievalTrace *trace = nullptr,
-      std::optional<cv::Matx33d> *text_line_horizon = nullptr) const;
+  std::vector<DocumentHit> Retrieve(const std::vector<cv::Point2f> &query, double query_char_height,
+                                    const RetrievalOptions &options,
+                                    RetrievalTrace *trace = nullptr,
+                                    std::optional<cv::Matx33d> *text_line_horizon = nullptr) const;
 
   // Reference keypoints of a document's base layer (empty if unknown): DocumentHit::matches
   // index them (guided matching is on the base layer).

@@ -548,8 +548,7 @@ int main(int argc, char **argv) {
       int words_in_view = 0;
       for (const cv::Point2f &r : registry->retriever()->Keypoints(index_of_page[q.page])) {
         const cv::Point2d v = texfree::ApplyHomography(q.truth, cv::Point2d(r.x, r.y));
-        if (v.x >= 0 && v.y >= 0 && v.x < q.view.image_size.width &&
-            v.y < q.view.image_size.height)
+        if (v.x >= 0 && v.y >= 0 && v.x < q.view.image_size.width && v.y < q.view.image_size.height)
           ++words_in_view;
       }
       size_t bin = 0;
@@ -592,10 +591,10 @@ int main(int argc, char **argv) {
     }
     std::fprintf(stderr, "top-1 by registered words in view:");
     for (size_t b = 0; b < word_bins.size(); ++b) {
-      std::fprintf(stderr, "  %d%s: %d/%d", word_bins[b],
-                   b + 1 < word_bins.size() ? ("-" + std::to_string(word_bins[b + 1] - 1)).c_str()
-                                            : "+",
-                   bin_correct[b], bin_views[b]);
+      std::fprintf(
+          stderr, "  %d%s: %d/%d", word_bins[b],
+          b + 1 < word_bins.size() ? ("-" + std::to_string(word_bins[b + 1] - 1)).c_str() : "+",
+          bin_correct[b], bin_views[b]);
     }
     std::fprintf(stderr, "\n");
     int unreg_false = 0;
