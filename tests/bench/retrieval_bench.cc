@@ -538,6 +538,16 @@ int main(int argc, char **argv) {
                                          : MakeQueries(queries, registered, 1234 + target, false,
                                                        page_options, view_range));
     std::vector<double> times, cpu_times, errors;
+    const auto report_slow = [&](const Query &q,
+                                 const absl::StatusOr<texfree::server::RetrievalResult> &result,
+                                 double ms) {
+      if (!(slow_ms > 0 && ms > slow_ms && result.ok())) return;
+      std::string stages;
+      for (const auto &[stage, stage_ms] : result->timings.stages)
+        stages += " " + stage + " " + std::to_string(static_cast<int>(stage_ms)) + " ms";
+      std::fprintf(stderr, "slow query, page %d: %.0f ms (%d keypoints):%s\n", q.page, ms,
+                   result->query_keypoints, stages.c_str());
+    };
     std::map<std::string, double> stage_ms;
     int correct = 0, false_matches = 0;
     // Top-1 by how many of the page's registered words the view shows: a view of a figure
@@ -563,13 +573,7 @@ int main(int argc, char **argv) {
       cpu_times.push_back(texfree::ThreadCpuMilliseconds() - c0);
       if (result.ok())
         for (const auto &[stage, ms] : result->timings.stages) stage_ms[stage] += ms;
-      if (slow_ms > 0 && times.back() > slow_ms && result.ok()) {
-        std::string stages;
-        for (const auto &[stage, ms] : result->timings.stages)
-          stages += " " + stage + " " + std::to_string(static_cast<int>(ms)) + " ms";
-        std::fprintf(stderr, "slow query, page %d: %.0f ms (%d keypoints):%s\n", q.page,
-                     times.back(), result->query_keypoints, stages.c_str());
-      }
+      report_slow(q, result, times.back());
       if (result.ok() && !result->documents.empty() &&
           result->documents[0].document.id == id_of_page[q.page]) {
         const double err = texfree::testdata::MeanHomographyError(
@@ -607,6 +611,7 @@ int main(int argc, char **argv) {
       times.push_back(texfree::MillisecondsSince(t0));
       cpu_times.push_back(texfree::ThreadCpuMilliseconds() - c0);
       unreg_cpu_times.push_back(cpu_times.back());
+      report_slow(q, result, times.back());
       if (result.ok()) unreg_false += static_cast<int>(result->documents.size());
     }
     // Views of unregistered pages take every fallback and last try: their own figures.
