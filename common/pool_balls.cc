@@ -6,6 +6,7 @@
 #include <limits>
 #include <opencv2/imgproc.hpp>
 
+#include "absl/strings/str_cat.h"
 #include "common/connected_components.h"
 #include "common/pool_table.h"
 
@@ -737,6 +738,12 @@ absl::Status PoolBallOptions::Validate() const {
     return absl::InvalidArgumentError("min_fit_ballness must be in (0, 1)");
   if (!(one_white_share > 0 && one_white_share < cue_white_share && cue_white_share < 1))
     return absl::InvalidArgumentError("need 0 < one_white_share < cue_white_share < 1");
+  if (!(white_outward_weight >= 0 && white_outward_weight <= 2))
+    return absl::InvalidArgumentError(
+        absl::StrCat("white_outward_weight must be in [0, 2], got ", white_outward_weight));
+  if (!(white_outward_of_one >= -1 && white_outward_of_one <= 1))
+    return absl::InvalidArgumentError(
+        absl::StrCat("white_outward_of_one must be in [-1, 1], got ", white_outward_of_one));
   if (!(five_orange_share > 0 && five_orange_share < 0.5))
     return absl::InvalidArgumentError("five_orange_share must be in (0, 0.5)");
   if (!(rim_outward_reach >= 0 && rim_outward_reach <= 2))
@@ -773,7 +780,8 @@ cv::Matx33d SphereSilhouetteConic(const PlanarPose& pose, const cv::Matx33d& K,
   return Kinv.t() * cone * Kinv;
 }
 
-std::array<double, 10> PoolNumberScores(const PoolVotes& votes, const PoolBallOptions& o) {
+std::array<double, 10> PoolNumberScores(const PoolVotes& votes, const PoolBallOptions& o,
+                                        double white_outward) {
   std::array<double, 10> s{};
   double total = 0;
   for (double v : votes) total += v;
@@ -801,14 +809,17 @@ std::array<double, 10> PoolNumberScores(const PoolVotes& votes, const PoolBallOp
   const double mid = (o.cue_white_share + o.one_white_share) / 2;
   const double half = (o.cue_white_share - o.one_white_share) / 2;
   s[0] = group * std::clamp((w - mid) / (1 - mid), 0.0, 1.0);
-  s[1] = group * std::clamp((mid - w) / half, 0.0, 1.0);
+  // Between the 1 and the 9, white at the outline counts as more of the 9's white caps.
+  const double w19 = std::clamp(
+      w + o.white_outward_weight * (white_outward - o.white_outward_of_one), 0.0, 1.0);
+  s[1] = group * std::clamp((mid - w19) / half, 0.0, 1.0);
   // The 9 shows anything from its stripe alone to mostly white, depending on how it
   // lies: never ruled out, preferred from the middle band up, and less likely only towards
   // all white (the cue's). A score peaked at the middle made a yellow 1 whose highlight
   // reads as white (share 0.38) a better 9 than the real 9 beside it (share 0.75), which
   // was then left unnamed: with each number used once, the whiter of two yellow balls
   // must stay the better 9.
-  const double rise = std::clamp(1 - (mid - w) / (1.5 * half), 0.0, 1.0);
+  const double rise = std::clamp(1 - (mid - w19) / (1.5 * half), 0.0, 1.0);
   const double fall = std::clamp((1 - w) / (1 - o.cue_white_share), 0.0, 1.0);
   s[9] = group * (0.35 + 0.65 * rise * fall);
   return s;
@@ -1662,6 +1673,7 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
     // saturation where the camera did not clip.
     std::vector<float> red_saturation, red_brightness;
     double red_votes = 0;
+    double white_rho = 0, yellow_rho = 0;
     for (int v = box.y; v < box.y + box.height; ++v)
       for (int u = box.x; u < box.x + box.width; ++u) {
         // Pixels at least a pixel inside the outline: the blur of lens, demosaicing and
@@ -1712,6 +1724,10 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
                                       0.0, 1.0);
           ball.votes[0] += w;
           ball.votes[1] += 1 - w;
+          const double rho =
+              std::hypot(u - ball.ideal_pixel.x, v - ball.ideal_pixel.y) / ball.radius_px;
+          white_rho += w * rho;
+          yellow_rho += (1 - w) * rho;
         } else if (vote == 3 || vote == 7) {
           red_votes += 1;
           if (std::max({p[0], p[1], p[2]}) < 250) {
@@ -1742,10 +1758,13 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
     }
     const double white_yellow = ball.votes[0] + ball.votes[1];
     ball.white_share = white_yellow > 0 ? ball.votes[0] / white_yellow : 0;
+    if (ball.votes[0] > 0 && ball.votes[1] > 0)
+      ball.white_outward = white_rho / ball.votes[0] - yellow_rho / ball.votes[1];
     balls.push_back(ball);
   }
   std::vector<std::array<double, 10>> scores;
-  for (const auto& b : balls) scores.push_back(PoolNumberScores(b.votes, options));
+  for (const auto& b : balls)
+    scores.push_back(PoolNumberScores(b.votes, options, b.white_outward));
   const std::vector<int> numbers = AssignPoolNumbers(scores);
   for (size_t i = 0; i < balls.size(); ++i) {
     balls[i].number = numbers[i];

@@ -101,6 +101,11 @@ struct DocumentRegistryOptions {
   // 14.4 -> 14.9 ms median CPU, views of unregistered pages (which take every try) 51.6 ->
   // 74.6 ms median, 72 -> 121 ms p95.
   int rectified_picture_rounds = 2;
+  // ...a next round only when the refitted horizon's depth varies over the warped
+  // picture's keypoints by at least this ratio: 312 refits of one run (views of
+  // unregistered pages, most of them) had a median of 1.017; at 1.02 the same 972 of 1,000
+  // views were found and the unregistered views' median fell from 74.6 to 57.4 ms.
+  double rectified_picture_min_refit_ratio = 1.02;
   static constexpr int64_t kDefaultMaxQueryPixels = 1920 * 1440;
   static constexpr int64_t kMinMaxQueryPixels = 320 * 240;  // smallest limit but 0
   static bool ValidMaxQueryPixels(int64_t n) { return n == 0 || n >= kMinMaxQueryPixels; }

@@ -322,8 +322,10 @@ int main(int argc, char** argv) {
         const PoolDetectedBall& b = detected[m.estimated_index];
         std::printf("      votes of %d as %d:", m.truth_number, b.number);
         for (int v : b.votes) std::printf(" %d", v);
-        std::printf("  white share %.2f  red saturation %.2f brightness %.2f  radius %.1f px\n",
-                    b.white_share, b.colour_saturation, b.colour_brightness, b.radius_px);
+        std::printf(
+            "  white share %.2f (outward %.2f)  red saturation %.2f brightness %.2f  radius %.1f "
+            "px\n",
+            b.white_share, b.white_outward, b.colour_saturation, b.colour_brightness, b.radius_px);
       }
       // Balls found where no ball is (false balls), with what they were taken for.
       std::vector<bool> matched(detected.size(), false);

@@ -392,6 +392,8 @@ int main(int argc, char **argv) {
                  "the text-line refinement is for views of at most this many keypoints");
   app.add_option("--picture-rounds", registry_options.rectified_picture_rounds,
                  "warps of the rectified-picture retry (each refits the horizon on the last)");
+  app.add_option("--picture-min-refit", registry_options.rectified_picture_min_refit_ratio,
+                 "a next warp only when the refitted horizon's depth ratio is at least this");
   bool no_rectified_picture = false;
   app.add_flag("--no-rectified-picture", no_rectified_picture,
                "no last try of views nothing found on the picture warped by their text-line "

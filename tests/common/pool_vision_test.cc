@@ -307,6 +307,35 @@ TEST(PoolNumbers, Equation43SeparatesCueOneAndNine) {
   EXPECT_EQ(best(PoolNumberScores(three, o)), 3);
 }
 
+// A 9 lying with its stripe towards the camera shows about as much white as a 1 with its
+// number circle towards it (white shares 0.25-0.4 both), but at its outline: its two white
+// caps. The votes are benchmark seed 37's frame 42, where the two were swapped (9: 26
+// white, 55 yellow, its white 0.12 radii farther out than its yellow; 1: 24 and 42, 0.11
+// radii farther in), and seed 41's frame 54, a 1 alone.
+TEST(PoolNumbers, NineShowingItsStripeIsToldFromTheOneByWhereItsWhiteLies) {
+  PoolBallOptions o;
+  const PoolVotes nine{26, 55, 0, 0, 4, 0, 0, 0, 0};
+  const PoolVotes one{24, 42, 0, 0, 1, 0, 0, 0, 0};
+  const std::vector<int> numbers =
+      AssignPoolNumbers({PoolNumberScores(nine, o, 0.124), PoolNumberScores(one, o, -0.106)});
+  EXPECT_EQ(numbers, (std::vector<int>{9, 1}));
+  // Without the position of the white the two are swapped, as they were.
+  const std::vector<int> blind =
+      AssignPoolNumbers({PoolNumberScores(nine, o), PoolNumberScores(one, o)});
+  EXPECT_EQ(blind, (std::vector<int>{1, 9}));
+  auto best = [&](const PoolVotes& v, double outward) {
+    const std::array<double, 10> s = PoolNumberScores(v, o, outward);
+    return static_cast<int>(std::max_element(s.begin(), s.end()) - s.begin());
+  };
+  EXPECT_EQ(best({13, 44, 0, 0, 0, 0, 0, 0, 0}, 0.10), 1) << "a 1 alone, its white a little out";
+  EXPECT_EQ(best({13, 44, 0, 0, 0, 0, 0, 0, 0}, 0.30), 9) << "white caps at the outline";
+  o.white_outward_weight = -0.1;
+  EXPECT_FALSE(o.Validate().ok());
+  o = PoolBallOptions();
+  o.white_outward_of_one = 2;
+  EXPECT_FALSE(o.Validate().ok());
+}
+
 // The orange 5 fades to yellow where blur, JPEG and the cloth mix into it, but nothing
 // turns the yellow 1 orange. The votes are benchmark balls (seed 7): frame 0's small 5
 // (24 orange against 32 yellow, once read as the 1) and the most orange 1 and 9 of the
@@ -738,6 +767,14 @@ testdata::PoolBallMatch MatchOfBall(int number, int frame, uint64_t seed) {
       if (m.truth_number == number) return m;
   ADD_FAILURE() << "frame " << frame << " of seed " << seed << ": no ball " << number;
   return {};
+}
+
+// PoolNumbers.NineShowingItsStripeIsToldFromTheOneByWhereItsWhiteLies on the rendered
+// frames: each 1 and 9 of those frames gets its own number.
+TEST(PoolNumbers, OneAndNineOfRenderedFramesAreNotSwapped) {
+  EXPECT_EQ(MatchOfBall(9, 42, 37).estimated_number, 9);
+  EXPECT_EQ(MatchOfBall(1, 42, 37).estimated_number, 1);
+  EXPECT_EQ(MatchOfBall(1, 54, 41).estimated_number, 1);
 }
 
 // The black 8 mirrors the green cloth on its lower half and JPEG tints its dark pixels
