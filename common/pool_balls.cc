@@ -810,8 +810,8 @@ std::array<double, 10> PoolNumberScores(const PoolVotes& votes, const PoolBallOp
   const double half = (o.cue_white_share - o.one_white_share) / 2;
   s[0] = group * std::clamp((w - mid) / (1 - mid), 0.0, 1.0);
   // Between the 1 and the 9, white at the outline counts as more of the 9's white caps.
-  const double w19 = std::clamp(
-      w + o.white_outward_weight * (white_outward - o.white_outward_of_one), 0.0, 1.0);
+  const double w19 =
+      std::clamp(w + o.white_outward_weight * (white_outward - o.white_outward_of_one), 0.0, 1.0);
   s[1] = group * std::clamp((mid - w19) / half, 0.0, 1.0);
   // The 9 shows anything from its stripe alone to mostly white, depending on how it
   // lies: never ruled out, preferred from the middle band up, and less likely only towards
@@ -1763,8 +1763,7 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
     balls.push_back(ball);
   }
   std::vector<std::array<double, 10>> scores;
-  for (const auto& b : balls)
-    scores.push_back(PoolNumberScores(b.votes, options, b.white_outward));
+  for (const auto& b : balls) scores.push_back(PoolNumberScores(b.votes, options, b.white_outward));
   const std::vector<int> numbers = AssignPoolNumbers(scores);
   for (size_t i = 0; i < balls.size(); ++i) {
     balls[i].number = numbers[i];
