@@ -547,13 +547,37 @@ absl::StatusOr<RetrievalResult> DocumentRegistry::RetrieveAsGiven(
       extract_ms += MillisecondsSince(tw);
       tw = Clock::now();
       RetrievalOptions warped_options = ro;
-      warped_options.rectify_perspective = false;
+      // What perspective the horizon left (its foreshortening was assumed) is rectified
+      // as in any view, with the view as warped tried too: at 10,000 pages this found one
+      // more of 1,000 views (a 37-degree view of 6 px type) at no measurable cost, since a
+      // warped picture is mostly close enough to affine to be described as it is.
+      warped_options.rectify_perspective = options_.retrieval.rectify_perspective;
+      warped_options.retry_unrectified = true;
       warped_options.refine_perspective = false;
       warped_options.frame = warped.size();
       warped_options.deep_max_keypoints = options_.retrieval.deep_max_keypoints;
       std::vector<DocumentHit> found =
           retriever->Retrieve(wkp.points, wkp.char_height, warped_options);
       match_ms += MillisecondsSince(tw);
+      // The fallback extractors cut the warped picture too, as they would the picture.
+      if (found.empty() && options_.rectified_picture_fallbacks && wkp.char_height > 0) {
+        const TextGeometry warped_text{wkp.char_height, wkp.text_angle_rad};
+        std::vector<cv::Point2f> seen = wkp.points;
+        for (const auto &fallback : fallback_extractors_) {
+          tw = Clock::now();
+          WordKeypoints fk = fallback.Extract(warped, warped_text);
+          extract_ms += MillisecondsSince(tw);
+          if (fk.points == seen) continue;
+          seen = fk.points;
+          tw = Clock::now();
+          found = retriever->Retrieve(fk.points, fk.char_height, warped_options);
+          match_ms += MillisecondsSince(tw);
+          if (!found.empty()) {
+            wkp = std::move(fk);
+            break;
+          }
+        }
+      }
       if (!found.empty()) {
         const cv::Matx33d back = to_warped.inv();
         for (DocumentHit &h : found) h.homography = back * h.homography;

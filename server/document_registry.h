@@ -106,6 +106,12 @@ struct DocumentRegistryOptions {
   // unregistered pages, most of them) had a median of 1.017; at 1.02 the same 972 of 1,000
   // views were found and the unregistered views' median fell from 74.6 to 57.4 ms.
   double rectified_picture_min_refit_ratio = 1.02;
+  // The fallback extractors (fallback_keypoints) also cut each warped picture that the
+  // registration extractor's words did not find a page in. At 10,000 pages: 3 more of
+  // 1,000 views (973 -> 976, with the warped picture's residual perspective rectified),
+  // no false match of 300 unregistered views, whose median CPU time rose from 59.7 to
+  // 82.1 ms (p95 107 -> 146 ms); views of registered pages unchanged (14.4 / 37.1 ms).
+  bool rectified_picture_fallbacks = true;
   static constexpr int64_t kDefaultMaxQueryPixels = 1920 * 1440;
   static constexpr int64_t kMinMaxQueryPixels = 320 * 240;  // smallest limit but 0
   static bool ValidMaxQueryPixels(int64_t n) { return n == 0 || n >= kMinMaxQueryPixels; }

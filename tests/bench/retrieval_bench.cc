@@ -27,6 +27,7 @@
 #include "common/image_io.h"
 #include "common/neighbor_grid.h"
 #include "common/planar_pose.h"
+#include "common/text_perspective.h"
 #include "common/timing.h"
 #include "common/word_keypoints.h"
 #include "server/document_registry.h"
@@ -260,11 +261,38 @@ void PrintTrueRectification(const DocumentRegistry &registry, const Query &q, co
     const bool found = record.ok() && !hits.empty() && hits[0].document == record->index_id;
     per_extractor += " " + std::to_string(kp.points.size()) + (found ? " found" : " missed");
   }
+  // The horizon (the rectification's third row, scaled to 1 at the image centre, in units of
+  // the half-diagonal) of the truth, the keypoint-spacing fit and the text-line refinement
+  // on the registration extractor's keypoints.
+  const double half_diagonal = std::hypot(gray.cols, gray.rows) / 2;
+  auto horizon = [&](const cv::Matx33d &P) {
+    const double at_centre = P(2, 0) * gray.cols / 2.0 + P(2, 1) * gray.rows / 2.0 + P(2, 2);
+    char text[64];
+    std::snprintf(text, sizeof(text), "(%+.3f, %+.3f)", P(2, 0) / at_centre * half_diagonal,
+                  P(2, 1) / at_centre * half_diagonal);
+    return std::string(text);
+  };
+  std::string horizons = "true " + horizon(inv);
+  {
+    const auto kp = texfree::WordKeypointExtractor(registry.options().keypoints).Extract(gray);
+    texfree::TextPerspectiveOptions po = registry.options().retrieval.perspective;
+    if (registry.options().assumed_horizontal_fov_deg > 0) {
+      po.focal_px =
+          gray.cols / 2.0 / std::tan(registry.options().assumed_horizontal_fov_deg * CV_PI / 360);
+      po.principal_point = {gray.cols / 2.0, gray.rows / 2.0};
+    }
+    const auto spacing = texfree::EstimateTextPerspective(kp.points, po);
+    horizons += spacing ? ", spacing fit " + horizon(*spacing) : ", spacing fit none";
+    const auto refined =
+        texfree::RefineTextPerspective(kp.points, kp.text_angle_rad, spacing, po);
+    horizons += refined ? ", text lines " + horizon(*refined) : ", text lines none";
+  }
   std::fprintf(stderr,
                "true rectification, page %d (tilt %.0f): as an image %s (%d keypoints); its "
-               "keypoints mapped:%s\n",
+               "keypoints mapped:%s; horizon %s\n",
                q.page, q.view.tilt_deg, image_found ? "found" : "missed",
-               as_image.ok() ? as_image->query_keypoints : -1, per_extractor.c_str());
+               as_image.ok() ? as_image->query_keypoints : -1, per_extractor.c_str(),
+               horizons.c_str());
 }
 
 }  // namespace
@@ -394,6 +422,10 @@ int main(int argc, char **argv) {
                  "warps of the rectified-picture retry (each refits the horizon on the last)");
   app.add_option("--picture-min-refit", registry_options.rectified_picture_min_refit_ratio,
                  "a next warp only when the refitted horizon's depth ratio is at least this");
+  bool no_picture_fallbacks = false;
+  app.add_flag("--no-picture-fallbacks", no_picture_fallbacks,
+               "the rectified-picture retry cuts the warped picture with the registration "
+               "extractor only");
   bool no_rectified_picture = false;
   app.add_flag("--no-rectified-picture", no_rectified_picture,
                "no last try of views nothing found on the picture warped by their text-line "
@@ -446,6 +478,7 @@ int main(int argc, char **argv) {
   if (no_fallback) registry_options.fallback_keypoints.clear();
   if (no_line_refinement) registry_options.retrieval.refine_perspective = false;
   if (no_rectified_picture) registry_options.rectified_picture_retry = false;
+  if (no_picture_fallbacks) registry_options.rectified_picture_fallbacks = false;
   if (picture_max_keypoints >= 0)
     registry_options.rectified_picture_max_keypoints = picture_max_keypoints;
   if (refine_max_keypoints >= 0)
