@@ -283,8 +283,7 @@ void PrintTrueRectification(const DocumentRegistry &registry, const Query &q, co
     }
     const auto spacing = texfree::EstimateTextPerspective(kp.points, po);
     horizons += spacing ? ", spacing fit " + horizon(*spacing) : ", spacing fit none";
-    const auto refined =
-        texfree::RefineTextPerspective(kp.points, kp.text_angle_rad, spacing, po);
+    const auto refined = texfree::RefineTextPerspective(kp.points, kp.text_angle_rad, spacing, po);
     horizons += refined ? ", text lines " + horizon(*refined) : ", text lines none";
   }
   std::fprintf(stderr,
