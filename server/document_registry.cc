@@ -540,7 +540,10 @@ absl::StatusOr<RetrievalResult> DocumentRegistry::RetrieveAsGiven(
           {0, static_cast<float>(gray.rows)}};
       const std::vector<cv::Point2f> moved = ApplyPerspective(*rectification, corners);
       const cv::Rect2f box = cv::boundingRect(moved);
-      if (!(box.width > 0 && box.height > 0 && box.area() < 4.0 * gray.total())) break;
+      // A horizon that blows the picture up beyond 4 times its area is not the text's (the
+      // quadrilateral's area: turning the picture upright grows its bounding box, not it).
+      if (!(box.width > 0 && box.height > 0 && cv::contourArea(moved) < 4.0 * gray.total()))
+        break;
       // At most max_query_pixels: a large picture of few words (or of none, a photo of
       // something else) must not cost an extraction of many megapixels.
       const double limit = options_.max_query_pixels > 0
