@@ -3,6 +3,7 @@
 #include "common/text_perspective.h"
 
 #include <algorithm>
+#include <limits>
 #include <cmath>
 
 #include "absl/strings/str_cat.h"
@@ -265,6 +266,16 @@ std::vector<cv::Point2f> ApplyPerspective(const cv::Matx33d &P,
     out.emplace_back(static_cast<float>(q[0] / q[2]), static_cast<float>(q[1] / q[2]));
   }
   return out;
+}
+
+double DepthRatio(const cv::Matx33d &P, const std::vector<cv::Point2f> &points) {
+  double lo = std::numeric_limits<double>::max(), hi = 0;
+  for (const cv::Point2f &q : points) {
+    const double w = P(2, 0) * q.x + P(2, 1) * q.y + P(2, 2);
+    lo = std::min(lo, w);
+    hi = std::max(hi, w);
+  }
+  return !points.empty() && lo > 0 ? hi / lo : 0;
 }
 
 }  // namespace texfree

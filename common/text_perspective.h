@@ -75,6 +75,11 @@ std::optional<cv::Matx33d> RefineTextPerspective(const std::vector<cv::Point2f> 
                                                  const std::optional<cv::Matx33d> &start,
                                                  const TextPerspectiveOptions &options = {});
 
+// How much a projective map P changes the scale over `points`: the ratio of the largest to
+// the smallest depth (P's third row) at them; 1 for an affine map. 0 when a point is at or
+// behind the horizon (or there are no points).
+double DepthRatio(const cv::Matx33d &P, const std::vector<cv::Point2f> &points);
+
 std::vector<cv::Point2f> ApplyPerspective(const cv::Matx33d &P,
                                           const std::vector<cv::Point2f> &points);
 

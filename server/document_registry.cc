@@ -424,6 +424,120 @@ absl::StatusOr<RetrievalResult> DocumentRegistry::Retrieve(const cv::Mat &gray,
   return result;
 }
 
+namespace {
+
+// A rotation about the origin that turns the text direction `text_angle_rad` (at the
+// picture's centre, through `rectification`) horizontal.
+cv::Matx33d UprightText(const cv::Matx33d &rectification, double text_angle_rad,
+                        const cv::Size &picture) {
+  const cv::Point2f c(picture.width / 2.0f, picture.height / 2.0f);
+  const cv::Point2f d = c + 20.0f * cv::Point2f(static_cast<float>(std::cos(text_angle_rad)),
+                                                static_cast<float>(std::sin(text_angle_rad)));
+  const std::vector<cv::Point2f> ends = ApplyPerspective(rectification, {c, d});
+  const double phi = std::atan2(ends[1].y - ends[0].y, ends[1].x - ends[0].x);
+  return cv::Matx33d(std::cos(phi), std::sin(phi), 0, -std::sin(phi), std::cos(phi), 0, 0, 0, 1);
+}
+
+}  // namespace
+
+void DocumentRegistry::RetrieveRectifiedPicture(const cv::Mat &gray, const cv::Matx33d &horizon,
+                                                double text_angle_rad,
+                                                const LlahRetriever &retriever,
+                                                const RetrievalOptions &ro,
+                                                std::vector<DocumentHit> *hits,
+                                                WordKeypoints *hits_kp, double *extract_ms,
+                                                double *match_ms) const {
+  // The text lines turned horizontal, as on the registered page: the extractors cut
+  // upright lines as they cut the page (at 10,000 pages, 976 -> 978 of 1,000 views).
+  std::optional<cv::Matx33d> rectification = horizon;
+  if (std::isfinite(text_angle_rad))
+    rectification = UprightText(horizon, text_angle_rad, gray.size()) * horizon;
+  RetrievalOptions warped_options = ro;
+  // What perspective the horizon left (its foreshortening was assumed) is rectified as in
+  // any view, with the view as warped tried too: at 10,000 pages this found one more of
+  // 1,000 views (a 37-degree view of 6 px type) at no measurable cost, since a warped
+  // picture is mostly close enough to affine to be described as it is.
+  warped_options.rectify_perspective = options_.retrieval.rectify_perspective;
+  warped_options.retry_unrectified = true;
+  warped_options.refine_perspective = false;
+  warped_options.deep_max_keypoints = options_.retrieval.deep_max_keypoints;
+  const std::vector<cv::Point2f> corners{
+      {0, 0},
+      {static_cast<float>(gray.cols), 0},
+      {static_cast<float>(gray.cols), static_cast<float>(gray.rows)},
+      {0, static_cast<float>(gray.rows)}};
+  // Each round warps the picture by `rectification`, cuts it anew and retrieves; a round
+  // that finds nothing fits the horizon again on the warped picture's own keypoints (cut
+  // more evenly than the picture's on the far side) and the next round warps by both.
+  const int rounds = options_.rectified_picture_rounds;
+  for (int round = 0; round < rounds && rectification; ++round) {
+    const std::vector<cv::Point2f> moved = ApplyPerspective(*rectification, corners);
+    const cv::Rect2f box = cv::boundingRect(moved);
+    // A horizon that blows the picture up beyond 4 times its area is not the text's (the
+    // quadrilateral's area: turning the picture upright grows its bounding box, not it).
+    if (!(box.width > 0 && box.height > 0 && cv::contourArea(moved) < 4.0 * gray.total())) return;
+    // At most max_query_pixels: a large picture of few words (or of none, a photo of
+    // something else) must not cost an extraction of many megapixels.
+    const double limit = options_.max_query_pixels > 0
+                             ? static_cast<double>(options_.max_query_pixels)
+                             : 4.0 * gray.total();
+    const double fit = std::min(1.0, std::sqrt(limit / box.area()));
+    const cv::Matx33d shift(fit, 0, -fit * box.x, 0, fit, -fit * box.y, 0, 0, 1);
+    const cv::Matx33d to_warped = shift * (*rectification);
+    cv::Mat warped;
+    auto t = Clock::now();
+    cv::warpPerspective(gray, warped, cv::Mat(to_warped),
+                        cv::Size(std::max(1, static_cast<int>(fit * box.width)),
+                                 std::max(1, static_cast<int>(fit * box.height))),
+                        cv::INTER_LINEAR, cv::BORDER_CONSTANT, cv::Scalar(255));
+    WordKeypoints wkp = extractor_.Extract(warped);
+    *extract_ms += MillisecondsSince(t);
+    warped_options.frame = warped.size();
+    t = Clock::now();
+    std::vector<DocumentHit> found = retriever.Retrieve(wkp.points, wkp.char_height, warped_options);
+    *match_ms += MillisecondsSince(t);
+    // The fallback extractors cut the warped picture too, as they would the picture.
+    if (found.empty() && options_.rectified_picture_fallbacks && wkp.char_height > 0) {
+      const TextGeometry warped_text{wkp.char_height, wkp.text_angle_rad};
+      std::vector<cv::Point2f> seen = wkp.points;
+      for (const auto &fallback : fallback_extractors_) {
+        t = Clock::now();
+        WordKeypoints fk = fallback.Extract(warped, warped_text);
+        *extract_ms += MillisecondsSince(t);
+        if (fk.points == seen) continue;
+        seen = fk.points;
+        t = Clock::now();
+        found = retriever.Retrieve(fk.points, fk.char_height, warped_options);
+        *match_ms += MillisecondsSince(t);
+        if (!found.empty()) {
+          wkp = std::move(fk);
+          break;
+        }
+      }
+    }
+    if (!found.empty()) {
+      // Homographies and keypoints back in the picture's pixels.
+      const cv::Matx33d back = to_warped.inv();
+      for (DocumentHit &h : found) h.homography = back * h.homography;
+      *hits = std::move(found);
+      *hits_kp = std::move(wkp);
+      hits_kp->points = ApplyPerspective(back, hits_kp->points);
+      return;
+    }
+    rectification.reset();
+    if (round + 1 < rounds && wkp.char_height > 0 && wkp.points.size() >= 12) {
+      // The warped picture's foreshortening is already undone: the horizon alone.
+      TextPerspectiveOptions affine = ro.perspective;
+      affine.focal_px = 0;
+      const auto again = RefineTextPerspective(wkp.points, wkp.text_angle_rad, std::nullopt, affine);
+      // Most pictures of unregistered pages refit within 2%, which cuts the words alike and
+      // only costs another round.
+      if (again && DepthRatio(*again, wkp.points) >= options_.rectified_picture_min_refit_ratio)
+        rectification = (*again) * to_warped;
+    }
+  }
+}
+
 absl::StatusOr<RetrievalResult> DocumentRegistry::RetrieveAsGiven(
     const cv::Mat &gray, const std::optional<CameraModel> &camera, int max_results) const {
   RetrievalResult result;
@@ -448,7 +562,8 @@ absl::StatusOr<RetrievalResult> DocumentRegistry::RetrieveAsGiven(
   // extractors (other ways of joining letters into words, for fonts and blur
   // the first one splits or merges differently than on the registered page).
   // Verification keeps false matches out.
-  WordKeypoints kp, hits_kp, first_kp;
+  WordKeypoints kp, hits_kp;
+  std::vector<cv::Point2f> first_points;  // the registration extractor's
   std::vector<DocumentHit> hits;
   double extract_ms = 0, match_ms = 0;
   // Every extractor measures the text alike (pass 1); the fallbacks reuse the first's
@@ -462,7 +577,7 @@ absl::StatusOr<RetrievalResult> DocumentRegistry::RetrieveAsGiven(
     if (attempt == 0) {
       kp = extractor_.Extract(gray);
       measured = {kp.char_height, kp.text_angle_rad};
-      first_kp = kp;
+      first_points = kp.points;
     } else {
       kp = fallback_extractors_[attempt - 1].Extract(gray, measured);
     }
@@ -501,129 +616,22 @@ absl::StatusOr<RetrievalResult> DocumentRegistry::RetrieveAsGiven(
     if (!hits.empty() && hits[0].inliers >= ro.min_inliers) break;
   }
   // Last: the picture itself rectified by the text-line horizon of the first keypoints and
-  // cut anew (words that perspective merged or split are cut as on the page), its
-  // homographies and keypoints mapped back to the picture's pixels.
+  // cut anew (words that perspective merged or split are cut as on the page).
   if (hits.empty() && retriever && options_.rectified_picture_retry &&
       options_.retrieval.refine_perspective && measured.char_height > 0 &&
-      first_kp.points.size() >= 12 &&
-      static_cast<int>(first_kp.points.size()) <= options_.rectified_picture_max_keypoints) {
+      first_points.size() >= 12 &&
+      static_cast<int>(first_points.size()) <= options_.rectified_picture_max_keypoints) {
     // The retriever's last try fitted the horizon (or found none) for the first keypoints
     // when there were at most refine_max_keypoints of them; larger views are fitted here.
-    std::optional<cv::Matx33d> refined = text_line_horizon;
-    if (static_cast<int>(first_kp.points.size()) > options_.retrieval.refine_max_keypoints) {
-      refined = RefineTextPerspective(first_kp.points, measured.text_angle_rad,
-                                      EstimateTextPerspective(first_kp.points, ro.perspective),
+    std::optional<cv::Matx33d> horizon = text_line_horizon;
+    if (static_cast<int>(first_points.size()) > options_.retrieval.refine_max_keypoints) {
+      horizon = RefineTextPerspective(first_points, measured.text_angle_rad,
+                                      EstimateTextPerspective(first_points, ro.perspective),
                                       ro.perspective);
     }
-    // Each round warps the picture by `rectification`, cuts it anew and retrieves; a round
-    // that finds nothing fits the horizon again on the warped picture's own keypoints (cut
-    // more evenly than the picture's on the far side) and the next round warps by both.
-    std::optional<cv::Matx33d> rectification = refined;
-    if (rectification && std::isfinite(measured.text_angle_rad)) {
-      // The text lines turned horizontal, as on the registered page: the extractors cut
-      // upright lines as they cut the page (at 10,000 pages, 976 -> 978 of 1,000 views).
-      const cv::Point2f c(gray.cols / 2.0f, gray.rows / 2.0f);
-      const cv::Point2f d = c + 20.0f * cv::Point2f(static_cast<float>(std::cos(measured.text_angle_rad)),
-                                                    static_cast<float>(std::sin(measured.text_angle_rad)));
-      const std::vector<cv::Point2f> ends = ApplyPerspective(*rectification, {c, d});
-      const double phi = std::atan2(ends[1].y - ends[0].y, ends[1].x - ends[0].x);
-      const cv::Matx33d rotate(std::cos(phi), std::sin(phi), 0, -std::sin(phi), std::cos(phi), 0,
-                               0, 0, 1);
-      rectification = rotate * (*rectification);
-    }
-    const int rounds = options_.rectified_picture_rounds;
-    for (int round = 0; round < rounds && rectification && hits.empty(); ++round) {
-      std::vector<cv::Point2f> corners{
-          {0, 0},
-          {static_cast<float>(gray.cols), 0},
-          {static_cast<float>(gray.cols), static_cast<float>(gray.rows)},
-          {0, static_cast<float>(gray.rows)}};
-      const std::vector<cv::Point2f> moved = ApplyPerspective(*rectification, corners);
-      const cv::Rect2f box = cv::boundingRect(moved);
-      // A horizon that blows the picture up beyond 4 times its area is not the text's (the
-      // quadrilateral's area: turning the picture upright grows its bounding box, not it).
-      if (!(box.width > 0 && box.height > 0 && cv::contourArea(moved) < 4.0 * gray.total()))
-        break;
-      // At most max_query_pixels: a large picture of few words (or of none, a photo of
-      // something else) must not cost an extraction of many megapixels.
-      const double limit = options_.max_query_pixels > 0
-                               ? static_cast<double>(options_.max_query_pixels)
-                               : 4.0 * gray.total();
-      const double fit = std::min(1.0, std::sqrt(limit / box.area()));
-      const cv::Matx33d shift(fit, 0, -fit * box.x, 0, fit, -fit * box.y, 0, 0, 1);
-      const cv::Matx33d to_warped = shift * (*rectification);
-      cv::Mat warped;
-      auto tw = Clock::now();
-      cv::warpPerspective(gray, warped, cv::Mat(to_warped),
-                          cv::Size(std::max(1, static_cast<int>(fit * box.width)),
-                                   std::max(1, static_cast<int>(fit * box.height))),
-                          cv::INTER_LINEAR, cv::BORDER_CONSTANT, cv::Scalar(255));
-      WordKeypoints wkp = extractor_.Extract(warped);
-      extract_ms += MillisecondsSince(tw);
-      tw = Clock::now();
-      RetrievalOptions warped_options = ro;
-      // What perspective the horizon left (its foreshortening was assumed) is rectified
-      // as in any view, with the view as warped tried too: at 10,000 pages this found one
-      // more of 1,000 views (a 37-degree view of 6 px type) at no measurable cost, since a
-      // warped picture is mostly close enough to affine to be described as it is.
-      warped_options.rectify_perspective = options_.retrieval.rectify_perspective;
-      warped_options.retry_unrectified = true;
-      warped_options.refine_perspective = false;
-      warped_options.frame = warped.size();
-      warped_options.deep_max_keypoints = options_.retrieval.deep_max_keypoints;
-      std::vector<DocumentHit> found =
-          retriever->Retrieve(wkp.points, wkp.char_height, warped_options);
-      match_ms += MillisecondsSince(tw);
-      // The fallback extractors cut the warped picture too, as they would the picture.
-      if (found.empty() && options_.rectified_picture_fallbacks && wkp.char_height > 0) {
-        const TextGeometry warped_text{wkp.char_height, wkp.text_angle_rad};
-        std::vector<cv::Point2f> seen = wkp.points;
-        for (const auto &fallback : fallback_extractors_) {
-          tw = Clock::now();
-          WordKeypoints fk = fallback.Extract(warped, warped_text);
-          extract_ms += MillisecondsSince(tw);
-          if (fk.points == seen) continue;
-          seen = fk.points;
-          tw = Clock::now();
-          found = retriever->Retrieve(fk.points, fk.char_height, warped_options);
-          match_ms += MillisecondsSince(tw);
-          if (!found.empty()) {
-            wkp = std::move(fk);
-            break;
-          }
-        }
-      }
-      if (!found.empty()) {
-        const cv::Matx33d back = to_warped.inv();
-        for (DocumentHit &h : found) h.homography = back * h.homography;
-        hits = std::move(found);
-        hits_kp = wkp;
-        hits_kp.points = ApplyPerspective(back, wkp.points);
-        break;
-      }
-      if (round + 1 < rounds && wkp.char_height > 0 && wkp.points.size() >= 12) {
-        // The warped picture's foreshortening is already undone: the horizon alone.
-        TextPerspectiveOptions affine = ro.perspective;
-        affine.focal_px = 0;
-        const auto again =
-            RefineTextPerspective(wkp.points, wkp.text_angle_rad, std::nullopt, affine);
-        // How much the refitted horizon would still change the picture: the ratio of its
-        // depths over the warped keypoints. Most pictures of unregistered pages refit within
-        // 2%, which cuts the words alike and only costs another round.
-        double lo = std::numeric_limits<double>::max(), hi = 0;
-        if (again) {
-          for (const cv::Point2f &q : wkp.points) {
-            const double w = (*again)(2, 0) * q.x + (*again)(2, 1) * q.y + (*again)(2, 2);
-            lo = std::min(lo, w);
-            hi = std::max(hi, w);
-          }
-        }
-        rectification = again && lo > 0 && hi / lo >= options_.rectified_picture_min_refit_ratio
-                            ? std::optional<cv::Matx33d>((*again) * to_warped)
-                            : std::nullopt;
-      } else {
-        rectification.reset();
-      }
+    if (horizon) {
+      RetrieveRectifiedPicture(gray, *horizon, measured.text_angle_rad, *retriever, ro, &hits,
+                               &hits_kp, &extract_ms, &match_ms);
     }
   }
   kp = std::move(hits_kp);

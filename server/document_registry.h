@@ -193,6 +193,15 @@ class DocumentRegistry {
   void UseRegistrationGrouping(WordGrouping grouping);
   absl::Status CreateRetriever(const std::vector<cv::Point2f> &training_points);
   std::optional<DocumentSummary> Summary(uint32_t index_id) const;
+  // The last try of RetrieveAsGiven: the picture warped by the text-line `horizon` (turned
+  // so that the text lines are horizontal), cut anew and retrieved, in up to
+  // options_.rectified_picture_rounds rounds. A page found fills `hits` and `hits_kp` in the
+  // picture's pixels; the stage times are added to `extract_ms` and `match_ms`.
+  void RetrieveRectifiedPicture(const cv::Mat &gray, const cv::Matx33d &horizon,
+                                double text_angle_rad, const LlahRetriever &retriever,
+                                const RetrievalOptions &ro, std::vector<DocumentHit> *hits,
+                                WordKeypoints *hits_kp, double *extract_ms,
+                                double *match_ms) const;
   // Retrieve() on the picture at the size given (Retrieve reduces large pictures first).
   absl::StatusOr<RetrievalResult> RetrieveAsGiven(const cv::Mat &gray,
                                                   const std::optional<CameraModel> &camera,

@@ -237,3 +237,20 @@ TEST(TextPerspectiveTest, OptionsValidateExplainsWhatIsWrong) {
 
 }  // namespace
 }  // namespace texfree
+
+namespace texfree {
+namespace {
+
+// DepthRatio: 1 for an affine map, the ratio of the depths at the points for a projective
+// one, 0 when a point is at or behind the horizon.
+TEST(DepthRatioTest, RatioOfTheDepthsAtThePoints) {
+  const std::vector<cv::Point2f> points{{0, 0}, {100, 0}, {0, 50}};
+  EXPECT_DOUBLE_EQ(DepthRatio(cv::Matx33d(2, 1, 5, 0, 3, 7, 0, 0, 1), points), 1.0);
+  // Depth 1 + 0.01 x: 1 at x = 0, 2 at x = 100.
+  EXPECT_DOUBLE_EQ(DepthRatio(cv::Matx33d(1, 0, 0, 0, 1, 0, 0.01, 0, 1), points), 2.0);
+  EXPECT_EQ(DepthRatio(cv::Matx33d(1, 0, 0, 0, 1, 0, -0.02, 0, 1), points), 0.0);
+  EXPECT_EQ(DepthRatio(cv::Matx33d::eye(), {}), 0.0);
+}
+
+}  // namespace
+}  // namespace texfree
