@@ -60,9 +60,10 @@ long RssKiB() {
 struct Query {
   std::string jpeg;
   int page;  // -1: never registered
-  cv::Matx33d truth;
+  cv::Matx33d truth;  // the flat page's homography (nominal when the page curls)
   cv::Size page_size;
   texfree::testdata::CameraViewOptions view;
+  texfree::testdata::CameraView camera;  // geometry only (no image), for the true projection
 };
 
 // How the camera views are drawn: `resolution` scales the camera's pixels (the same views,
@@ -72,6 +73,11 @@ struct Query {
 struct ViewRange {
   double resolution = 1.0;
   double min_scale = 0.6, max_scale = 1.3;
+  // Real-world bends, off by default (the views are then exactly the issue's): the page
+  // lifts by up to max_curl page widths (half of the views bowed, half curled from one
+  // edge), and the lens has a radial k1 in [-max_k1, max_k1 / 2] (mostly barrel). Drawn
+  // from their own stream, so the views are otherwise the same as without.
+  double max_curl = 0, max_k1 = 0;
 };
 
 std::vector<Query> MakeQueries(int count, int registered, uint64_t seed, bool unregistered,
@@ -94,12 +100,21 @@ std::vector<Query> MakeQueries(int count, int registered, uint64_t seed, bool un
     // Pages rendered wider than the default 1,000 px (a higher dpi) are seen alike.
     options.scale *= resolution * 1000.0 / page_options.width;
     options.blur_sigma *= resolution;
+    if (range.max_curl > 0 || range.max_k1 > 0) {
+      std::mt19937_64 bend(seed * 1'000'003 + static_cast<uint64_t>(i) + 0xb3e7);
+      auto unit = [&bend] { return static_cast<double>(bend() >> 11) * 0x1.0p-53; };
+      options.page_curl = range.max_curl * unit();
+      options.curl_azimuth_deg = -180 + 360 * unit();
+      options.curl_one_sided = unit() < 0.5;
+      options.radial_k1 = range.max_k1 * (1.5 * unit() - 1.0);
+    }
     auto view = texfree::testdata::RenderCameraView(rendered.image, options, seed + i);
     std::vector<uchar> bytes;
     cv::imencode(".jpg", view.image, bytes,
                  {cv::IMWRITE_JPEG_QUALITY, 60 + static_cast<int>(rng() % 36)});
+    view.image.release();
     out.push_back({std::string(bytes.begin(), bytes.end()), page, view.homography,
-                   rendered.image.size(), options});
+                   rendered.image.size(), options, view});
   }
   return out;
 }
@@ -205,10 +220,11 @@ void PrintMiss(const DocumentRegistry &registry, const Query &q, const cv::Mat &
   std::fprintf(
       stderr,
       "miss page %d: tilt %.0f scale %.2f blur %.1f noise %.1f light %.2f (roll %.1f azimuth %.1f "
-      "fov %.1f look-at %.0f,%.0f)%s | %s\n",
+      "fov %.1f look-at %.0f,%.0f curl %.3f k1 %+.3f)%s | %s\n",
       q.page, q.view.tilt_deg, q.view.scale, q.view.blur_sigma, q.view.noise_sigma,
       q.view.illumination_gradient, q.view.roll_deg, q.view.tilt_azimuth_deg,
-      q.view.horizontal_fov_deg, q.view.look_at.x, q.view.look_at.y, stats.c_str(),
+      q.view.horizontal_fov_deg, q.view.look_at.x, q.view.look_at.y, q.view.page_curl,
+      q.view.radial_k1, stats.c_str(),
       result == nullptr || result->documents.empty() ? "nothing"
                                                      : result->documents[0].document.title.c_str());
 }
@@ -397,6 +413,13 @@ int main(int argc, char **argv) {
   app.add_option("--view-scale", view_scale,
                  "MIN:MAX page scale of the views (image px per px of a 1,000 px page; a whole "
                  "A4 page fills a 640x480 view at about 0.34)");
+  app.add_option("--curl", view_range.max_curl,
+                 "the pages of the views lift off the desk by up to this many page widths "
+                 "(a sheet lying curled, a page of an open book; 0: flat, as the issue's views)")
+      ->check(CLI::Range(0.0, 0.3));
+  app.add_option("--lens-k1", view_range.max_k1,
+                 "the views' lens has a radial distortion k1 in [-K, K/2] (0: ideal pinhole)")
+      ->check(CLI::Range(0.0, 0.5));
   app.add_option("--resolution", resolution,
                  "camera pixels per 640x480 view's pixel: the same views at F times the width "
                  "and height (page scale and blur scaled alike)")
@@ -610,10 +633,15 @@ int main(int argc, char **argv) {
       report_slow(q, result, times.back());
       if (result.ok() && !result->documents.empty() &&
           result->documents[0].document.id == id_of_page[q.page]) {
-        const double err = texfree::testdata::MeanHomographyError(
-            result->documents[0].homography, q.truth, q.page_size, gray->size());
+        const double err = texfree::testdata::MeanProjectionError(
+            result->documents[0].homography, q.camera, q.view, q.page_size);
         errors.push_back(err);
-        if (err < 10) ++correct;
+        if (err < 10) {
+          ++correct;
+        } else if (misses) {
+          std::fprintf(stderr, "off page %d: found, but %.1f px off (curl %.3f k1 %+.3f)\n",
+                       q.page, err, q.view.page_curl, q.view.radial_k1);
+        }
       } else if (misses || true_rectification) {
         if (true_rectification) PrintTrueRectification(*registry, q, *gray, id_of_page[q.page]);
         if (misses)

@@ -91,7 +91,8 @@ class FeatureBaseline {
     matcher_->add(std::vector<cv::Mat>{page_descriptors_});
     matcher_->train();  // the page's index is built once
   }
-  Sample Run(const cv::Mat& gray, const cv::Matx33d& truth, const cv::Size& page_size) {
+  Sample Run(const cv::Mat& gray, const texfree::testdata::CameraView& truth,
+             const texfree::testdata::CameraViewOptions& truth_options, const cv::Size& page_size) {
     Sample s;
     const auto t0 = SteadyClock::now();
     const double c0 = texfree::ThreadCpuMilliseconds();
@@ -117,7 +118,7 @@ class FeatureBaseline {
         if (s.inliers >= 12) {
           s.found = true;
           s.error =
-              texfree::testdata::MeanHomographyError(cv::Matx33d(H), truth, page_size, gray.size());
+              texfree::testdata::MeanProjectionError(cv::Matx33d(H), truth, truth_options, page_size);
         }
       }
     }
@@ -159,6 +160,13 @@ int main(int argc, char** argv) {
   uint64_t sequence_seed = 77;
   texfree::TrackerOptions tracking;  // of the track methods
   app.add_option("--step", step, "tilt step per frame, degrees");
+  double curl = 0, lens_k1 = 0;
+  app.add_option("--curl", curl,
+                 "the page lifts off the desk by this many page widths, bowed across its width "
+                 "(0: flat)")
+      ->check(CLI::Range(0.0, 0.3));
+  app.add_option("--lens-k1", lens_k1, "radial distortion k1 of the camera (0: ideal pinhole)")
+      ->check(CLI::Range(-0.5, 0.5));
   app.add_option("--print-every", print_every, "print a row every this many degrees");
   app.add_option("--distractors", distractors, "other pages registered besides the tracked one");
   app.add_option("--streams", streams, "concurrent streams of the throughput test");
@@ -263,6 +271,9 @@ int main(int argc, char** argv) {
   };
   CameraSequenceOptions near;
   near.step_deg = step;
+  near.page_curl = curl;
+  near.curl_azimuth_deg = 20;
+  near.radial_k1 = lens_k1;
   near.scale = 0.85;  // about a third of the page in view
   CameraSequenceOptions far = near;
   far.scale = 0.32;  // the whole page in view
@@ -320,12 +331,14 @@ int main(int argc, char** argv) {
             cv::SIFT::create(), cv::makePtr<cv::FlannBasedMatcher>(), page_gray);
       else
         tracker = std::make_unique<texfree::DocumentTracker>(method.options);
-      for (const auto& view : seq.views) {
+      for (size_t v = 0; v < seq.views.size(); ++v) {
+        const auto& view = seq.views[v];
+        const auto& frame_options = seq.frames[v].options;
         cv::Mat gray;
         cv::cvtColor(view.image, gray, cv::COLOR_BGR2GRAY);
         Sample s;
         if (baseline) {
-          s = baseline->Run(gray, view.homography, page_gray.size());
+          s = baseline->Run(gray, view, frame_options, page_gray.size());
         } else {
           const auto t0 = SteadyClock::now();
           const double c0 = texfree::ThreadCpuMilliseconds();
@@ -344,8 +357,8 @@ int main(int argc, char** argv) {
             if (d.state == texfree::TrackState::kLost) continue;
             s.found = true;
             s.inliers = d.llah_inliers >= 0 ? d.llah_inliers : d.inliers;
-            s.error = texfree::testdata::MeanHomographyError(d.homography, view.homography,
-                                                             page_gray.size(), gray.size());
+            s.error = texfree::testdata::MeanProjectionError(d.homography, view, frame_options,
+                                                             page_gray.size());
           }
           const size_t i = samples[m].size();
           const double where = seq.frames[0].nominal_tilt_deg != seq.frames.back().nominal_tilt_deg
@@ -394,8 +407,8 @@ int main(int argc, char** argv) {
             if (src.size() >= 8) {
               cv::Mat H = cv::findHomography(src, dst, 0);
               if (!H.empty())
-                oracle = texfree::testdata::MeanHomographyError(cv::Matx33d(H), view.homography,
-                                                                page_gray.size(), gray.size());
+                oracle = texfree::testdata::MeanProjectionError(cv::Matx33d(H), view, frame_options,
+                                                                page_gray.size());
             }
             std::fprintf(stderr, "   oracle: %zu true keypoints, error %.2f px\n", src.size(),
                          oracle);

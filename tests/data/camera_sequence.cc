@@ -75,6 +75,10 @@ std::vector<SequenceFrame> MakeCameraSequence(const cv::Size& page_size,
     v.noise_sigma = o.noise_sigma;
     v.illumination_gradient = o.illumination_gradient;
     v.jpeg_quality = o.jpeg_quality;
+    v.page_curl = o.page_curl;
+    v.curl_azimuth_deg = o.curl_azimuth_deg;
+    v.curl_one_sided = o.curl_one_sided;
+    v.radial_k1 = o.radial_k1;
     v.background = cv::Scalar(70, 95, 125);
     frames.push_back(f);
   }

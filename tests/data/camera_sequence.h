@@ -45,6 +45,11 @@ struct CameraSequenceOptions {
   double noise_sigma = 2.0;
   double illumination_gradient = 0.25;
   int jpeg_quality = 85;  // 0 = none
+  // The sheet's curl and the lens's distortion, the same in every frame (CameraViewOptions).
+  double page_curl = 0;
+  double curl_azimuth_deg = 0;
+  bool curl_one_sided = false;
+  double radial_k1 = 0;
 };
 
 struct SequenceFrame {

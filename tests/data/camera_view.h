@@ -1,6 +1,8 @@
 // Synthetic camera photographs of a page: pinhole projection with an exact
 // ground-truth homography and pose, then lens blur, uneven light, sensor noise
-// and JPEG compression.
+// and JPEG compression. Optionally the page curls off the desk and the lens
+// distorts radially; the homography is then the flat page's nominal one and
+// ProjectPagePoint gives where a page point truly lands.
 //
 // Camera model: world = page plane Z = 0 in page pixel units (x right, y
 // down); the camera z axis points into the page. An untilted, unrolled camera
@@ -31,6 +33,18 @@ struct CameraViewOptions {
                                       // ramp + vignette + soft shadow)
   int jpeg_quality = 0;               // 0 = no JPEG round trip, else 1..100
   cv::Scalar background{60, 70, 80};  // desk colour around the page
+  // Real pages do not lie flat: the sheet lifts off the desk towards the
+  // camera by up to `page_curl` page widths, quadratically along the page
+  // direction `curl_azimuth_deg` (0 = page x), from the middle line towards
+  // both edges (a sheet that has been folded) or, with `curl_one_sided`, from
+  // one edge to the other (a page lying in an open book). A height field: the
+  // sheet's stretch (under 1% at a lift of 0.1) is not modelled.
+  double page_curl = 0;
+  double curl_azimuth_deg = 0;
+  bool curl_one_sided = false;
+  // Radial lens distortion (OpenCV's k1 on normalised coordinates; < 0 barrel,
+  // as a phone's wide lens). 0 = ideal pinhole.
+  double radial_k1 = 0;
 };
 
 struct CameraView {
@@ -67,6 +81,20 @@ CameraViewOptions RandomViewOptions(std::mt19937_64& rng,
 // image. Returns 1e9 when no grid point is visible.
 double MeanHomographyError(const cv::Matx33d& estimated, const cv::Matx33d& truth,
                            const cv::Size& page_size, const cv::Size& image_size);
+
+// Where page point `page_point` (page pixels) lands in the image of `view`,
+// rendered with `options`: on the curled sheet, through the distorting lens.
+// Equals the homography's mapping when the page is flat and the lens ideal.
+// NaN for a point behind the camera or past the field over which the lens
+// model is monotonic.
+cv::Point2d ProjectPagePoint(const CameraView& view, const CameraViewOptions& options,
+                             const cv::Size& page_size, const cv::Point2d& page_point);
+
+// As MeanHomographyError, against the view's true projection (ProjectPagePoint):
+// for a curled page or a distorting lens no homography is exact, and this is
+// the error a user sees.
+double MeanProjectionError(const cv::Matx33d& estimated, const CameraView& view,
+                           const CameraViewOptions& options, const cv::Size& page_size);
 
 // Ground truth as JSON text (homography, K, R, t, options) for writing beside
 // an image.
