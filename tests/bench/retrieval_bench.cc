@@ -633,14 +633,14 @@ int main(int argc, char **argv) {
       report_slow(q, result, times.back());
       if (result.ok() && !result->documents.empty() &&
           result->documents[0].document.id == id_of_page[q.page]) {
-        const double err = texfree::testdata::MeanProjectionError(
-            result->documents[0].homography, q.camera, q.view, q.page_size);
+        const double err = texfree::testdata::MeanProjectionError(result->documents[0].homography,
+                                                                  q.camera, q.view, q.page_size);
         errors.push_back(err);
         if (err < 10) {
           ++correct;
         } else if (misses) {
-          std::fprintf(stderr, "off page %d: found, but %.1f px off (curl %.3f k1 %+.3f)\n",
-                       q.page, err, q.view.page_curl, q.view.radial_k1);
+          std::fprintf(stderr, "off page %d: found, but %.1f px off (curl %.3f k1 %+.3f)\n", q.page,
+                       err, q.view.page_curl, q.view.radial_k1);
         }
       } else if (misses || true_rectification) {
         if (true_rectification) PrintTrueRectification(*registry, q, *gray, id_of_page[q.page]);

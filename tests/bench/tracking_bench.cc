@@ -117,8 +117,8 @@ class FeatureBaseline {
         s.inliers = cv::countNonZero(mask);
         if (s.inliers >= 12) {
           s.found = true;
-          s.error =
-              texfree::testdata::MeanProjectionError(cv::Matx33d(H), truth, truth_options, page_size);
+          s.error = texfree::testdata::MeanProjectionError(cv::Matx33d(H), truth, truth_options,
+                                                           page_size);
         }
       }
     }

@@ -157,14 +157,12 @@ cv::Mat LightField(const cv::Size &full_size, double strength,
 
 // Lift of the curled sheet towards the camera (page pixels) at page point
 // (x, y), on the sheet's surface extended past its edges; and its gradient.
-double CurlLift(const CameraViewOptions &o, const cv::Size &page, double x,
-                double y, cv::Point2d *gradient = nullptr) {
+double CurlLift(const CameraViewOptions &o, const cv::Size &page, double x, double y,
+                cv::Point2d *gradient = nullptr) {
   const double az = o.curl_azimuth_deg * kDeg;
   const double ca = std::cos(az), sa = std::sin(az);
-  const double half =
-      0.5 * (std::abs(page.width * ca) + std::abs(page.height * sa));
-  const double d = ((x - (page.width - 1) / 2.0) * ca +
-                    (y - (page.height - 1) / 2.0) * sa) /
+  const double half = 0.5 * (std::abs(page.width * ca) + std::abs(page.height * sa));
+  const double d = ((x - (page.width - 1) / 2.0) * ca + (y - (page.height - 1) / 2.0) * sa) /
                    std::max(1.0, half);
   const double lift = o.page_curl * page.width;
   double value, slope;  // slope: d(value)/d(d)
@@ -182,8 +180,7 @@ double CurlLift(const CameraViewOptions &o, const cv::Size &page, double x,
 }
 
 bool OnPage(const cv::Size &page, double x, double y) {
-  return x >= -0.5 && y >= -0.5 && x <= page.width - 0.5 &&
-         y <= page.height - 0.5;
+  return x >= -0.5 && y >= -0.5 && x <= page.width - 0.5 && y <= page.height - 0.5;
 }
 
 // Normalised camera coordinates of the ideal ray that the lens bends onto
@@ -202,12 +199,10 @@ cv::Point2d UndistortK1(double xd, double yd, double k1) {
 // The page (or desk) point a pixel's ray meets, for a curled sheet seen
 // through a distorting lens, and the Lambertian gain of the sheet's slope
 // there (1 on the desk and on a flat sheet). false when the ray meets neither.
-bool TraceRay(const CameraView &view, const CameraViewOptions &o,
-              const cv::Size &page, double u, double v, cv::Point2d *point,
-              float *gain) {
+bool TraceRay(const CameraView &view, const CameraViewOptions &o, const cv::Size &page, double u,
+              double v, cv::Point2d *point, float *gain) {
   const cv::Matx33d &k = view.camera_matrix;
-  const cv::Point2d n =
-      UndistortK1((u - k(0, 2)) / k(0, 0), (v - k(1, 2)) / k(1, 1), o.radial_k1);
+  const cv::Point2d n = UndistortK1((u - k(0, 2)) / k(0, 0), (v - k(1, 2)) / k(1, 1), o.radial_k1);
   const cv::Matx33d rt = view.rotation.t();
   const cv::Vec3d dir = rt * cv::Vec3d(n.x, n.y, 1);
   const cv::Vec3d c = -(rt * view.translation);
@@ -231,12 +226,10 @@ bool TraceRay(const CameraView &view, const CameraViewOptions &o,
       CurlLift(o, page, p[0], p[1], &g);
       // Light from 35 deg off the desk's normal, across the curl.
       const double la = (o.curl_azimuth_deg + 60) * kDeg;
-      const cv::Vec3d light(std::sin(35 * kDeg) * std::cos(la),
-                            std::sin(35 * kDeg) * std::sin(la),
+      const cv::Vec3d light(std::sin(35 * kDeg) * std::cos(la), std::sin(35 * kDeg) * std::sin(la),
                             -std::cos(35 * kDeg));
       const cv::Vec3d normal = cv::normalize(cv::Vec3d(-g.x, -g.y, -1));
-      *gain = static_cast<float>(std::max(0.2, normal.dot(light)) /
-                                 std::cos(35 * kDeg));
+      *gain = static_cast<float>(std::max(0.2, normal.dot(light)) / std::cos(35 * kDeg));
       *point = {p[0], p[1]};
       return true;
     }
@@ -264,9 +257,8 @@ cv::Point2d ApplyH(const cv::Matx33d &h, const cv::Point2d &p) {
 // The page over the desk as an ideal camera with page -> image homography
 // `homography` sees it (float BGR, `size`): mip-mapped page, anti-aliased
 // sheet edge, soft contact shadow.
-cv::Mat ComposeFlat(const cv::Mat &page, const cv::Matx33d &homography,
-                    const cv::Size &size, const cv::Scalar &background,
-                    std::mt19937_64 &rng) {
+cv::Mat ComposeFlat(const cv::Mat &page, const cv::Matx33d &homography, const cv::Size &size,
+                    const cv::Scalar &background, std::mt19937_64 &rng) {
   const cv::Matx33d g = homography.inv();  // image -> page
 
   // Per-pixel footprint (page pixels per image pixel) and page coverage.
@@ -332,8 +324,7 @@ cv::Mat ComposeFlat(const cv::Mat &page, const cv::Matx33d &homography,
   for (int k = 0; k < levels; ++k) {
     if (k > 0) cv::pyrDown(level_image, level_image);
     const double f = std::ldexp(1.0, k);
-    const cv::Matx33d hk =
-        homography * cv::Matx33d(f, 0, 0, 0, f, 0, 0, 0, 1);
+    const cv::Matx33d hk = homography * cv::Matx33d(f, 0, 0, 0, f, 0, 0, 0, 1);
     cv::warpPerspective(level_image, warped[static_cast<size_t>(k)], hk, size,
                         cv::INTER_LINEAR, cv::BORDER_REPLICATE);
   }
@@ -364,12 +355,10 @@ cv::Mat ComposeFlat(const cv::Mat &page, const cv::Matx33d &homography,
 
 }  // namespace
 
-CameraView ComputeCameraGeometry(const cv::Size &page_size,
-                                 const CameraViewOptions &options) {
+CameraView ComputeCameraGeometry(const cv::Size &page_size, const CameraViewOptions &options) {
   CameraView view;
   const cv::Size size = options.image_size;
-  const double fx =
-      (size.width / 2.0) / std::tan(options.horizontal_fov_deg * kDeg / 2.0);
+  const double fx = (size.width / 2.0) / std::tan(options.horizontal_fov_deg * kDeg / 2.0);
   const double cx = (size.width - 1) / 2.0, cy = (size.height - 1) / 2.0;
   view.camera_matrix = cv::Matx33d(fx, 0, cx, 0, fx, cy, 0, 0, 1);
 
@@ -383,11 +372,9 @@ CameraView ComputeCameraGeometry(const cv::Size &page_size,
   // axis leans towards the azimuth direction.
   const double az = options.tilt_azimuth_deg * kDeg;
   const cv::Vec3d tilt_axis(-std::sin(az), std::cos(az), 0);
-  const cv::Matx33d cam_to_world =
-      AxisAngle(tilt_axis, options.tilt_deg * kDeg) *
-      AxisAngle(cv::Vec3d(0, 0, 1), options.roll_deg * kDeg);
-  const cv::Vec3d axis(cam_to_world(0, 2), cam_to_world(1, 2),
-                       cam_to_world(2, 2));
+  const cv::Matx33d cam_to_world = AxisAngle(tilt_axis, options.tilt_deg * kDeg) *
+                                   AxisAngle(cv::Vec3d(0, 0, 1), options.roll_deg * kDeg);
+  const cv::Vec3d axis(cam_to_world(0, 2), cam_to_world(1, 2), cam_to_world(2, 2));
   const double distance = fx / std::max(1e-9, options.scale);
   const cv::Vec3d centre = cv::Vec3d(look_at.x, look_at.y, 0) - distance * axis;
   view.rotation = cam_to_world.t();
@@ -395,8 +382,7 @@ CameraView ComputeCameraGeometry(const cv::Size &page_size,
 
   const cv::Matx33d &r = view.rotation;
   const cv::Vec3d &t = view.translation;
-  const cv::Matx33d rt(r(0, 0), r(0, 1), t[0], r(1, 0), r(1, 1), t[1], r(2, 0),
-                       r(2, 1), t[2]);
+  const cv::Matx33d rt(r(0, 0), r(0, 1), t[0], r(1, 0), r(1, 1), t[1], r(2, 0), r(2, 1), t[2]);
   cv::Matx33d h = view.camera_matrix * rt;
   // Scale to h22 = 1 unless that flips the sign: when the camera is close and
   // steeply tilted, the page origin lies behind the camera (h22 < 0) and the
@@ -406,8 +392,8 @@ CameraView ComputeCameraGeometry(const cv::Size &page_size,
   return view;
 }
 
-CameraView RenderCameraView(const cv::Mat &page_in,
-                            const CameraViewOptions &options, uint64_t seed) {
+CameraView RenderCameraView(const cv::Mat &page_in, const CameraViewOptions &options,
+                            uint64_t seed) {
   CV_Assert(!page_in.empty() && page_in.depth() == CV_8U);
   cv::Mat page;
   if (page_in.channels() == 1) {
@@ -428,27 +414,23 @@ CameraView RenderCameraView(const cv::Mat &page_in,
     // lens sees past the ideal frame's edges), then each pixel's ray traced
     // through the lens onto the curled sheet and looked up there.
     const int pad_x = size.width / 4, pad_y = size.height / 4;
-    const cv::Matx33d to_flat =
-        cv::Matx33d(1, 0, pad_x, 0, 1, pad_y, 0, 0, 1) * view.homography;
-    const cv::Mat flat = ComposeFlat(
-        page, to_flat, cv::Size(size.width + 2 * pad_x, size.height + 2 * pad_y),
-        options.background, rng);
-    cv::Mat map_x(size, CV_32FC1), map_y(size, CV_32FC1),
-        gain(size, CV_32FC3);
+    const cv::Matx33d to_flat = cv::Matx33d(1, 0, pad_x, 0, 1, pad_y, 0, 0, 1) * view.homography;
+    const cv::Mat flat =
+        ComposeFlat(page, to_flat, cv::Size(size.width + 2 * pad_x, size.height + 2 * pad_y),
+                    options.background, rng);
+    cv::Mat map_x(size, CV_32FC1), map_y(size, CV_32FC1), gain(size, CV_32FC3);
     for (int v = 0; v < size.height; ++v) {
       for (int u = 0; u < size.width; ++u) {
         cv::Point2d point;
         float g = 1;
         cv::Point2d q(-1e4, -1e4);
-        if (TraceRay(view, options, page.size(), u, v, &point, &g))
-          q = ApplyH(to_flat, point);
+        if (TraceRay(view, options, page.size(), u, v, &point, &g)) q = ApplyH(to_flat, point);
         map_x.at<float>(v, u) = static_cast<float>(q.x);
         map_y.at<float>(v, u) = static_cast<float>(q.y);
         gain.at<cv::Vec3f>(v, u) = cv::Vec3f(g, g, g);
       }
     }
-    cv::remap(flat, image, map_x, map_y, cv::INTER_LINEAR,
-              cv::BORDER_REPLICATE);
+    cv::remap(flat, image, map_x, map_y, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
     cv::multiply(image, gain, image);
   }
 
@@ -596,25 +578,19 @@ double MeanHomographyError(const cv::Matx33d &estimated,
   return n ? sum / n : 1e9;
 }
 
-cv::Point2d ProjectPagePoint(const CameraView &view,
-                             const CameraViewOptions &options,
-                             const cv::Size &page_size,
-                             const cv::Point2d &page_point) {
+cv::Point2d ProjectPagePoint(const CameraView &view, const CameraViewOptions &options,
+                             const cv::Size &page_size, const cv::Point2d &page_point) {
   const double lift =
-      options.page_curl > 0
-          ? CurlLift(options, page_size, page_point.x, page_point.y)
-          : 0.0;
+      options.page_curl > 0 ? CurlLift(options, page_size, page_point.x, page_point.y) : 0.0;
   const cv::Vec3d c =
-      view.rotation * cv::Vec3d(page_point.x, page_point.y, -lift) +
-      view.translation;
+      view.rotation * cv::Vec3d(page_point.x, page_point.y, -lift) + view.translation;
   constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
   if (c[2] <= 1e-9) return {kNaN, kNaN};
   double x = c[0] / c[2], y = c[1] / c[2];
   // Past r^2 = -1 / (3 k1) a barrel polynomial folds back towards the centre:
   // no lens images such rays into the frame.
   const double r2 = x * x + y * y;
-  if (options.radial_k1 < 0 && r2 >= -1 / (3 * options.radial_k1))
-    return {kNaN, kNaN};
+  if (options.radial_k1 < 0 && r2 >= -1 / (3 * options.radial_k1)) return {kNaN, kNaN};
   const double f = 1 + options.radial_k1 * r2;
   x *= f;
   y *= f;
@@ -623,15 +599,13 @@ cv::Point2d ProjectPagePoint(const CameraView &view,
 }
 
 double MeanProjectionError(const cv::Matx33d &estimated, const CameraView &view,
-                           const CameraViewOptions &options,
-                           const cv::Size &page_size) {
+                           const CameraViewOptions &options, const cv::Size &page_size) {
   const cv::Size &image_size = options.image_size;
   double sum = 0;
   int n = 0;
   for (int y = 0; y <= 10; ++y) {
     for (int x = 0; x <= 10; ++x) {
-      const cv::Point2d p(page_size.width * x / 10.0,
-                          page_size.height * y / 10.0);
+      const cv::Point2d p(page_size.width * x / 10.0, page_size.height * y / 10.0);
       const cv::Point2d t = ProjectPagePoint(view, options, page_size, p);
       if (!std::isfinite(t.x) || t.x < 0 || t.y < 0 || t.x >= image_size.width ||
           t.y >= image_size.height)

@@ -231,13 +231,10 @@ cv::Mat DotPage(std::vector<cv::Point2d> *dots) {
 // Ink-weighted centroid of the 25 x 25 window around `q` in `gray`; false when
 // the window leaves the image or holds no dot.
 bool DotCentroid(const cv::Mat &gray, const cv::Point2d &q, cv::Point2d *c) {
-  if (q.x < 15 || q.y < 15 || q.x > gray.cols - 16 || q.y > gray.rows - 16)
-    return false;
+  if (q.x < 15 || q.y < 15 || q.x > gray.cols - 16 || q.y > gray.rows - 16) return false;
   double sw = 0, sx = 0, sy = 0;
-  for (int y = static_cast<int>(q.y) - 12; y <= static_cast<int>(q.y) + 12;
-       ++y) {
-    for (int x = static_cast<int>(q.x) - 12; x <= static_cast<int>(q.x) + 12;
-         ++x) {
+  for (int y = static_cast<int>(q.y) - 12; y <= static_cast<int>(q.y) + 12; ++y) {
+    for (int x = static_cast<int>(q.x) - 12; x <= static_cast<int>(q.x) + 12; ++x) {
       const double w = 255.0 - gray.at<uint8_t>(y, x);
       sw += w;
       sx += w * x;
@@ -273,8 +270,7 @@ TEST(CameraViewTest, HomographyMapsPagePointsToWhereTheyAppear) {
     for (const auto &dot : dots) {
       const cv::Point2d q = Apply(view.homography, dot);
       // With a flat page and an ideal lens the true projection is H.
-      EXPECT_LT(cv::norm(ProjectPagePoint(view, options, page.size(), dot) - q),
-                1e-6);
+      EXPECT_LT(cv::norm(ProjectPagePoint(view, options, page.size(), dot) - q), 1e-6);
       cv::Point2d c;
       if (!DotCentroid(gray, q, &c)) continue;
       EXPECT_NEAR(c.x, q.x, 1.0) << "tilt " << pose.tilt;
@@ -330,8 +326,7 @@ TEST(CameraViewTest, CurledPageThroughADistortingLensPutsDotsWhereProjected) {
     // The error measure against the truth is zero for the truth's own
     // projection only where it is a homography: the flat homography scores
     // its miss.
-    EXPECT_GT(MeanProjectionError(view.homography, view, options, page.size()),
-              1.0);
+    EXPECT_GT(MeanProjectionError(view.homography, view, options, page.size()), 1.0);
   }
 }
 

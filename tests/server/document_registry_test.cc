@@ -196,11 +196,10 @@ TEST_F(DocumentRegistryTest, CurledPageSeenThroughABarrelLensIsRetrieved) {
     EXPECT_EQ(result->documents[0].document.id, id);
     const double flat_error =
         testdata::MeanProjectionError(photo.homography, photo, view, curled_page.size());
-    const double error = testdata::MeanProjectionError(result->documents[0].homography, photo,
-                                                       view, curled_page.size());
+    const double error = testdata::MeanProjectionError(result->documents[0].homography, photo, view,
+                                                       curled_page.size());
     EXPECT_GT(flat_error, 3.0) << "one-sided " << one_sided;
-    EXPECT_LT(error, 5.0) << "one-sided " << one_sided << ", flat page's homography "
-                          << flat_error;
+    EXPECT_LT(error, 5.0) << "one-sided " << one_sided << ", flat page's homography " << flat_error;
   }
 }
 
