@@ -310,11 +310,14 @@ int main(int argc, char** argv) {
           const cv::Point2d p0 = ProjectTablePoint(view, {truth->x_mm, truth->y_mm, r});
           const cv::Point2d p1 =
               ProjectTablePoint(view, {truth->x_mm + 10 * away.x, truth->y_mm + 10 * away.y, r});
+          const cv::Point2d found =
+              ProjectTablePoint(view, {truth->x_mm + m.dx_mm, truth->y_mm + m.dy_mm, r});
           std::printf(
-              "    ball %d%s at px (%.0f, %.0f) mm (%.1f, %.1f): found as %d, error %.1f mm "
-              "(%.1f, %.1f), %.1f mm away from the camera; 1 px = %.1f mm along it\n",
-              m.truth_number, m.separated ? " (separated)" : "", m.pixel.x, m.pixel.y, truth->x_mm,
-              truth->y_mm, m.estimated_number, m.error_mm, m.dx_mm, m.dy_mm,
+              "    ball %d%s at px (%.1f, %.1f) mm (%.1f, %.1f): found as %d at px (%.1f, %.1f), "
+              "error %.1f mm (%.1f, %.1f), %.1f mm away from the camera; 1 px = %.1f mm along "
+              "it\n",
+              m.truth_number, m.separated ? " (separated)" : "", p0.x, p0.y, truth->x_mm,
+              truth->y_mm, m.estimated_number, found.x, found.y, m.error_mm, m.dx_mm, m.dy_mm,
               m.dx_mm * away.x + m.dy_mm * away.y, 10 / std::max(1e-9, cv::norm(p1 - p0)));
         }
       for (const auto& m : score.matches) {

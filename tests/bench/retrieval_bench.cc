@@ -78,6 +78,9 @@ struct ViewRange {
   // edge), and the lens has a radial k1 in [-max_k1, max_k1 / 2] (mostly barrel). Drawn
   // from their own stream, so the views are otherwise the same as without.
   double max_curl = 0, max_k1 = 0;
+  // Handheld shake: a motion blur of up to this many pixels (of a 640x480 view) in a random
+  // direction, from the same separate stream.
+  double max_motion_px = 0;
 };
 
 std::vector<Query> MakeQueries(int count, int registered, uint64_t seed, bool unregistered,
@@ -100,13 +103,15 @@ std::vector<Query> MakeQueries(int count, int registered, uint64_t seed, bool un
     // Pages rendered wider than the default 1,000 px (a higher dpi) are seen alike.
     options.scale *= resolution * 1000.0 / page_options.width;
     options.blur_sigma *= resolution;
-    if (range.max_curl > 0 || range.max_k1 > 0) {
+    if (range.max_curl > 0 || range.max_k1 > 0 || range.max_motion_px > 0) {
       std::mt19937_64 bend(seed * 1'000'003 + static_cast<uint64_t>(i) + 0xb3e7);
       auto unit = [&bend] { return static_cast<double>(bend() >> 11) * 0x1.0p-53; };
       options.page_curl = range.max_curl * unit();
       options.curl_azimuth_deg = -180 + 360 * unit();
       options.curl_one_sided = unit() < 0.5;
       options.radial_k1 = range.max_k1 * (1.5 * unit() - 1.0);
+      options.motion_blur_px = range.max_motion_px * resolution * unit();
+      options.motion_blur_angle_deg = 180 * unit();
     }
     auto view = texfree::testdata::RenderCameraView(rendered.image, options, seed + i);
     std::vector<uchar> bytes;
@@ -220,11 +225,11 @@ void PrintMiss(const DocumentRegistry &registry, const Query &q, const cv::Mat &
   std::fprintf(
       stderr,
       "miss page %d: tilt %.0f scale %.2f blur %.1f noise %.1f light %.2f (roll %.1f azimuth %.1f "
-      "fov %.1f look-at %.0f,%.0f curl %.3f k1 %+.3f)%s | %s\n",
+      "fov %.1f look-at %.0f,%.0f curl %.3f k1 %+.3f motion %.1f)%s | %s\n",
       q.page, q.view.tilt_deg, q.view.scale, q.view.blur_sigma, q.view.noise_sigma,
       q.view.illumination_gradient, q.view.roll_deg, q.view.tilt_azimuth_deg,
       q.view.horizontal_fov_deg, q.view.look_at.x, q.view.look_at.y, q.view.page_curl,
-      q.view.radial_k1, stats.c_str(),
+      q.view.radial_k1, q.view.motion_blur_px, stats.c_str(),
       result == nullptr || result->documents.empty() ? "nothing"
                                                      : result->documents[0].document.title.c_str());
 }
@@ -420,6 +425,9 @@ int main(int argc, char **argv) {
   app.add_option("--lens-k1", view_range.max_k1,
                  "the views' lens has a radial distortion k1 in [-K, K/2] (0: ideal pinhole)")
       ->check(CLI::Range(0.0, 0.5));
+  app.add_option("--motion-blur", view_range.max_motion_px,
+                 "the views are smeared by camera shake of up to this many pixels (0: none)")
+      ->check(CLI::Range(0.0, 30.0));
   app.add_option("--resolution", resolution,
                  "camera pixels per 640x480 view's pixel: the same views at F times the width "
                  "and height (page scale and blur scaled alike)")

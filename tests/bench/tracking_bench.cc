@@ -165,6 +165,10 @@ int main(int argc, char** argv) {
                  "the page lifts off the desk by this many page widths, bowed across its width "
                  "(0: flat)")
       ->check(CLI::Range(0.0, 0.3));
+  double motion_blur = 0;
+  app.add_option("--motion-blur", motion_blur,
+                 "each frame is smeared by camera shake of up to this many pixels (0: none)")
+      ->check(CLI::Range(0.0, 30.0));
   app.add_option("--lens-k1", lens_k1, "radial distortion k1 of the camera (0: ideal pinhole)")
       ->check(CLI::Range(-0.5, 0.5));
   app.add_option("--print-every", print_every, "print a row every this many degrees");
@@ -274,6 +278,7 @@ int main(int argc, char** argv) {
   near.page_curl = curl;
   near.curl_azimuth_deg = 20;
   near.radial_k1 = lens_k1;
+  near.max_motion_blur_px = motion_blur;
   near.scale = 0.85;  // about a third of the page in view
   CameraSequenceOptions far = near;
   far.scale = 0.32;  // the whole page in view

@@ -51,6 +51,8 @@ std::vector<SequenceFrame> MakeCameraSequence(const cv::Size& page_size,
   }
   std::vector<SequenceFrame> frames;
   frames.reserve(static_cast<size_t>(count));
+  std::mt19937_64 smear(seed ^ 0x736d656172ULL);
+  const auto unit = [&smear] { return static_cast<double>(smear() >> 11) * 0x1.0p-53; };
   for (int i = 0; i < count; ++i) {
     SequenceFrame f;
     CameraViewOptions& v = f.options;
@@ -79,6 +81,8 @@ std::vector<SequenceFrame> MakeCameraSequence(const cv::Size& page_size,
     v.curl_azimuth_deg = o.curl_azimuth_deg;
     v.curl_one_sided = o.curl_one_sided;
     v.radial_k1 = o.radial_k1;
+    v.motion_blur_px = o.max_motion_blur_px * unit();
+    v.motion_blur_angle_deg = 180 * unit();
     v.background = cv::Scalar(70, 95, 125);
     frames.push_back(f);
   }

@@ -50,6 +50,9 @@ struct CameraSequenceOptions {
   double curl_azimuth_deg = 0;
   bool curl_one_sided = false;
   double radial_k1 = 0;
+  // Camera shake within the exposure: each frame is smeared by up to this many pixels in a
+  // random direction (from a stream of its own: the path is the same with or without).
+  double max_motion_blur_px = 0;
 };
 
 struct SequenceFrame {

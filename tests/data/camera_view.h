@@ -45,6 +45,11 @@ struct CameraViewOptions {
   // Radial lens distortion (OpenCV's k1 on normalised coordinates; < 0 barrel,
   // as a phone's wide lens). 0 = ideal pinhole.
   double radial_k1 = 0;
+  // Motion blur of a handheld camera during the exposure: a smear of this
+  // length (pixels) along `motion_blur_angle_deg` (0 = image x), after the
+  // lens blur. 0 = none.
+  double motion_blur_px = 0;
+  double motion_blur_angle_deg = 0;
 };
 
 struct CameraView {
