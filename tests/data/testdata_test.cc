@@ -330,6 +330,47 @@ TEST(CameraViewTest, CurledPageThroughADistortingLensPutsDotsWhereProjected) {
   }
 }
 
+// Camera shake smears a dot into a streak of the asked length along the asked direction
+// (the ink's second moments), and leaves it where it was (the ink's centroid).
+TEST(CameraViewTest, MotionBlurSmearsAlongItsDirection) {
+  cv::Mat page(1414, 1000, CV_8UC3, cv::Scalar::all(255));
+  cv::circle(page, cv::Point(500, 707), 2, cv::Scalar::all(0), -1, cv::LINE_8);
+  CameraViewOptions options;
+  options.background = cv::Scalar::all(255);
+  for (const double angle : {0.0, 30.0, 115.0}) {
+    options.motion_blur_px = 12;
+    options.motion_blur_angle_deg = angle;
+    const CameraView view = RenderCameraView(page, options, 3);
+    cv::Mat gray;
+    cv::cvtColor(view.image, gray, cv::COLOR_BGR2GRAY);
+    const cv::Point2d q = Apply(view.homography, {500, 707});
+    double sw = 0, sx = 0, sy = 0, sxx = 0, syy = 0, sxy = 0;
+    for (int y = static_cast<int>(q.y) - 15; y <= static_cast<int>(q.y) + 15; ++y) {
+      for (int x = static_cast<int>(q.x) - 15; x <= static_cast<int>(q.x) + 15; ++x) {
+        const double w = 255.0 - gray.at<uint8_t>(y, x);
+        sw += w;
+        sx += w * x;
+        sy += w * y;
+        sxx += w * x * x;
+        syy += w * y * y;
+        sxy += w * x * y;
+      }
+    }
+    ASSERT_GT(sw, 255);
+    const double mx = sx / sw, my = sy / sw;
+    EXPECT_NEAR(mx, q.x, 0.5);
+    EXPECT_NEAR(my, q.y, 0.5);
+    const double cxx = sxx / sw - mx * mx, cyy = syy / sw - my * my, cxy = sxy / sw - mx * my;
+    // Principal axis and its spread: a uniform smear of length L has variance L^2 / 12.
+    const double along = 0.5 * (cxx + cyy + std::hypot(cxx - cyy, 2 * cxy));
+    const double across = 0.5 * (cxx + cyy - std::hypot(cxx - cyy, 2 * cxy));
+    double axis = 0.5 * std::atan2(2 * cxy, cxx - cyy) * 180 / CV_PI;
+    if (axis < 0) axis += 180;
+    EXPECT_NEAR(axis, angle, 3.0);
+    EXPECT_NEAR(std::sqrt(12 * (along - across)), 12.0, 1.5);
+  }
+}
+
 TEST(CameraViewTest, PageCornersMapToThePageOutline) {
   cv::Mat page(600, 400, CV_8UC3, cv::Scalar::all(250));
   CameraViewOptions options;
