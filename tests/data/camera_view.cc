@@ -17,6 +17,8 @@
 #include <sstream>
 #include <vector>
 
+#include "common/planar_pose.h"
+
 namespace texfree::testdata {
 namespace {
 
@@ -271,11 +273,6 @@ void AppendMatrix(std::ostringstream &os, const double *v, int n) {
   os << "]";
 }
 
-cv::Point2d ApplyH(const cv::Matx33d &h, const cv::Point2d &p) {
-  const cv::Vec3d q = h * cv::Vec3d(p.x, p.y, 1.0);
-  return {q[0] / q[2], q[1] / q[2]};
-}
-
 // The page over the desk as an ideal camera with page -> image homography
 // `homography` sees it (float BGR, `size`): mip-mapped page, anti-aliased
 // sheet edge, soft contact shadow.
@@ -446,7 +443,7 @@ CameraView RenderCameraView(const cv::Mat &page_in, const CameraViewOptions &opt
         cv::Point2d point;
         float g = 1;
         cv::Point2d q(-1e4, -1e4);
-        if (TraceRay(view, options, page.size(), u, v, &point, &g)) q = ApplyH(to_flat, point);
+        if (TraceRay(view, options, page.size(), u, v, &point, &g)) q = ApplyHomography(to_flat, point);
         map_x.at<float>(v, u) = static_cast<float>(q.x);
         map_y.at<float>(v, u) = static_cast<float>(q.y);
         gain.at<cv::Vec3f>(v, u) = cv::Vec3f(g, g, g);
@@ -586,28 +583,35 @@ std::string CameraViewGroundTruthJson(const CameraView &view,
   return os.str();
 }
 
-double MeanHomographyError(const cv::Matx33d &estimated,
-                           const cv::Matx33d &truth, const cv::Size &page_size,
-                           const cv::Size &image_size) {
-  auto apply = [](const cv::Matx33d &H, const cv::Point2d &p) {
-    const cv::Vec3d q = H * cv::Vec3d(p.x, p.y, 1.0);
-    return cv::Point2d(q[0] / q[2], q[1] / q[2]);
-  };
+namespace {
+
+// Mean distance in image pixels between where `estimated` and `truth(p)` put an 11 x 11
+// grid of page points p, over the points `truth` places inside the image (finite).
+template <typename Truth>
+double MeanGridError(const cv::Matx33d &estimated, const cv::Size &page_size,
+                     const cv::Size &image_size, const Truth &truth) {
   double sum = 0;
   int n = 0;
   for (int y = 0; y <= 10; ++y) {
     for (int x = 0; x <= 10; ++x) {
-      const cv::Point2d p(page_size.width * x / 10.0,
-                          page_size.height * y / 10.0);
-      const cv::Point2d t = apply(truth, p);
-      if (t.x < 0 || t.y < 0 || t.x >= image_size.width ||
-          t.y >= image_size.height)
+      const cv::Point2d p(page_size.width * x / 10.0, page_size.height * y / 10.0);
+      const cv::Point2d t = truth(p);
+      if (!std::isfinite(t.x) || !std::isfinite(t.y) || t.x < 0 || t.y < 0 ||
+          t.x >= image_size.width || t.y >= image_size.height)
         continue;
-      sum += cv::norm(apply(estimated, p) - t);
+      sum += cv::norm(ApplyHomography(estimated, p) - t);
       ++n;
     }
   }
   return n ? sum / n : 1e9;
+}
+
+}  // namespace
+
+double MeanHomographyError(const cv::Matx33d &estimated, const cv::Matx33d &truth,
+                           const cv::Size &page_size, const cv::Size &image_size) {
+  return MeanGridError(estimated, page_size, image_size,
+                       [&truth](const cv::Point2d &p) { return ApplyHomography(truth, p); });
 }
 
 cv::Point2d ProjectPagePoint(const CameraView &view, const CameraViewOptions &options,
@@ -632,21 +636,9 @@ cv::Point2d ProjectPagePoint(const CameraView &view, const CameraViewOptions &op
 
 double MeanProjectionError(const cv::Matx33d &estimated, const CameraView &view,
                            const CameraViewOptions &options, const cv::Size &page_size) {
-  const cv::Size &image_size = options.image_size;
-  double sum = 0;
-  int n = 0;
-  for (int y = 0; y <= 10; ++y) {
-    for (int x = 0; x <= 10; ++x) {
-      const cv::Point2d p(page_size.width * x / 10.0, page_size.height * y / 10.0);
-      const cv::Point2d t = ProjectPagePoint(view, options, page_size, p);
-      if (!std::isfinite(t.x) || t.x < 0 || t.y < 0 || t.x >= image_size.width ||
-          t.y >= image_size.height)
-        continue;
-      sum += cv::norm(ApplyH(estimated, p) - t);
-      ++n;
-    }
-  }
-  return n ? sum / n : 1e9;
+  return MeanGridError(estimated, page_size, options.image_size, [&](const cv::Point2d &p) {
+    return ProjectPagePoint(view, options, page_size, p);
+  });
 }
 
 }  // namespace texfree::testdata
