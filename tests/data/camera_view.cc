@@ -443,7 +443,8 @@ CameraView RenderCameraView(const cv::Mat &page_in, const CameraViewOptions &opt
         cv::Point2d point;
         float g = 1;
         cv::Point2d q(-1e4, -1e4);
-        if (TraceRay(view, options, page.size(), u, v, &point, &g)) q = ApplyHomography(to_flat, point);
+        if (TraceRay(view, options, page.size(), u, v, &point, &g))
+          q = ApplyHomography(to_flat, point);
         map_x.at<float>(v, u) = static_cast<float>(q.x);
         map_y.at<float>(v, u) = static_cast<float>(q.y);
         gain.at<cv::Vec3f>(v, u) = cv::Vec3f(g, g, g);
