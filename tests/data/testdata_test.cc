@@ -228,21 +228,43 @@ cv::Mat DotPage(std::vector<cv::Point2d> *dots) {
   return page;
 }
 
-// Ink-weighted centroid of the 25 x 25 window around `q` in `gray`; false when
-// the window leaves the image or holds no dot.
-bool DotCentroid(const cv::Mat &gray, const cv::Point2d &q, cv::Point2d *c) {
-  if (q.x < 15 || q.y < 15 || q.x > gray.cols - 16 || q.y > gray.rows - 16) return false;
-  double sw = 0, sx = 0, sy = 0;
-  for (int y = static_cast<int>(q.y) - 12; y <= static_cast<int>(q.y) + 12; ++y) {
-    for (int x = static_cast<int>(q.x) - 12; x <= static_cast<int>(q.x) + 12; ++x) {
+// Ink (255 - gray) moments over the (2 half + 1)^2 window around `q`: total weight,
+// centroid and covariance.
+struct InkMoments {
+  double weight = 0;
+  cv::Point2d mean;
+  double cxx = 0, cyy = 0, cxy = 0;
+};
+InkMoments InkAround(const cv::Mat &gray, const cv::Point2d &q, int half) {
+  double sw = 0, sx = 0, sy = 0, sxx = 0, syy = 0, sxy = 0;
+  for (int y = static_cast<int>(q.y) - half; y <= static_cast<int>(q.y) + half; ++y) {
+    for (int x = static_cast<int>(q.x) - half; x <= static_cast<int>(q.x) + half; ++x) {
       const double w = 255.0 - gray.at<uint8_t>(y, x);
       sw += w;
       sx += w * x;
       sy += w * y;
+      sxx += w * x * x;
+      syy += w * y * y;
+      sxy += w * x * y;
     }
   }
-  if (sw <= 255) return false;
-  *c = {sx / sw, sy / sw};
+  InkMoments m;
+  m.weight = sw;
+  if (sw <= 0) return m;
+  m.mean = {sx / sw, sy / sw};
+  m.cxx = sxx / sw - m.mean.x * m.mean.x;
+  m.cyy = syy / sw - m.mean.y * m.mean.y;
+  m.cxy = sxy / sw - m.mean.x * m.mean.y;
+  return m;
+}
+
+// Ink-weighted centroid of the 25 x 25 window around `q` in `gray`; false when
+// the window leaves the image or holds no dot.
+bool DotCentroid(const cv::Mat &gray, const cv::Point2d &q, cv::Point2d *c) {
+  if (q.x < 15 || q.y < 15 || q.x > gray.cols - 16 || q.y > gray.rows - 16) return false;
+  const InkMoments m = InkAround(gray, q, 12);
+  if (m.weight <= 255) return false;
+  *c = m.mean;
   return true;
 }
 
@@ -344,23 +366,11 @@ TEST(CameraViewTest, MotionBlurSmearsAlongItsDirection) {
     cv::Mat gray;
     cv::cvtColor(view.image, gray, cv::COLOR_BGR2GRAY);
     const cv::Point2d q = Apply(view.homography, {500, 707});
-    double sw = 0, sx = 0, sy = 0, sxx = 0, syy = 0, sxy = 0;
-    for (int y = static_cast<int>(q.y) - 15; y <= static_cast<int>(q.y) + 15; ++y) {
-      for (int x = static_cast<int>(q.x) - 15; x <= static_cast<int>(q.x) + 15; ++x) {
-        const double w = 255.0 - gray.at<uint8_t>(y, x);
-        sw += w;
-        sx += w * x;
-        sy += w * y;
-        sxx += w * x * x;
-        syy += w * y * y;
-        sxy += w * x * y;
-      }
-    }
-    ASSERT_GT(sw, 255);
-    const double mx = sx / sw, my = sy / sw;
-    EXPECT_NEAR(mx, q.x, 0.5);
-    EXPECT_NEAR(my, q.y, 0.5);
-    const double cxx = sxx / sw - mx * mx, cyy = syy / sw - my * my, cxy = sxy / sw - mx * my;
+    const InkMoments m = InkAround(gray, q, 15);
+    ASSERT_GT(m.weight, 255);
+    EXPECT_NEAR(m.mean.x, q.x, 0.5);
+    EXPECT_NEAR(m.mean.y, q.y, 0.5);
+    const double cxx = m.cxx, cyy = m.cyy, cxy = m.cxy;
     // Principal axis and its spread: a uniform smear of length L has variance L^2 / 12.
     const double along = 0.5 * (cxx + cyy + std::hypot(cxx - cyy, 2 * cxy));
     const double across = 0.5 * (cxx + cyy - std::hypot(cxx - cyy, 2 * cxy));
