@@ -3,6 +3,13 @@
 //
 //   texfree-gen-pages --out DIR --count N --seed S [--views V] [--color]
 //                     [--width W] [--height H] [--max-tilt DEG]
+//                     [--curl MAX] [--lens-k1 MAX] [--motion-blur PX]
+//
+// --curl, --lens-k1 and --motion-blur draw, per view and from a stream of their
+// own (the views are otherwise the same), a sheet lifted by up to MAX page
+// widths, a radial k1 in [-MAX, MAX/2] and a smear of up to PX pixels. The
+// JSON's homography is then the flat page's (nominal); its options say how the
+// page curls and the lens bends (tests/data/camera_view.h: ProjectPagePoint).
 //
 // Output: DIR/page_XXXX.png, DIR/page_XXXX_boxes.json (word boxes) and per
 // view DIR/page_XXXX_view_YY.jpg + DIR/page_XXXX_view_YY.json.
@@ -24,7 +31,8 @@ namespace {
 void Usage() {
   std::cerr << "usage: texfree-gen-pages --out DIR --count N --seed S "
                "[--views V] [--color] [--width W] [--height H] "
-               "[--max-tilt DEG] [--fonts dejavu|liberation|freefont|all]\n";
+               "[--max-tilt DEG] [--fonts dejavu|liberation|freefont|all] "
+               "[--curl MAX] [--lens-k1 MAX] [--motion-blur PX]\n";
 }
 
 bool WriteText(const std::filesystem::path& path, const std::string& text) {
@@ -42,6 +50,7 @@ int main(int argc, char** argv) {
   bool have_seed = false;
   long views = 0;
   double max_tilt = 40;
+  double max_curl = 0, max_k1 = 0, max_motion = 0;
   texfree::testdata::PageOptions page_options;
   for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];
@@ -74,6 +83,12 @@ int main(int argc, char** argv) {
         return 2;
       }
       page_options.fonts = *set;
+    } else if (arg == "--curl") {
+      max_curl = std::strtod(value("--curl"), nullptr);
+    } else if (arg == "--lens-k1") {
+      max_k1 = std::strtod(value("--lens-k1"), nullptr);
+    } else if (arg == "--motion-blur") {
+      max_motion = std::strtod(value("--motion-blur"), nullptr);
     } else if (arg == "--max-tilt") {
       max_tilt = std::strtod(value("--max-tilt"), nullptr);
     } else if (arg == "-h" || arg == "--help") {
@@ -86,7 +101,8 @@ int main(int argc, char** argv) {
     }
   }
   if (out_dir.empty() || count < 0 || !have_seed || views < 0 || views > 100 ||
-      page_options.width < 16 || page_options.height < 16) {
+      page_options.width < 16 || page_options.height < 16 || !(max_curl >= 0 && max_curl <= 0.3) ||
+      !(max_k1 >= 0 && max_k1 <= 0.5) || !(max_motion >= 0 && max_motion <= 30)) {
     Usage();
     return 2;
   }
@@ -127,8 +143,17 @@ int main(int argc, char** argv) {
     WriteText(base.string() + "_boxes.json", boxes);
     std::mt19937_64 rng(page_seed ^ 0x5eed5eed5eedULL);
     for (long v = 0; v < views; ++v) {
-      const auto options = texfree::testdata::RandomViewOptions(
-          rng, page.image.size(), max_tilt);
+      auto options = texfree::testdata::RandomViewOptions(rng, page.image.size(), max_tilt);
+      if (max_curl > 0 || max_k1 > 0 || max_motion > 0) {
+        std::mt19937_64 bend(page_seed * 131 + static_cast<uint64_t>(v) + 0xb3e7);
+        auto unit = [&bend] { return static_cast<double>(bend() >> 11) * 0x1.0p-53; };
+        options.page_curl = max_curl * unit();
+        options.curl_azimuth_deg = -180 + 360 * unit();
+        options.curl_one_sided = unit() < 0.5;
+        options.radial_k1 = max_k1 * (1.5 * unit() - 1.0);
+        options.motion_blur_px = max_motion * unit();
+        options.motion_blur_angle_deg = 180 * unit();
+      }
       // Render without the JPEG round trip and let the file itself be the
       // single JPEG compression at the chosen quality.
       auto raw_options = options;
