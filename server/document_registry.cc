@@ -141,6 +141,11 @@ absl::Status DocumentRegistryOptions::Validate() const {
     return absl::InvalidArgumentError(absl::StrCat(
         "rectified_picture_rounds must be >= 1 (rectified_picture_retry turns the retry off), got ",
         rectified_picture_rounds));
+  if (!(rectified_picture_projective_min_slope >= 0))
+    return absl::InvalidArgumentError(absl::StrCat(
+        "rectified_picture_projective_min_slope must be >= 0 (a depth change over a "
+        "half-diagonal, relative to the centre's depth), got ",
+        rectified_picture_projective_min_slope));
   if (!(rectified_picture_min_refit_ratio >= 1))
     return absl::InvalidArgumentError(absl::StrCat(
         "rectified_picture_min_refit_ratio must be >= 1, got ", rectified_picture_min_refit_ratio));
@@ -466,16 +471,39 @@ void DocumentRegistry::RetrieveRectifiedPicture(const cv::Mat &gray, const cv::M
       {static_cast<float>(gray.cols), 0},
       {static_cast<float>(gray.cols), static_cast<float>(gray.rows)},
       {0, static_cast<float>(gray.rows)}};
+  // The horizon's perspective alone (options_.rectified_picture_projective): the third row,
+  // 1 at the picture's centre.
+  std::optional<cv::Matx33d> projective;
+  if (options_.rectified_picture_projective) {
+    const double w0 =
+        horizon(2, 0) * gray.cols / 2.0 + horizon(2, 1) * gray.rows / 2.0 + horizon(2, 2);
+    // How much the depth changes over a half-diagonal from the centre, relative to the
+    // centre's: the view's steepness as the horizon has it.
+    const double slope =
+        std::hypot(horizon(2, 0), horizon(2, 1)) / w0 * std::hypot(gray.cols, gray.rows) / 2;
+    if (std::isfinite(w0) && w0 > 0 && slope >= options_.rectified_picture_projective_min_slope)
+      projective = cv::Matx33d(1, 0, 0, 0, 1, 0, horizon(2, 0) / w0, horizon(2, 1) / w0,
+                               horizon(2, 2) / w0);
+  }
   // Each round warps the picture by `rectification`, cuts it anew and retrieves; a round
   // that finds nothing fits the horizon again on the warped picture's own keypoints (cut
   // more evenly than the picture's on the far side) and the next round warps by both.
-  const int rounds = options_.rectified_picture_rounds;
-  for (int round = 0; round < rounds && rectification; ++round) {
+  // After the rounds, the perspective alone is the last warp.
+  int refits_left = options_.rectified_picture_rounds - 1;
+  while (rectification || projective) {
+    if (!rectification) {
+      rectification = projective;
+      projective.reset();
+      refits_left = 0;
+    }
     const std::vector<cv::Point2f> moved = ApplyPerspective(*rectification, corners);
     const cv::Rect2f box = cv::boundingRect(moved);
     // A horizon that blows the picture up beyond 4 times its area is not the text's (the
     // quadrilateral's area: turning the picture upright grows its bounding box, not it).
-    if (!(box.width > 0 && box.height > 0 && cv::contourArea(moved) < 4.0 * gray.total())) return;
+    if (!(box.width > 0 && box.height > 0 && cv::contourArea(moved) < 4.0 * gray.total())) {
+      rectification.reset();
+      continue;
+    }
     // At most max_query_pixels: a large picture of few words (or of none, a photo of
     // something else) must not cost an extraction of many megapixels.
     const double limit = options_.max_query_pixels > 0
@@ -525,7 +553,7 @@ void DocumentRegistry::RetrieveRectifiedPicture(const cv::Mat &gray, const cv::M
       return;
     }
     rectification.reset();
-    if (round + 1 < rounds && wkp.char_height > 0 && wkp.points.size() >= 12) {
+    if (refits_left-- > 0 && wkp.char_height > 0 && wkp.points.size() >= 12) {
       // The warped picture's foreshortening is already undone: the horizon alone.
       TextPerspectiveOptions affine = ro.perspective;
       affine.focal_px = 0;

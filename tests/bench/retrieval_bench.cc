@@ -265,6 +265,31 @@ void PrintTrueRectification(const DocumentRegistry &registry, const Query &q, co
   auto as_image = registry.Retrieve(rectified, std::nullopt, 0);
   const bool image_found =
       as_image.ok() && !as_image->documents.empty() && as_image->documents[0].document.id == id;
+  // The true horizon alone (the perspective undone, the foreshortening's affine part left, as
+  // the registry's rectified picture has it when its horizon is exact).
+  bool horizon_found = false;
+  {
+    const double w0 = inv(2, 0) * gray.cols / 2.0 + inv(2, 1) * gray.rows / 2.0 + inv(2, 2);
+    const cv::Matx33d projective(1, 0, 0, 0, 1, 0, inv(2, 0) / w0, inv(2, 1) / w0, inv(2, 2) / w0);
+    double lo_x = 1e18, lo_y = 1e18, hi_x = -1e18, hi_y = -1e18;
+    for (const cv::Point2d &corner : {cv::Point2d(0, 0), cv::Point2d(gray.cols, 0),
+                                      cv::Point2d(gray.cols, gray.rows),
+                                      cv::Point2d(0, gray.rows)}) {
+      const cv::Point2d p = texfree::ApplyHomography(projective, corner);
+      lo_x = std::min(lo_x, p.x);
+      lo_y = std::min(lo_y, p.y);
+      hi_x = std::max(hi_x, p.x);
+      hi_y = std::max(hi_y, p.y);
+    }
+    const cv::Matx33d warp = cv::Matx33d(1, 0, -lo_x, 0, 1, -lo_y, 0, 0, 1) * projective;
+    cv::Mat warped;
+    cv::warpPerspective(gray, warped, cv::Mat(warp),
+                        cv::Size(std::min(4000, static_cast<int>(hi_x - lo_x)),
+                                 std::min(4000, static_cast<int>(hi_y - lo_y))),
+                        cv::INTER_LINEAR, cv::BORDER_CONSTANT, cv::Scalar(255));
+    auto r = registry.Retrieve(warped, std::nullopt, 0);
+    horizon_found = r.ok() && !r->documents.empty() && r->documents[0].document.id == id;
+  }
   auto record = registry.Get(id);
   std::string per_extractor;
   std::vector<texfree::WordKeypointOptions> extractors{registry.options().keypoints};
@@ -308,10 +333,11 @@ void PrintTrueRectification(const DocumentRegistry &registry, const Query &q, co
     horizons += refined ? ", text lines " + horizon(*refined) : ", text lines none";
   }
   std::fprintf(stderr,
-               "true rectification, page %d (tilt %.0f): as an image %s (%d keypoints); its "
-               "keypoints mapped:%s; horizon %s\n",
+               "true rectification, page %d (tilt %.0f): as an image %s (%d keypoints), by its "
+               "horizon alone %s; its keypoints mapped:%s; horizon %s\n",
                q.page, q.view.tilt_deg, image_found ? "found" : "missed",
-               as_image.ok() ? as_image->query_keypoints : -1, per_extractor.c_str(),
+               as_image.ok() ? as_image->query_keypoints : -1,
+               horizon_found ? "found" : "missed", per_extractor.c_str(),
                horizons.c_str());
 }
 
@@ -452,6 +478,13 @@ int main(int argc, char **argv) {
                  "warps of the rectified-picture retry (each refits the horizon on the last)");
   app.add_option("--picture-min-refit", registry_options.rectified_picture_min_refit_ratio,
                  "a next warp only when the refitted horizon's depth ratio is at least this");
+  bool no_picture_projective = false;
+  app.add_flag("--no-picture-projective", no_picture_projective,
+               "no last warp of the picture by its horizon's perspective alone");
+  app.add_option("--picture-projective-min-slope",
+                 registry_options.rectified_picture_projective_min_slope,
+                 "the perspective-only warp only for horizons changing the depth by at least "
+                 "this over a half-diagonal");
   bool no_picture_fallbacks = false;
   app.add_flag("--no-picture-fallbacks", no_picture_fallbacks,
                "the rectified-picture retry cuts the warped picture with the registration "
@@ -509,6 +542,7 @@ int main(int argc, char **argv) {
   if (no_line_refinement) registry_options.retrieval.refine_perspective = false;
   if (no_rectified_picture) registry_options.rectified_picture_retry = false;
   if (no_picture_fallbacks) registry_options.rectified_picture_fallbacks = false;
+  if (no_picture_projective) registry_options.rectified_picture_projective = false;
   if (picture_max_keypoints >= 0)
     registry_options.rectified_picture_max_keypoints = picture_max_keypoints;
   if (refine_max_keypoints >= 0)

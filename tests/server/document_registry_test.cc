@@ -319,6 +319,12 @@ TEST(DocumentRegistryOptionsTest, RectifiedPictureLimitsAreValidated) {
   s = options.Validate();
   EXPECT_EQ(s.code(), absl::StatusCode::kInvalidArgument);
   EXPECT_NE(s.message().find("rectified_picture_max_keypoints"), absl::string_view::npos) << s;
+  options = DocumentRegistryOptions();
+  options.rectified_picture_projective_min_slope = -0.1;
+  s = options.Validate();
+  EXPECT_EQ(s.code(), absl::StatusCode::kInvalidArgument);
+  EXPECT_NE(s.message().find("rectified_picture_projective_min_slope"), absl::string_view::npos)
+      << s;
 }
 
 TEST(DocumentRegistryOptionsTest, RegistrationLayersAreValidated) {
@@ -413,6 +419,51 @@ TEST_F(DocumentRegistryTest, UnknownStoredGroupingIsDataLoss) {
   ASSERT_FALSE(registry.ok());
   EXPECT_EQ(registry.status().code(), absl::StatusCode::kDataLoss);
   EXPECT_NE(registry.status().message().find("hand_drawn"), std::string::npos);
+}
+
+// The rectified picture's last warp is by the horizon's perspective alone: for a 42-degree
+// view of small type, the picture with its foreshortening undone (by an assumed field of
+// view) and its text turned upright is cut into other words than the page's, and only the
+// perspective-only warp finds the page, with the homography in the picture's pixels.
+TEST_F(DocumentRegistryTest, SteepViewIsFoundByTheHorizonsPerspectiveAlone) {
+  DocumentRegistryOptions options;
+  options.retrieval.rectify_perspective = false;
+  options.fallback_keypoints.clear();
+  options.rectified_picture_projective = false;
+  auto registry = Open(options);
+  ASSERT_NE(registry, nullptr);
+  std::string id;
+  cv::Mat page;
+  for (uint64_t seed : {40, 41, 42, 43, 44, 45}) {
+    const auto rendered = testdata::RenderTextPage(seed);
+    auto record = registry->Register(Gray(rendered.image), "page " + std::to_string(seed), {});
+    ASSERT_TRUE(record.ok()) << record.status();
+    if (seed == 45) {
+      id = record->id;
+      page = rendered.image;
+    }
+  }
+  testdata::CameraViewOptions view = TiltedView();
+  view.tilt_deg = 42;
+  view.tilt_azimuth_deg = 60;
+  view.scale = 0.9;
+  const auto photo = testdata::RenderCameraView(page, view, 7);
+  auto without = registry->Retrieve(Gray(photo.image), std::nullopt, 0);
+  ASSERT_TRUE(without.ok()) << without.status();
+  ASSERT_TRUE(without->documents.empty()) << "the view must need the perspective-only warp";
+
+  registry.reset();
+  options.rectified_picture_projective = true;
+  registry = Open(options);
+  ASSERT_NE(registry, nullptr);
+  auto with = registry->Retrieve(Gray(photo.image), std::nullopt, 0);
+  ASSERT_TRUE(with.ok()) << with.status();
+  ASSERT_EQ(with->documents.size(), 1u);
+  EXPECT_EQ(with->documents[0].document.id, id);
+  EXPECT_LT(testdata::MeanHomographyError(with->documents[0].homography, photo.homography,
+                                          page.size(), photo.image.size()),
+            3.0)
+      << "homography in the picture's pixels";
 }
 
 }  // namespace
