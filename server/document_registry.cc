@@ -142,10 +142,10 @@ absl::Status DocumentRegistryOptions::Validate() const {
         "rectified_picture_rounds must be >= 1 (rectified_picture_retry turns the retry off), got ",
         rectified_picture_rounds));
   if (!(rectified_picture_projective_min_slope >= 0))
-    return absl::InvalidArgumentError(absl::StrCat(
-        "rectified_picture_projective_min_slope must be >= 0 (a depth change over a "
-        "half-diagonal, relative to the centre's depth), got ",
-        rectified_picture_projective_min_slope));
+    return absl::InvalidArgumentError(
+        absl::StrCat("rectified_picture_projective_min_slope must be >= 0 (a depth change over a "
+                     "half-diagonal, relative to the centre's depth), got ",
+                     rectified_picture_projective_min_slope));
   if (!(rectified_picture_min_refit_ratio >= 1))
     return absl::InvalidArgumentError(absl::StrCat(
         "rectified_picture_min_refit_ratio must be >= 1, got ", rectified_picture_min_refit_ratio));
@@ -482,8 +482,8 @@ void DocumentRegistry::RetrieveRectifiedPicture(const cv::Mat &gray, const cv::M
     const double slope =
         std::hypot(horizon(2, 0), horizon(2, 1)) / w0 * std::hypot(gray.cols, gray.rows) / 2;
     if (std::isfinite(w0) && w0 > 0 && slope >= options_.rectified_picture_projective_min_slope)
-      projective = cv::Matx33d(1, 0, 0, 0, 1, 0, horizon(2, 0) / w0, horizon(2, 1) / w0,
-                               horizon(2, 2) / w0);
+      projective =
+          cv::Matx33d(1, 0, 0, 0, 1, 0, horizon(2, 0) / w0, horizon(2, 1) / w0, horizon(2, 2) / w0);
   }
   // Each round warps the picture by `rectification`, cuts it anew and retrieves; a round
   // that finds nothing fits the horizon again on the warped picture's own keypoints (cut

@@ -272,9 +272,9 @@ void PrintTrueRectification(const DocumentRegistry &registry, const Query &q, co
     const double w0 = inv(2, 0) * gray.cols / 2.0 + inv(2, 1) * gray.rows / 2.0 + inv(2, 2);
     const cv::Matx33d projective(1, 0, 0, 0, 1, 0, inv(2, 0) / w0, inv(2, 1) / w0, inv(2, 2) / w0);
     double lo_x = 1e18, lo_y = 1e18, hi_x = -1e18, hi_y = -1e18;
-    for (const cv::Point2d &corner : {cv::Point2d(0, 0), cv::Point2d(gray.cols, 0),
-                                      cv::Point2d(gray.cols, gray.rows),
-                                      cv::Point2d(0, gray.rows)}) {
+    for (const cv::Point2d &corner :
+         {cv::Point2d(0, 0), cv::Point2d(gray.cols, 0), cv::Point2d(gray.cols, gray.rows),
+          cv::Point2d(0, gray.rows)}) {
       const cv::Point2d p = texfree::ApplyHomography(projective, corner);
       lo_x = std::min(lo_x, p.x);
       lo_y = std::min(lo_y, p.y);
@@ -336,9 +336,8 @@ void PrintTrueRectification(const DocumentRegistry &registry, const Query &q, co
                "true rectification, page %d (tilt %.0f): as an image %s (%d keypoints), by its "
                "horizon alone %s; its keypoints mapped:%s; horizon %s\n",
                q.page, q.view.tilt_deg, image_found ? "found" : "missed",
-               as_image.ok() ? as_image->query_keypoints : -1,
-               horizon_found ? "found" : "missed", per_extractor.c_str(),
-               horizons.c_str());
+               as_image.ok() ? as_image->query_keypoints : -1, horizon_found ? "found" : "missed",
+               per_extractor.c_str(), horizons.c_str());
 }
 
 }  // namespace
