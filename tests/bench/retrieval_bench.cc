@@ -682,6 +682,8 @@ int main(int argc, char **argv) {
         } else if (misses) {
           std::fprintf(stderr, "off page %d: found, but %.1f px off (curl %.3f k1 %+.3f)\n", q.page,
                        err, q.view.page_curl, q.view.radial_k1);
+          if (!save_misses.empty())
+            cv::imwrite(save_misses + "/off_page" + std::to_string(q.page) + ".png", *gray);
         }
       } else if (misses || true_rectification) {
         if (true_rectification) PrintTrueRectification(*registry, q, *gray, id_of_page[q.page]);
