@@ -208,7 +208,8 @@ class DocumentRegistry {
   std::optional<DocumentSummary> Summary(uint32_t index_id) const;
   // The last try of RetrieveAsGiven: the picture warped by the text-line `horizon` (turned
   // so that the text lines are horizontal), cut anew and retrieved, in up to
-  // options_.rectified_picture_rounds rounds. A page found fills `hits` and `hits_kp` in the
+  // options_.rectified_picture_rounds rounds, then (options_.rectified_picture_projective)
+  // warped by the horizon's perspective alone. A page found fills `hits` and `hits_kp` in the
   // picture's pixels; the stage times are added to `extract_ms` and `match_ms`.
   void RetrieveRectifiedPicture(const cv::Mat &gray, const cv::Matx33d &horizon,
                                 double text_angle_rad, const LlahRetriever &retriever,
