@@ -746,6 +746,10 @@ absl::Status PoolBallOptions::Validate() const {
         absl::StrCat("white_outward_of_one must be in [-1, 1], got ", white_outward_of_one));
   if (!(five_orange_share > 0 && five_orange_share < 0.5))
     return absl::InvalidArgumentError("five_orange_share must be in (0, 0.5)");
+  if (!(unnamed_score >= 0 && unnamed_score < 1))
+    return absl::InvalidArgumentError(
+        absl::StrCat("unnamed_score must be in [0, 1) (a number's share of the votes), got ",
+                     unnamed_score));
   if (!(rim_outward_reach >= 0 && rim_outward_reach <= 2))
     return absl::InvalidArgumentError("rim_outward_reach must be in [0, 2]");
   if (!(edge_point_reach >= 0 && edge_point_reach <= 2))
@@ -850,9 +854,9 @@ double PoolRedShareOfThree(double saturation, double brightness, const PoolTable
   return 1 / (1 + std::exp(-z));
 }
 
-std::vector<int> AssignPoolNumbers(const std::vector<std::array<double, 10>>& scores) {
+std::vector<int> AssignPoolNumbers(const std::vector<std::array<double, 10>>& scores,
+                                   double unnamed_score) {
   // Dynamic programme over balls and the set of numbers used so far.
-  constexpr double kUnknown = 0.15;
   const int n = static_cast<int>(scores.size());
   const int states = 1 << kPoolBallCount;
   std::vector<std::vector<double>> best(n + 1, std::vector<double>(states, -1e18));
@@ -861,8 +865,8 @@ std::vector<int> AssignPoolNumbers(const std::vector<std::array<double, 10>>& sc
   for (int i = 0; i < n; ++i)
     for (int used = 0; used < states; ++used) {
       if (best[i][used] <= -1e17) continue;
-      if (best[i][used] + kUnknown > best[i + 1][used]) {
-        best[i + 1][used] = best[i][used] + kUnknown;
+      if (best[i][used] + unnamed_score > best[i + 1][used]) {
+        best[i + 1][used] = best[i][used] + unnamed_score;
         choice[i + 1][used] = -1;
       }
       for (int k = 0; k < kPoolBallCount; ++k) {
@@ -1764,7 +1768,7 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
   }
   std::vector<std::array<double, 10>> scores;
   for (const auto& b : balls) scores.push_back(PoolNumberScores(b.votes, options, b.white_outward));
-  const std::vector<int> numbers = AssignPoolNumbers(scores);
+  const std::vector<int> numbers = AssignPoolNumbers(scores, options.unnamed_score);
   for (size_t i = 0; i < balls.size(); ++i) {
     balls[i].number = numbers[i];
     balls[i].confidence = numbers[i] >= 0 ? scores[i][numbers[i]] : 0;

@@ -62,6 +62,12 @@ struct PoolBallOptions {
   // votes (1s and 9s of the benchmark: under 0.05; 5s: 0.42 and up), its yellow votes
   // are taken as a faded 5 (fully from twice this share).
   double five_orange_share = 0.15;
+  // A ball stays unnamed when no number left to it scores over this (PoolNumberScores: its
+  // share of the votes that speak for the number). At 0.15, a washed-out 5 (4 orange votes
+  // of 47, its yellow read as the 1/9 group's, the 1 and the 9 taken by clearer balls) was
+  // left unnamed on the benchmark's seed 17, and a 9-ft set ball likewise; at 0.08 both are
+  // named and no ball of the twelve sets is named otherwise than before.
+  double unnamed_score = 0.08;
   // A ball darker than the cloth (the 8, a shaded 6) has its shadow, as dark as itself,
   // joined to the near side of its outline; the far side, where the cloth seen beyond the
   // ball lies behind it, is its one clean edge. When set, its rim fit takes rim points on
@@ -184,8 +190,9 @@ std::array<double, 10> PoolNumberScores(const PoolVotes& votes, const PoolBallOp
 double PoolRedShareOfThree(double saturation, double brightness, const PoolTableProfile& profile);
 
 // Assigns numbers to balls so that each number is used at most once and the sum of
-// scores is largest (a ball may stay unknown when no number scores over 0.15).
-std::vector<int> AssignPoolNumbers(const std::vector<std::array<double, 10>>& scores);
+// scores is largest (a ball stays unknown, -1, when no number scores over `unnamed_score`).
+std::vector<int> AssignPoolNumbers(const std::vector<std::array<double, 10>>& scores,
+                                   double unnamed_score = PoolBallOptions().unnamed_score);
 
 // Figure 4.10: the image with every ball replaced by the cloth around it.
 cv::Mat EmptyTableBackground(const cv::Mat& ideal_bgr, const cv::Matx33d& K,

@@ -369,6 +369,25 @@ TEST(PoolNumbers, AssignmentUsesEachNumberOnce) {
   EXPECT_EQ(AssignPoolNumbers({none})[0], -1);
 }
 
+// Benchmark seed 17, frame 6: a 5 washed out by the light (4 orange votes of 47, its
+// yellow read as the 1/9 group's) beside a clear 9 and a clear 1. With the 1 and the 9
+// taken, its own number is all that is left to it, and it scores under the old 0.15.
+TEST(PoolNumbers, WashedOutFiveKeepsItsNumberWhenTheOneAndNineAreTaken) {
+  const PoolBallOptions o;
+  const PoolVotes nine{27, 35, 0, 0, 0, 0, 0, 0, 0};
+  const PoolVotes five{18, 22, 0, 0, 2, 4, 0, 1, 0};
+  const PoolVotes one{10, 31, 0, 0, 0, 0, 0, 0, 0};
+  const std::vector<std::array<double, 10>> scores{PoolNumberScores(nine, o, 0.03),
+                                                   PoolNumberScores(five, o, -0.15),
+                                                   PoolNumberScores(one, o, 0.04)};
+  EXPECT_EQ(AssignPoolNumbers(scores, o.unnamed_score), (std::vector<int>{9, 5, 1}));
+  EXPECT_EQ(AssignPoolNumbers(scores, 0.15), (std::vector<int>{9, -1, 1}))
+      << "the old threshold left it unnamed";
+  PoolBallOptions bad;
+  bad.unnamed_score = 1.0;
+  EXPECT_FALSE(bad.Validate().ok());
+}
+
 TEST(PoolNumbers, NineShowingMostlyWhiteDoesNotTakeTheCueNumber) {
   // A 9 lying with a white cap towards the camera is mostly white, but never as white as
   // the cue: the cue's score keeps growing up to all white, so the two do not tie.
