@@ -747,9 +747,8 @@ absl::Status PoolBallOptions::Validate() const {
   if (!(five_orange_share > 0 && five_orange_share < 0.5))
     return absl::InvalidArgumentError("five_orange_share must be in (0, 0.5)");
   if (!(unnamed_score >= 0 && unnamed_score < 1))
-    return absl::InvalidArgumentError(
-        absl::StrCat("unnamed_score must be in [0, 1) (a number's share of the votes), got ",
-                     unnamed_score));
+    return absl::InvalidArgumentError(absl::StrCat(
+        "unnamed_score must be in [0, 1) (a number's share of the votes), got ", unnamed_score));
   if (!(rim_outward_reach >= 0 && rim_outward_reach <= 2))
     return absl::InvalidArgumentError("rim_outward_reach must be in [0, 2]");
   if (!(edge_point_reach >= 0 && edge_point_reach <= 2))
