@@ -234,6 +234,27 @@ void PrintMiss(const DocumentRegistry &registry, const Query &q, const cv::Mat &
                                                      : result->documents[0].document.title.c_str());
 }
 
+// `gray` warped by `warp`, shifted so that the whole picture lands in the result (at most
+// 4000 px a side, white around it); `shifted` receives the shifted warp.
+cv::Mat WarpWhole(const cv::Mat &gray, const cv::Matx33d &warp, cv::Matx33d *shifted) {
+  double min_x = 1e18, min_y = 1e18, max_x = -1e18, max_y = -1e18;
+  for (const cv::Point2d &corner : {cv::Point2d(0, 0), cv::Point2d(gray.cols, 0),
+                                    cv::Point2d(gray.cols, gray.rows), cv::Point2d(0, gray.rows)}) {
+    const cv::Point2d p = texfree::ApplyHomography(warp, corner);
+    min_x = std::min(min_x, p.x);
+    min_y = std::min(min_y, p.y);
+    max_x = std::max(max_x, p.x);
+    max_y = std::max(max_y, p.y);
+  }
+  *shifted = cv::Matx33d(1, 0, -min_x, 0, 1, -min_y, 0, 0, 1) * warp;
+  cv::Mat out;
+  cv::warpPerspective(gray, out, cv::Mat(*shifted),
+                      cv::Size(std::min(4000, static_cast<int>(max_x - min_x)),
+                               std::min(4000, static_cast<int>(max_y - min_y))),
+                      cv::INTER_LINEAR, cv::BORDER_CONSTANT, cv::Scalar(255));
+  return out;
+}
+
 // The upper bound of a better rectification: a missed view rectified by the renderer's own
 // homography (scaled so that its text keeps its size at the view's centre), retrieved (1) as
 // an image, cut anew by the extractors, and (2) as the view's own keypoints of each
@@ -246,22 +267,9 @@ void PrintTrueRectification(const DocumentRegistry &registry, const Query &q, co
   const cv::Point2d dx = texfree::ApplyHomography(q.truth, centre + cv::Point2d(1, 0)) - c;
   const cv::Point2d dy = texfree::ApplyHomography(q.truth, centre + cv::Point2d(0, 1)) - c;
   const double scale = std::sqrt(std::abs(dx.cross(dy)));  // view px per page px there
-  double min_x = 1e18, min_y = 1e18, max_x = -1e18, max_y = -1e18;
-  for (const cv::Point2d &corner : {cv::Point2d(0, 0), cv::Point2d(gray.cols, 0),
-                                    cv::Point2d(gray.cols, gray.rows), cv::Point2d(0, gray.rows)}) {
-    const cv::Point2d p = texfree::ApplyHomography(inv, corner) * scale;
-    min_x = std::min(min_x, p.x);
-    min_y = std::min(min_y, p.y);
-    max_x = std::max(max_x, p.x);
-    max_y = std::max(max_y, p.y);
-  }
-  const cv::Matx33d rectify =
-      cv::Matx33d(scale, 0, -min_x, 0, scale, -min_y, 0, 0, 1) * inv;  // view -> rectified
-  cv::Mat rectified;
-  cv::warpPerspective(gray, rectified, cv::Mat(rectify),
-                      cv::Size(std::min(4000, static_cast<int>(max_x - min_x)),
-                               std::min(4000, static_cast<int>(max_y - min_y))),
-                      cv::INTER_LINEAR, cv::BORDER_CONSTANT, cv::Scalar(255));
+  cv::Matx33d rectify;  // view -> rectified
+  const cv::Mat rectified =
+      WarpWhole(gray, cv::Matx33d(scale, 0, 0, 0, scale, 0, 0, 0, 1) * inv, &rectify);
   auto as_image = registry.Retrieve(rectified, std::nullopt, 0);
   const bool image_found =
       as_image.ok() && !as_image->documents.empty() && as_image->documents[0].document.id == id;
@@ -271,22 +279,8 @@ void PrintTrueRectification(const DocumentRegistry &registry, const Query &q, co
   {
     const double w0 = inv(2, 0) * gray.cols / 2.0 + inv(2, 1) * gray.rows / 2.0 + inv(2, 2);
     const cv::Matx33d projective(1, 0, 0, 0, 1, 0, inv(2, 0) / w0, inv(2, 1) / w0, inv(2, 2) / w0);
-    double lo_x = 1e18, lo_y = 1e18, hi_x = -1e18, hi_y = -1e18;
-    for (const cv::Point2d &corner :
-         {cv::Point2d(0, 0), cv::Point2d(gray.cols, 0), cv::Point2d(gray.cols, gray.rows),
-          cv::Point2d(0, gray.rows)}) {
-      const cv::Point2d p = texfree::ApplyHomography(projective, corner);
-      lo_x = std::min(lo_x, p.x);
-      lo_y = std::min(lo_y, p.y);
-      hi_x = std::max(hi_x, p.x);
-      hi_y = std::max(hi_y, p.y);
-    }
-    const cv::Matx33d warp = cv::Matx33d(1, 0, -lo_x, 0, 1, -lo_y, 0, 0, 1) * projective;
-    cv::Mat warped;
-    cv::warpPerspective(gray, warped, cv::Mat(warp),
-                        cv::Size(std::min(4000, static_cast<int>(hi_x - lo_x)),
-                                 std::min(4000, static_cast<int>(hi_y - lo_y))),
-                        cv::INTER_LINEAR, cv::BORDER_CONSTANT, cv::Scalar(255));
+    cv::Matx33d shifted;
+    const cv::Mat warped = WarpWhole(gray, projective, &shifted);
     auto r = registry.Retrieve(warped, std::nullopt, 0);
     horizon_found = r.ok() && !r->documents.empty() && r->documents[0].document.id == id;
   }

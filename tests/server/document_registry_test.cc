@@ -81,6 +81,23 @@ class DocumentRegistryTest : public ::testing::Test {
               2.0);
   }
 
+  // Registers the rendered pages of `seeds` (titled "page SEED"); returns the id of page
+  // `wanted` and its image in `page`.
+  static std::string RegisterPages(DocumentRegistry& registry, std::vector<uint64_t> seeds,
+                                   uint64_t wanted, cv::Mat* page) {
+    std::string id;
+    for (uint64_t seed : seeds) {
+      const auto rendered = testdata::RenderTextPage(seed);
+      auto record = registry.Register(Gray(rendered.image), "page " + std::to_string(seed), {});
+      EXPECT_TRUE(record.ok()) << record.status();
+      if (record.ok() && seed == wanted) {
+        id = record->id;
+        *page = rendered.image;
+      }
+    }
+    return id;
+  }
+
   fs::path dir_;
   std::string path_;
 };
@@ -172,17 +189,9 @@ TEST_F(DocumentRegistryTest, HeldOutFontPageIsRetrievedFromATiltedView) {
 TEST_F(DocumentRegistryTest, CurledPageSeenThroughABarrelLensIsRetrieved) {
   auto registry = Open(DocumentRegistryOptions());
   ASSERT_NE(registry, nullptr);
-  std::string id;
   cv::Mat curled_page;
-  for (uint64_t seed : {40, 41, 42, 43}) {
-    const auto page = testdata::RenderTextPage(seed);
-    auto record = registry->Register(Gray(page.image), "page " + std::to_string(seed), {});
-    ASSERT_TRUE(record.ok()) << record.status();
-    if (seed == 41) {
-      id = record->id;
-      curled_page = page.image;
-    }
-  }
+  const std::string id = RegisterPages(*registry, {40, 41, 42, 43}, 41, &curled_page);
+  ASSERT_FALSE(id.empty());
   for (const bool one_sided : {false, true}) {
     testdata::CameraViewOptions view = TiltedView();
     view.page_curl = 0.08;
@@ -270,17 +279,9 @@ TEST_F(DocumentRegistryTest, SteepViewIsFoundInTheRectifiedPictureInItsOwnPixels
   options.rectified_picture_retry = false;
   auto registry = Open(options);
   ASSERT_NE(registry, nullptr);
-  std::string id;
   cv::Mat page;
-  for (uint64_t seed : {40, 41, 42, 43}) {
-    const auto rendered = testdata::RenderTextPage(seed);
-    auto record = registry->Register(Gray(rendered.image), "page " + std::to_string(seed), {});
-    ASSERT_TRUE(record.ok()) << record.status();
-    if (seed == 40) {
-      id = record->id;
-      page = rendered.image;
-    }
-  }
+  const std::string id = RegisterPages(*registry, {40, 41, 42, 43}, 40, &page);
+  ASSERT_FALSE(id.empty());
   // Steeper than the benchmark's 40 degrees: among four pages, the keypoints as seen still
   // find a 40-degree view.
   testdata::CameraViewOptions view = TiltedView();
@@ -432,17 +433,9 @@ TEST_F(DocumentRegistryTest, SteepViewIsFoundByTheHorizonsPerspectiveAlone) {
   options.rectified_picture_projective = false;
   auto registry = Open(options);
   ASSERT_NE(registry, nullptr);
-  std::string id;
   cv::Mat page;
-  for (uint64_t seed : {40, 41, 42, 43, 44, 45}) {
-    const auto rendered = testdata::RenderTextPage(seed);
-    auto record = registry->Register(Gray(rendered.image), "page " + std::to_string(seed), {});
-    ASSERT_TRUE(record.ok()) << record.status();
-    if (seed == 45) {
-      id = record->id;
-      page = rendered.image;
-    }
-  }
+  const std::string id = RegisterPages(*registry, {40, 41, 42, 43, 44, 45}, 45, &page);
+  ASSERT_FALSE(id.empty());
   testdata::CameraViewOptions view = TiltedView();
   view.tilt_deg = 42;
   view.tilt_azimuth_deg = 60;
