@@ -267,7 +267,7 @@ void PrintTrueRectification(const DocumentRegistry &registry, const Query &q, co
   const cv::Point2d dx = texfree::ApplyHomography(q.truth, centre + cv::Point2d(1, 0)) - c;
   const cv::Point2d dy = texfree::ApplyHomography(q.truth, centre + cv::Point2d(0, 1)) - c;
   const double scale = std::sqrt(std::abs(dx.cross(dy)));  // view px per page px there
-  cv::Matx33d rectify;  // view -> rectified
+  cv::Matx33d rectify;                                     // view -> rectified
   const cv::Mat rectified =
       WarpWhole(gray, cv::Matx33d(scale, 0, 0, 0, scale, 0, 0, 0, 1) * inv, &rectify);
   auto as_image = registry.Retrieve(rectified, std::nullopt, 0);
