@@ -2,8 +2,10 @@
 #include "client/camera_file.h"
 
 #include <cmath>
+#include <opencv2/calib3d.hpp>
 #include <opencv2/core.hpp>
 #include <opencv2/core/persistence.hpp>
+#include <opencv2/imgproc.hpp>
 
 namespace texfree::client {
 namespace {
@@ -120,6 +122,34 @@ void SaveCameraFile(const std::filesystem::path& path,
   if (!camera.distortion.empty())
     storage << "distortion_coefficients" << distortion;
   storage.release();
+}
+
+cv::Mat FrameUndistorter::Apply(const cv::Mat& frame) {
+  bool distorted = false;
+  for (double d : camera_.distortion) distorted |= d != 0;
+  if (!distorted) return frame;
+  if (camera_.image_width > 0 &&
+      (frame.cols != camera_.image_width || frame.rows != camera_.image_height))
+    throw CameraFileError("frames are " + std::to_string(frame.cols) + "x" +
+                          std::to_string(frame.rows) + " but the intrinsics are for " +
+                          std::to_string(camera_.image_width) + "x" +
+                          std::to_string(camera_.image_height) +
+                          ": undistortion needs frames at the calibrated size");
+  if (map1_.empty() || frame.size() != size_) {
+    size_ = frame.size();
+    cv::initUndistortRectifyMap(cv::Mat(camera_.camera_matrix), cv::Mat(camera_.distortion),
+                                cv::Mat(), cv::Mat(camera_.camera_matrix), size_, CV_16SC2,
+                                map1_, map2_);
+  }
+  cv::Mat out;
+  cv::remap(frame, out, map1_, map2_, cv::INTER_LINEAR, cv::BORDER_CONSTANT);
+  return out;
+}
+
+CameraFile FrameUndistorter::ideal() const {
+  CameraFile out = camera_;
+  out.distortion.clear();
+  return out;
 }
 
 }  // namespace texfree::client

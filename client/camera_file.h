@@ -4,6 +4,7 @@
 #pragma once
 
 #include <filesystem>
+#include <opencv2/core/mat.hpp>
 #include <opencv2/core/matx.hpp>
 #include <stdexcept>
 #include <string>
@@ -34,6 +35,24 @@ struct CameraFile {
 // has a wrong size. distortion_coefficients may be 1xN or Nx1 with N in {4, 5,
 // 8, 12, 14}; a missing distortion_coefficients node means no distortion.
 CameraFile LoadCameraFile(const std::filesystem::path& path);
+
+// Undoes a camera's lens distortion on its frames: each frame is remapped to the ideal
+// pinhole image of the same camera matrix, in which a flat page is exactly a homography
+// of itself. Maps are built for the first frame size seen. Not thread-safe.
+class FrameUndistorter {
+ public:
+  explicit FrameUndistorter(const CameraFile& camera) : camera_(camera) {}
+  // The frame as the ideal pinhole sees it (a view of `frame` when there is no distortion).
+  // Throws CameraFileError when the frame's size is not the calibration's.
+  cv::Mat Apply(const cv::Mat& frame);
+  // The camera of the undistorted frames: the same matrix, no distortion.
+  CameraFile ideal() const;
+
+ private:
+  CameraFile camera_;
+  cv::Size size_;
+  cv::Mat map1_, map2_;
+};
 
 // Writes the same format (used by tests and tools).
 void SaveCameraFile(const std::filesystem::path& path,

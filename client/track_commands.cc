@@ -45,6 +45,7 @@ struct TrackOptions {
   std::string intrinsics;
   std::string output;
   bool no_learning = false;
+  bool undistort = false;
   int64_t max_frames = 0;
   int jpeg_quality = 90;
   int window = 2;  // the server queues 2 frames per stream: a file never loses one
@@ -136,6 +137,13 @@ int RunTrack(CommandContext& ctx, const TrackOptions& options) {
       throw UsageError(e.what());
     }
   }
+  if (options.undistort && !camera)
+    throw UsageError("--undistort needs --intrinsics (the camera's distortion coefficients)");
+  std::optional<FrameUndistorter> undistorter;
+  if (options.undistort) {
+    undistorter.emplace(*camera);
+    camera = undistorter->ideal();  // the server sees an ideal pinhole
+  }
   if (!options.output.empty()) {
     const std::string ext = std::filesystem::path(options.output).extension().string();
     if (ext != ".mp4" && ext != ".avi" && ext != ".mkv" && ext != ".mov")
@@ -164,6 +172,7 @@ int RunTrack(CommandContext& ctx, const TrackOptions& options) {
   Summary summary;
   std::ostringstream warnings;
   const bool keep_images = !options.output.empty();
+  std::string sender_error;  // a frame the sender could not send: the run fails
 
   std::thread sender([&] {
     cv::Mat frame;
@@ -176,6 +185,15 @@ int RunTrack(CommandContext& ctx, const TrackOptions& options) {
         local_warnings << "warning: frame " << index << " is " << frame.cols << "x" << frame.rows
                        << " but " << options.intrinsics << " is for " << camera->image_width
                        << "x" << camera->image_height << "\n";
+      }
+      if (undistorter) {
+        try {
+          frame = undistorter->Apply(frame);
+        } catch (const CameraFileError& e) {
+          std::lock_guard lock(mutex);
+          sender_error = "--undistort: frame " + std::to_string(index) + ": " + e.what();
+          break;
+        }
       }
       {
         std::unique_lock lock(mutex);
@@ -311,6 +329,7 @@ int RunTrack(CommandContext& ctx, const TrackOptions& options) {
     writer.release();
   }
   ctx.err() << warnings.str();
+  if (!sender_error.empty()) throw UsageError(sender_error);
   ctx.Check(status);
 
   const double seconds = std::chrono::duration<double>(Clock::now() - t0).count();
@@ -357,6 +376,10 @@ void AddTrackCommands(CLI::App& app, CommandContext& ctx) {
                   "CAMERA.yml (OpenCV calibration file): also return each page's pose");
   cmd->add_option("--output", options->output,
                   "Write the frames with outlines and annotations to this video (.mp4)");
+  cmd->add_flag("--undistort", options->undistort,
+                "Undo the lens distortion of --intrinsics on each frame before sending it: "
+                "homographies, overlays and --output are then in the undistorted frames, where "
+                "a flat page is exactly a homography");
   cmd->add_flag("--no-learning", options->no_learning,
                 "Do not learn new views of the pages (on-line learning off)");
   cmd->add_option("--max-frames", options->max_frames, "Stop after this many frames (0 = all)")

@@ -165,6 +165,9 @@ int main(int argc, char** argv) {
                  "the page lifts off the desk by this many page widths, bowed across its width "
                  "(0: flat)")
       ->check(CLI::Range(0.0, 0.3));
+  bool undistort = false;
+  app.add_flag("--undistort", undistort,
+               "undo the lens distortion of each frame first (texfree track --undistort)");
   double motion_blur = 0;
   app.add_option("--motion-blur", motion_blur,
                  "each frame is smeared by camera shake of up to this many pixels (0: none)")
@@ -338,9 +341,18 @@ int main(int argc, char** argv) {
         tracker = std::make_unique<texfree::DocumentTracker>(method.options);
       for (size_t v = 0; v < seq.views.size(); ++v) {
         const auto& view = seq.views[v];
-        const auto& frame_options = seq.frames[v].options;
+        auto frame_options = seq.frames[v].options;
         cv::Mat gray;
         cv::cvtColor(view.image, gray, cv::COLOR_BGR2GRAY);
+        if (undistort && frame_options.radial_k1 != 0) {
+          // As `texfree track --undistort`: the frame remapped to the ideal pinhole of the
+          // same camera matrix, scored against the page seen through that pinhole.
+          cv::Mat ideal;
+          cv::undistort(gray, ideal, cv::Mat(view.camera_matrix),
+                        cv::Mat(std::vector<double>{frame_options.radial_k1, 0, 0, 0, 0}));
+          gray = ideal;
+          frame_options.radial_k1 = 0;
+        }
         Sample s;
         if (baseline) {
           s = baseline->Run(gray, view, frame_options, page_gray.size());

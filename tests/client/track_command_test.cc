@@ -9,11 +9,13 @@
 #include <mutex>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 #include <opencv2/videoio.hpp>
 #include <sstream>
 #include <string>
 #include <vector>
 
+#include "client/camera_file.h"
 #include "client/cli.h"
 #include "tests/client/cli_runner.h"
 #include "client/frame_source.h"
@@ -50,6 +52,7 @@ class FakeTracking final : public v1::TrackingService::Service {
         std::lock_guard lock(mutex_);
         widths_.push_back(image.cols);
         means_.push_back(image.empty() ? -1 : cv::mean(image)[0]);
+        last_image_ = image;
       }
       v1::TrackResponse r;
       r.set_frame_index(frame.frame_index());
@@ -75,12 +78,17 @@ class FakeTracking final : public v1::TrackingService::Service {
     std::lock_guard lock(mutex_);
     return means_;
   }
+  cv::Mat last_image() {
+    std::lock_guard lock(mutex_);
+    return last_image_;
+  }
 
  private:
   std::mutex mutex_;
   v1::TrackConfig config_;
   std::vector<int> widths_;
   std::vector<double> means_;
+  cv::Mat last_image_;
 };
 
 class TrackCommandTest : public ::testing::Test {
@@ -176,6 +184,63 @@ TEST_F(TrackCommandTest, WritesTheOutputVideoAndASummary) {
     ++frames;
   }
   EXPECT_EQ(frames, 3);
+}
+
+// --undistort: a frame through a strong barrel lens (k1 -0.3) reaches the server with its
+// dots back where an ideal pinhole puts them (within a pixel), the intrinsics sent carry no
+// distortion, and the input is checked: no --intrinsics, or frames of another size than
+// the calibration's, fail with exit 2.
+TEST_F(TrackCommandTest, UndistortSendsIdealPinholeFrames) {
+  CameraFile camera;
+  camera.camera_matrix = cv::Matx33d(300, 0, 159.5, 0, 300, 119.5, 0, 0, 1);
+  camera.distortion = {-0.3, 0, 0, 0, 0};
+  camera.image_width = 320;
+  camera.image_height = 240;
+  SaveCameraFile(dir_ / "cam.yml", camera);
+  // Dots drawn where the lens puts ideal grid points.
+  std::vector<cv::Point2d> ideal;
+  cv::Mat frame(240, 320, CV_8UC3, cv::Scalar::all(255));
+  for (int y = 30; y <= 210; y += 60)
+    for (int x = 30; x <= 290; x += 65) {
+      ideal.emplace_back(x, y);
+      const double nx = (x - 159.5) / 300, ny = (y - 119.5) / 300;
+      const double f = 1 - 0.3 * (nx * nx + ny * ny);
+      cv::circle(frame, cv::Point2d(159.5 + 300 * nx * f, 119.5 + 300 * ny * f), 3,
+                 cv::Scalar::all(0), -1, cv::LINE_AA);
+    }
+  fs::create_directories(dir_ / "lens");
+  cv::imwrite((dir_ / "lens" / "f0.png").string(), frame);
+
+  auto r = RunTexfree({"--server", Server(), "--json", "track", (dir_ / "lens").string(),
+                       "--intrinsics", (dir_ / "cam.yml").string(), "--undistort",
+                       "--jpeg-quality", "100"});
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_EQ(fake_.config().intrinsics().distortion_size(), 0);
+  EXPECT_DOUBLE_EQ(fake_.config().intrinsics().fx(), 300);
+  const cv::Mat seen = fake_.last_image();
+  ASSERT_EQ(seen.size(), cv::Size(320, 240));
+  double worst = 0;
+  for (const cv::Point2d& p : ideal) {
+    double sw = 0, sx = 0, sy = 0;
+    for (int y = static_cast<int>(p.y) - 7; y <= static_cast<int>(p.y) + 7; ++y)
+      for (int x = static_cast<int>(p.x) - 7; x <= static_cast<int>(p.x) + 7; ++x) {
+        const double w = 255.0 - seen.at<uint8_t>(y, x);
+        sw += w;
+        sx += w * x;
+        sy += w * y;
+      }
+    ASSERT_GT(sw, 255) << "no dot near " << p;
+    worst = std::max(worst, std::hypot(sx / sw - p.x, sy / sw - p.y));
+  }
+  EXPECT_LT(worst, 1.0);
+
+  r = RunTexfree({"--server", Server(), "track", (dir_ / "lens").string(), "--undistort"});
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("--undistort needs --intrinsics"), std::string::npos) << r.err;
+  r = RunTexfree({"--server", Server(), "track", (dir_ / "frames").string(), "--intrinsics",
+                  (dir_ / "cam.yml").string(), "--undistort"});
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("calibrated size"), std::string::npos) << r.err;
 }
 
 TEST(FrameSourceTest, ListsImagesSortedByName) {
