@@ -138,8 +138,8 @@ cv::Mat FrameUndistorter::Apply(const cv::Mat& frame) {
   if (map1_.empty() || frame.size() != size_) {
     size_ = frame.size();
     cv::initUndistortRectifyMap(cv::Mat(camera_.camera_matrix), cv::Mat(camera_.distortion),
-                                cv::Mat(), cv::Mat(camera_.camera_matrix), size_, CV_16SC2,
-                                map1_, map2_);
+                                cv::Mat(), cv::Mat(camera_.camera_matrix), size_, CV_16SC2, map1_,
+                                map2_);
   }
   cv::Mat out;
   cv::remap(frame, out, map1_, map2_, cv::INTER_LINEAR, cv::BORDER_CONSTANT);

@@ -17,8 +17,8 @@
 
 #include "client/camera_file.h"
 #include "client/cli.h"
-#include "tests/client/cli_runner.h"
 #include "client/frame_source.h"
+#include "tests/client/cli_runner.h"
 #include "texfree/v1/tracking.grpc.pb.h"
 
 namespace texfree::client {
@@ -211,9 +211,9 @@ TEST_F(TrackCommandTest, UndistortSendsIdealPinholeFrames) {
   fs::create_directories(dir_ / "lens");
   cv::imwrite((dir_ / "lens" / "f0.png").string(), frame);
 
-  auto r = RunTexfree({"--server", Server(), "--json", "track", (dir_ / "lens").string(),
-                       "--intrinsics", (dir_ / "cam.yml").string(), "--undistort",
-                       "--jpeg-quality", "100"});
+  auto r =
+      RunTexfree({"--server", Server(), "--json", "track", (dir_ / "lens").string(), "--intrinsics",
+                  (dir_ / "cam.yml").string(), "--undistort", "--jpeg-quality", "100"});
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_EQ(fake_.config().intrinsics().distortion_size(), 0);
   EXPECT_DOUBLE_EQ(fake_.config().intrinsics().fx(), 300);
