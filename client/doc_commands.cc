@@ -36,6 +36,7 @@ struct RegisterOptions {
 struct RetrieveOptions {
   std::string image;
   std::string intrinsics;
+  bool undistort = false;
   std::string overlay;
   unsigned max_results = 0;
 };
@@ -158,12 +159,14 @@ int RunRetrieve(CommandContext& ctx, const RetrieveOptions& options) {
       throw UsageError(e.what());
     }
   }
+  if (options.undistort && !camera)
+    throw UsageError("--undistort needs --intrinsics (the camera's distortion coefficients)");
   cv::Mat canvas;
-  if (!options.overlay.empty()) {
-    if (!cv::haveImageWriter(options.overlay)) {
-      throw UsageError("--overlay: cannot write images of this type: '" +
-                       options.overlay + "' (use .png or .jpg)");
-    }
+  if (!options.overlay.empty() && !cv::haveImageWriter(options.overlay)) {
+    throw UsageError("--overlay: cannot write images of this type: '" + options.overlay +
+                     "' (use .png or .jpg)");
+  }
+  if (!options.overlay.empty() || options.undistort) {
     std::vector<uchar> buffer(bytes.begin(), bytes.end());
     canvas = cv::imdecode(buffer, cv::IMREAD_COLOR);
     if (canvas.empty()) {
@@ -171,6 +174,20 @@ int RunRetrieve(CommandContext& ctx, const RetrieveOptions& options) {
                        "' (JPEG, PNG, BMP, TIFF)");
     }
   }
+  if (options.undistort) {
+    // The ideal pinhole's picture is what the server sees and what the overlay is drawn on.
+    FrameUndistorter undistorter(*camera);
+    try {
+      canvas = undistorter.Apply(canvas);
+    } catch (const CameraFileError& e) {
+      throw UsageError(std::string("--undistort: ") + e.what());
+    }
+    camera = undistorter.ideal();
+    std::vector<uchar> png;
+    cv::imencode(".png", canvas, png);
+    bytes.assign(png.begin(), png.end());
+  }
+  if (options.overlay.empty()) canvas.release();
 
   v1::RetrieveDocumentsRequest request;
   request.mutable_image()->set_encoded(std::move(bytes));
@@ -429,6 +446,9 @@ void AddDocCommands(CLI::App& app, CommandContext& ctx) {
     cmd->add_option(
         "--intrinsics", options->intrinsics,
         "CAMERA.yml (OpenCV calibration file): also return each page's pose");
+    cmd->add_flag("--undistort", options->undistort,
+                  "Undo the lens distortion of --intrinsics first: homographies and the "
+                  "overlay are then in the undistorted image");
     cmd->add_option(
         "--overlay", options->overlay,
         "Write the query image with outlines and annotations to this file");

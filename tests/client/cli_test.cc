@@ -16,6 +16,7 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -308,6 +309,53 @@ TEST_F(CliServerTest, RetrieveOutputsMatchesAndDrawsTheOverlay) {
   ASSERT_FALSE(drawn.empty());
   EXPECT_EQ(drawn.at<cv::Vec3b>(26, 26), cv::Vec3b(0, 0, 255));
   EXPECT_EQ(drawn.at<cv::Vec3b>(60, 60), cv::Vec3b(255, 255, 255));
+}
+
+// --undistort: the picture the server gets is the ideal pinhole's (a dot drawn through a
+// k1 -0.15 lens 5.5 px from where an ideal lens puts it arrives within 0.6 px of the ideal
+// place), with the intrinsics sent without distortion; it needs --intrinsics (exit 2).
+TEST_F(CliServerTest, RetrieveUndistortsThePictureWhenAsked) {
+  cv::Mat picture(200, 200, CV_8UC3, cv::Scalar::all(255));
+  const cv::Point2d ideal(25, 25);
+  const double nx = (ideal.x - 99.5) / 150, ny = (ideal.y - 99.5) / 150;
+  const double f = 1 - 0.15 * (nx * nx + ny * ny);
+  // Drawn at its sub-pixel place (4 fractional bits).
+  cv::circle(picture,
+             cv::Point(cvRound(16 * (99.5 + 150 * nx * f)), cvRound(16 * (99.5 + 150 * ny * f))),
+             32, cv::Scalar::all(0), -1, cv::LINE_AA, 4);
+  std::vector<uchar> png;
+  cv::imencode(".png", picture, png);
+  const std::string image = dir_.File("lens.png", std::string(png.begin(), png.end()));
+  const std::string camera = dir_.Path("lens.yml");
+  {
+    cv::FileStorage fs(camera, cv::FileStorage::WRITE);
+    fs << "image_width" << 200 << "image_height" << 200;
+    fs << "camera_matrix" << cv::Mat(cv::Matx33d(150, 0, 99.5, 0, 150, 99.5, 0, 0, 1));
+    fs << "distortion_coefficients" << cv::Mat(cv::Matx<double, 1, 5>(-0.15, 0, 0, 0, 0));
+  }
+  Result result = RunJson({"doc", "retrieve", image, "--intrinsics", camera, "--undistort"});
+  ASSERT_EQ(result.code, 0) << result.err;
+  EXPECT_EQ(service_.last_retrieve.intrinsics().distortion_size(), 0);
+  EXPECT_DOUBLE_EQ(service_.last_retrieve.intrinsics().fx(), 150);
+  const std::string& sent = service_.last_retrieve.image().encoded();
+  const cv::Mat seen = cv::imdecode(std::vector<uchar>(sent.begin(), sent.end()),
+                                    cv::IMREAD_GRAYSCALE);
+  ASSERT_EQ(seen.size(), cv::Size(200, 200));
+  double sw = 0, sx = 0, sy = 0;
+  for (int y = 12; y <= 38; ++y)
+    for (int x = 12; x <= 38; ++x) {
+      const double w = 255.0 - seen.at<uint8_t>(y, x);
+      sw += w;
+      sx += w * x;
+      sy += w * y;
+    }
+  ASSERT_GT(sw, 255);
+  EXPECT_NEAR(sx / sw, ideal.x, 0.6);
+  EXPECT_NEAR(sy / sw, ideal.y, 0.6);
+
+  result = RunJson({"doc", "retrieve", image, "--undistort"});
+  EXPECT_EQ(result.code, 2);
+  EXPECT_NE(result.err.find("--undistort needs --intrinsics"), std::string::npos) << result.err;
 }
 
 TEST_F(CliServerTest, ListFollowsPageTokens) {
