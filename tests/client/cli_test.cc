@@ -21,8 +21,8 @@
 #include <string>
 #include <vector>
 
-#include "texfree/v1/document.grpc.pb.h"
 #include "tests/client/cli_runner.h"
+#include "texfree/v1/document.grpc.pb.h"
 
 namespace texfree::client {
 namespace {
@@ -338,8 +338,8 @@ TEST_F(CliServerTest, RetrieveUndistortsThePictureWhenAsked) {
   EXPECT_EQ(service_.last_retrieve.intrinsics().distortion_size(), 0);
   EXPECT_DOUBLE_EQ(service_.last_retrieve.intrinsics().fx(), 150);
   const std::string& sent = service_.last_retrieve.image().encoded();
-  const cv::Mat seen = cv::imdecode(std::vector<uchar>(sent.begin(), sent.end()),
-                                    cv::IMREAD_GRAYSCALE);
+  const cv::Mat seen =
+      cv::imdecode(std::vector<uchar>(sent.begin(), sent.end()), cv::IMREAD_GRAYSCALE);
   ASSERT_EQ(seen.size(), cv::Size(200, 200));
   double sw = 0, sx = 0, sy = 0;
   for (int y = 12; y <= 38; ++y)

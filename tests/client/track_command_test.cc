@@ -206,10 +206,10 @@ TEST_F(TrackCommandTest, UndistortSendsIdealPinholeFrames) {
       const double nx = (x - 159.5) / 300, ny = (y - 119.5) / 300;
       const double f = 1 - 0.3 * (nx * nx + ny * ny);
       // Drawn at its sub-pixel place (4 fractional bits).
-      cv::circle(frame,
-                 cv::Point(cvRound(16 * (159.5 + 300 * nx * f)),
-                           cvRound(16 * (119.5 + 300 * ny * f))),
-                 48, cv::Scalar::all(0), -1, cv::LINE_AA, 4);
+      cv::circle(
+          frame,
+          cv::Point(cvRound(16 * (159.5 + 300 * nx * f)), cvRound(16 * (119.5 + 300 * ny * f))), 48,
+          cv::Scalar::all(0), -1, cv::LINE_AA, 4);
     }
   fs::create_directories(dir_ / "lens");
   cv::imwrite((dir_ / "lens" / "f0.png").string(), frame);
