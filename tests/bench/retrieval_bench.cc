@@ -17,6 +17,7 @@
 #include <fstream>
 #include <map>
 #include <opencv2/core.hpp>
+#include <opencv2/calib3d.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <random>
@@ -81,6 +82,9 @@ struct ViewRange {
   // Handheld shake: a motion blur of up to this many pixels (of a 640x480 view) in a random
   // direction, from the same separate stream.
   double max_motion_px = 0;
+  // Each view is undistorted with its own lens before it is queried (as `texfree doc
+  // retrieve --undistort` does with a calibration), and scored through the ideal pinhole.
+  bool undistort = false;
 };
 
 std::vector<Query> MakeQueries(int count, int registered, uint64_t seed, bool unregistered,
@@ -114,6 +118,13 @@ std::vector<Query> MakeQueries(int count, int registered, uint64_t seed, bool un
       options.motion_blur_angle_deg = 180 * unit();
     }
     auto view = texfree::testdata::RenderCameraView(rendered.image, options, seed + i);
+    if (range.undistort && options.radial_k1 != 0) {
+      cv::Mat ideal;
+      cv::undistort(view.image, ideal, cv::Mat(view.camera_matrix),
+                    cv::Mat(std::vector<double>{options.radial_k1, 0, 0, 0, 0}));
+      view.image = ideal;
+      options.radial_k1 = 0;
+    }
     std::vector<uchar> bytes;
     cv::imencode(".jpg", view.image, bytes,
                  {cv::IMWRITE_JPEG_QUALITY, 60 + static_cast<int>(rng() % 36)});
@@ -444,6 +455,9 @@ int main(int argc, char **argv) {
   app.add_option("--lens-k1", view_range.max_k1,
                  "the views' lens has a radial distortion k1 in [-K, K/2] (0: ideal pinhole)")
       ->check(CLI::Range(0.0, 0.5));
+  app.add_flag("--undistort", view_range.undistort,
+               "undistort each view with its own lens before querying it (texfree doc retrieve "
+               "--undistort)");
   app.add_option("--motion-blur", view_range.max_motion_px,
                  "the views are smeared by camera shake of up to this many pixels (0: none)")
       ->check(CLI::Range(0.0, 30.0));
