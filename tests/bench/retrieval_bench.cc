@@ -61,10 +61,12 @@ long RssKiB() {
 struct Query {
   std::string jpeg;
   int page;  // -1: never registered
-  cv::Matx33d truth;  // the flat page's homography (nominal when the page curls)
-  cv::Size page_size;
+  cv::Matx33d truth;  // registered-image pixels -> view (nominal when the page curls)
+  cv::Size page_size;  // of the rendered page
   texfree::testdata::CameraViewOptions view;
   texfree::testdata::CameraView camera;  // geometry only (no image), for the true projection
+  // Rendered-page pixels -> registered-image pixels (--register-scale).
+  cv::Matx33d page_to_registered = cv::Matx33d::eye();
 };
 
 // How the camera views are drawn: `resolution` scales the camera's pixels (the same views,
@@ -589,8 +591,7 @@ int main(int argc, char **argv) {
     const cv::Matx33d to_page(1 / register_scale, 0, 0, 0, 1 / register_scale, 0, 0, 0, 1);
     for (Query &q : queries) {
       q.truth = q.truth * to_page;
-      q.page_size = cv::Size(static_cast<int>(std::lround(q.page_size.width * register_scale)),
-                             static_cast<int>(std::lround(q.page_size.height * register_scale)));
+      q.page_to_registered = to_page.inv();
     }
     return queries;
   };
@@ -682,8 +683,8 @@ int main(int argc, char **argv) {
       report_slow(q, result, times.back());
       if (result.ok() && !result->documents.empty() &&
           result->documents[0].document.id == id_of_page[q.page]) {
-        const double err = texfree::testdata::MeanProjectionError(result->documents[0].homography,
-                                                                  q.camera, q.view, q.page_size);
+        const double err = texfree::testdata::MeanProjectionError(
+            result->documents[0].homography * q.page_to_registered, q.camera, q.view, q.page_size);
         errors.push_back(err);
         if (err < 10) {
           ++correct;
