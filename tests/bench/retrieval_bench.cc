@@ -61,7 +61,7 @@ long RssKiB() {
 struct Query {
   std::string jpeg;
   int page;  // -1: never registered
-  cv::Matx33d truth;  // registered-image pixels -> view (nominal when the page curls)
+  cv::Matx33d truth;   // registered-image pixels -> view (nominal when the page curls)
   cv::Size page_size;  // of the rendered page
   texfree::testdata::CameraViewOptions view;
   texfree::testdata::CameraView camera;  // geometry only (no image), for the true projection
