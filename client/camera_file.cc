@@ -124,10 +124,12 @@ void SaveCameraFile(const std::filesystem::path& path,
   storage.release();
 }
 
+FrameUndistorter::FrameUndistorter(const CameraFile& camera) : camera_(camera) {
+  for (double d : camera_.distortion) distorted_ |= d != 0;
+}
+
 cv::Mat FrameUndistorter::Apply(const cv::Mat& frame) {
-  bool distorted = false;
-  for (double d : camera_.distortion) distorted |= d != 0;
-  if (!distorted) return frame;
+  if (!distorted_) return frame;
   if (camera_.image_width > 0 &&
       (frame.cols != camera_.image_width || frame.rows != camera_.image_height))
     throw CameraFileError("frames are " + std::to_string(frame.cols) + "x" +

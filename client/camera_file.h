@@ -41,7 +41,7 @@ CameraFile LoadCameraFile(const std::filesystem::path& path);
 // of itself. Maps are built for the first frame size seen. Not thread-safe.
 class FrameUndistorter {
  public:
-  explicit FrameUndistorter(const CameraFile& camera) : camera_(camera) {}
+  explicit FrameUndistorter(const CameraFile& camera);
   // The frame as the ideal pinhole sees it (a view of `frame` when there is no distortion).
   // Throws CameraFileError when the frame's size is not the calibration's.
   cv::Mat Apply(const cv::Mat& frame);
@@ -50,6 +50,7 @@ class FrameUndistorter {
 
  private:
   CameraFile camera_;
+  bool distorted_ = false;  // any distortion coefficient non-zero
   cv::Size size_;
   cv::Mat map1_, map2_;
 };

@@ -278,4 +278,10 @@ double DepthRatio(const cv::Matx33d &P, const std::vector<cv::Point2f> &points) 
   return !points.empty() && lo > 0 ? hi / lo : 0;
 }
 
+std::optional<cv::Matx33d> PerspectiveOnly(const cv::Matx33d &P, const cv::Point2d &at) {
+  const double w = P(2, 0) * at.x + P(2, 1) * at.y + P(2, 2);
+  if (!(std::isfinite(w) && w > 0)) return std::nullopt;
+  return cv::Matx33d(1, 0, 0, 0, 1, 0, P(2, 0) / w, P(2, 1) / w, P(2, 2) / w);
+}
+
 }  // namespace texfree

@@ -80,6 +80,11 @@ std::optional<cv::Matx33d> RefineTextPerspective(const std::vector<cv::Point2f> 
 // behind the horizon (or there are no points).
 double DepthRatio(const cv::Matx33d &P, const std::vector<cv::Point2f> &points);
 
+// P's perspective alone: the identity with P's third row (its horizon), scaled so that
+// the depth is 1 at `at`. Its third row's first two entries are the depth's change per
+// pixel there, relative to the depth at `at`. nullopt when `at` is at or behind P's horizon.
+std::optional<cv::Matx33d> PerspectiveOnly(const cv::Matx33d &P, const cv::Point2d &at);
+
 std::vector<cv::Point2f> ApplyPerspective(const cv::Matx33d &P,
                                           const std::vector<cv::Point2f> &points);
 

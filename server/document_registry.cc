@@ -475,15 +475,13 @@ void DocumentRegistry::RetrieveRectifiedPicture(const cv::Mat &gray, const cv::M
   // 1 at the picture's centre.
   std::optional<cv::Matx33d> projective;
   if (options_.rectified_picture_projective) {
-    const double w0 =
-        horizon(2, 0) * gray.cols / 2.0 + horizon(2, 1) * gray.rows / 2.0 + horizon(2, 2);
+    projective = PerspectiveOnly(horizon, {gray.cols / 2.0, gray.rows / 2.0});
     // How much the depth changes over a half-diagonal from the centre, relative to the
     // centre's: the view's steepness as the horizon has it.
-    const double slope =
-        std::hypot(horizon(2, 0), horizon(2, 1)) / w0 * std::hypot(gray.cols, gray.rows) / 2;
-    if (std::isfinite(w0) && w0 > 0 && slope >= options_.rectified_picture_projective_min_slope)
-      projective =
-          cv::Matx33d(1, 0, 0, 0, 1, 0, horizon(2, 0) / w0, horizon(2, 1) / w0, horizon(2, 2) / w0);
+    if (projective && std::hypot((*projective)(2, 0), (*projective)(2, 1)) *
+                              std::hypot(gray.cols, gray.rows) / 2 <
+                          options_.rectified_picture_projective_min_slope)
+      projective.reset();
   }
   // Each round warps the picture by `rectification`, cuts it anew and retrieves; a round
   // that finds nothing fits the horizon again on the warped picture's own keypoints (cut

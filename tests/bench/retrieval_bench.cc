@@ -120,13 +120,7 @@ std::vector<Query> MakeQueries(int count, int registered, uint64_t seed, bool un
       options.motion_blur_angle_deg = 180 * unit();
     }
     auto view = texfree::testdata::RenderCameraView(rendered.image, options, seed + i);
-    if (range.undistort && options.radial_k1 != 0) {
-      cv::Mat ideal;
-      cv::undistort(view.image, ideal, cv::Mat(view.camera_matrix),
-                    cv::Mat(std::vector<double>{options.radial_k1, 0, 0, 0, 0}));
-      view.image = ideal;
-      options.radial_k1 = 0;
-    }
+    if (range.undistort) view.image = texfree::testdata::UndistortView(view.image, view, &options);
     std::vector<uchar> bytes;
     cv::imencode(".jpg", view.image, bytes,
                  {cv::IMWRITE_JPEG_QUALITY, 60 + static_cast<int>(rng() % 36)});
@@ -289,11 +283,10 @@ void PrintTrueRectification(const DocumentRegistry &registry, const Query &q, co
   // The true horizon alone (the perspective undone, the foreshortening's affine part left, as
   // the registry's rectified picture has it when its horizon is exact).
   bool horizon_found = false;
-  {
-    const double w0 = inv(2, 0) * gray.cols / 2.0 + inv(2, 1) * gray.rows / 2.0 + inv(2, 2);
-    const cv::Matx33d projective(1, 0, 0, 0, 1, 0, inv(2, 0) / w0, inv(2, 1) / w0, inv(2, 2) / w0);
+  const cv::Point2d view_centre(gray.cols / 2.0, gray.rows / 2.0);
+  if (const auto projective = texfree::PerspectiveOnly(inv, view_centre)) {
     cv::Matx33d shifted;
-    const cv::Mat warped = WarpWhole(gray, projective, &shifted);
+    const cv::Mat warped = WarpWhole(gray, *projective, &shifted);
     auto r = registry.Retrieve(warped, std::nullopt, 0);
     horizon_found = r.ok() && !r->documents.empty() && r->documents[0].document.id == id;
   }
@@ -319,10 +312,11 @@ void PrintTrueRectification(const DocumentRegistry &registry, const Query &q, co
   // on the registration extractor's keypoints.
   const double half_diagonal = std::hypot(gray.cols, gray.rows) / 2;
   auto horizon = [&](const cv::Matx33d &P) {
-    const double at_centre = P(2, 0) * gray.cols / 2.0 + P(2, 1) * gray.rows / 2.0 + P(2, 2);
+    const auto only = texfree::PerspectiveOnly(P, view_centre);
+    if (!only) return std::string("(behind the horizon)");
     char text[64];
-    std::snprintf(text, sizeof(text), "(%+.3f, %+.3f)", P(2, 0) / at_centre * half_diagonal,
-                  P(2, 1) / at_centre * half_diagonal);
+    std::snprintf(text, sizeof(text), "(%+.3f, %+.3f)", (*only)(2, 0) * half_diagonal,
+                  (*only)(2, 1) * half_diagonal);
     return std::string(text);
   };
   std::string horizons = "true " + horizon(inv);

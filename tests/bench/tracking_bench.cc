@@ -344,15 +344,9 @@ int main(int argc, char** argv) {
         auto frame_options = seq.frames[v].options;
         cv::Mat gray;
         cv::cvtColor(view.image, gray, cv::COLOR_BGR2GRAY);
-        if (undistort && frame_options.radial_k1 != 0) {
-          // As `texfree track --undistort`: the frame remapped to the ideal pinhole of the
-          // same camera matrix, scored against the page seen through that pinhole.
-          cv::Mat ideal;
-          cv::undistort(gray, ideal, cv::Mat(view.camera_matrix),
-                        cv::Mat(std::vector<double>{frame_options.radial_k1, 0, 0, 0, 0}));
-          gray = ideal;
-          frame_options.radial_k1 = 0;
-        }
+        // As `texfree track --undistort`: the frame remapped to the ideal pinhole of the same
+        // camera matrix, scored against the page seen through that pinhole.
+        if (undistort) gray = texfree::testdata::UndistortView(gray, view, &frame_options);
         Sample s;
         if (baseline) {
           s = baseline->Run(gray, view, frame_options, page_gray.size());

@@ -252,5 +252,16 @@ TEST(DepthRatioTest, RatioOfTheDepthsAtThePoints) {
   EXPECT_EQ(DepthRatio(cv::Matx33d::eye(), {}), 0.0);
 }
 
+TEST(PerspectiveOnlyTest, KeepsTheHorizonWithDepthOneAtThePoint) {
+  // Depth 2 + 0.01 x - 0.02 y: 2.5 at (100, 25).
+  const cv::Matx33d P(3, 1, 5, 2, 4, 7, 0.01, -0.02, 2);
+  const auto only = PerspectiveOnly(P, {100, 25});
+  ASSERT_TRUE(only.has_value());
+  const cv::Matx33d expected(1, 0, 0, 0, 1, 0, 0.004, -0.008, 0.8);
+  EXPECT_LT(cv::norm(*only - expected), 1e-12);
+  // Behind the horizon: depth 2 + 1 - 4 < 0 at (100, 200).
+  EXPECT_FALSE(PerspectiveOnly(P, {100, 200}).has_value());
+}
+
 }  // namespace
 }  // namespace texfree

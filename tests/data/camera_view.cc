@@ -635,6 +635,15 @@ cv::Point2d ProjectPagePoint(const CameraView &view, const CameraViewOptions &op
   return {k(0, 0) * x + k(0, 1) * y + k(0, 2), k(1, 1) * y + k(1, 2)};
 }
 
+cv::Mat UndistortView(const cv::Mat &image, const CameraView &view, CameraViewOptions *options) {
+  if (options->radial_k1 == 0) return image;
+  cv::Mat ideal;
+  cv::undistort(image, ideal, cv::Mat(view.camera_matrix),
+                cv::Mat(std::vector<double>{options->radial_k1, 0, 0, 0, 0}));
+  options->radial_k1 = 0;
+  return ideal;
+}
+
 double MeanProjectionError(const cv::Matx33d &estimated, const CameraView &view,
                            const CameraViewOptions &options, const cv::Size &page_size) {
   return MeanGridError(estimated, page_size, options.image_size, [&](const cv::Point2d &p) {

@@ -95,6 +95,11 @@ double MeanHomographyError(const cv::Matx33d& estimated, const cv::Matx33d& trut
 cv::Point2d ProjectPagePoint(const CameraView& view, const CameraViewOptions& options,
                              const cv::Size& page_size, const cv::Point2d& page_point);
 
+// `image` (a render of `view` with `options`, or a copy of it) as an ideal pinhole with the
+// same camera matrix sees it: the lens's radial_k1 undone. `options` then describes the
+// undistorted image (radial_k1 = 0), for ProjectPagePoint and MeanProjectionError.
+cv::Mat UndistortView(const cv::Mat& image, const CameraView& view, CameraViewOptions* options);
+
 // As MeanHomographyError, against the view's true projection (ProjectPagePoint):
 // for a curled page or a distorting lens no homography is exact, and this is
 // the error a user sees.
