@@ -841,7 +841,8 @@ std::vector<DocumentHit> LlahRetriever::RetrieveDescribed(const std::vector<cv::
       auto refine = [&](cv::Matx33d *h, const std::vector<std::pair<int, int>> &agreeing) {
         std::vector<std::pair<int, int>> guided;
         double gate = threshold;
-        for (int round = 0; round < 3; ++round) {
+        size_t grown = 0;  // matches of the last round at the full gate
+        for (int round = 0; round < 6; ++round) {
           std::vector<int> owner(query.size(), -1);
           std::vector<float> owner_d(query.size(), 0.f);
           for (int r = 0; r < static_cast<int>(model.base); ++r) {
@@ -883,6 +884,13 @@ std::vector<DocumentHit> LlahRetriever::RetrieveDescribed(const std::vector<cv::
           std::vector<double> residuals(gr.size());
           for (size_t i = 0; i < gr.size(); ++i)
             residuals[i] = cv::norm(ApplyHomography(*h, gr[i]) - cv::Point2d(gq[i]));
+          // While the matches still grow at the full gate, the refit homography reaches
+          // further from the consensus it started from: keep growing. Then shrink.
+          if (gate == threshold && guided.size() > grown && round < 4) {
+            grown = guided.size();
+            continue;
+          }
+          if (gate < threshold) break;  // the shrunk gate's refit was the last
           std::nth_element(residuals.begin(), residuals.begin() + residuals.size() / 2,
                            residuals.end());
           gate = std::clamp(3.0 * residuals[residuals.size() / 2], 1.0, threshold);
@@ -994,6 +1002,7 @@ std::vector<DocumentHit> LlahRetriever::RetrieveDescribed(const std::vector<cv::
         // Fewer LLAH inliers than the first pass's gate (the few-keypoint pass): the layout
         // alone decides, with every homography tried counted as a chance.
         const bool layout_only = inliers < o.min_weak_inliers;
+        if (traced) trace->layout_inside = InsideHull(model.keypoints, model.base, H, query_hull);
         if (!LayoutConfirms(model.keypoints, model.base, H, query_hull, matched, o,
                             layout_only   ? o.deep_min_layout_ratio
                             : significant ? o.min_significant_layout_ratio

@@ -87,6 +87,9 @@ struct ViewRange {
   // Each view is undistorted with its own lens before it is queried (as `texfree doc
   // retrieve --undistort` does with a calibration), and scored through the ideal pinhole.
   bool undistort = false;
+  // Only views of these registered pages are rendered and queried (empty: all). The other
+  // views still draw from the streams, so each kept view is the one a full run queries.
+  std::vector<int> only_pages;
 };
 
 std::vector<Query> MakeQueries(int count, int registered, uint64_t seed, bool unregistered,
@@ -99,6 +102,14 @@ std::vector<Query> MakeQueries(int count, int registered, uint64_t seed, bool un
     const int page =
         unregistered ? -1 : static_cast<int>((static_cast<int64_t>(i) * 7919) % registered);
     const uint64_t page_seed = unregistered ? 1'000'000 + i : page;
+    if (!unregistered && !range.only_pages.empty() &&
+        std::find(range.only_pages.begin(), range.only_pages.end(), page) ==
+            range.only_pages.end()) {
+      texfree::testdata::RandomViewOptions(rng, {page_options.width, page_options.height}, 40,
+                                           range.min_scale, range.max_scale);
+      rng();  // the JPEG quality
+      continue;
+    }
     auto rendered = texfree::testdata::RenderTextPage(page_seed, page_options);
     auto options = texfree::testdata::RandomViewOptions(rng, rendered.image.size(), 40,
                                                         range.min_scale, range.max_scale);
@@ -212,10 +223,10 @@ void PrintMiss(const DocumentRegistry &registry, const Query &q, const cv::Mat &
       char line[200];
       std::snprintf(line, sizeof(line),
                     " [%sstop %d, hits %d/%d, votes %d/%d/%d rank %d, candidate %d of %d, ransac "
-                    "%d final %d guided %d%s]",
+                    "%d final %d guided %d inside %d%s]",
                     t.rectified ? "rectified, " : "", t.stop_word_lookups, t.hits, t.total_hits,
                     t.coherent, t.strong, t.votes, t.rank_by_score, t.rank, t.candidates,
-                    t.ransac_inliers, t.final_inliers, t.guided, t.accepted ? " accepted" : "");
+                    t.ransac_inliers, t.final_inliers, t.guided, t.layout_inside, t.accepted ? " accepted" : "");
       return std::string(line);
     };
     stats += gates(t);
@@ -451,6 +462,10 @@ int main(int argc, char **argv) {
   app.add_option("--lens-k1", view_range.max_k1,
                  "the views' lens has a radial distortion k1 in [-K, K/2] (0: ideal pinhole)")
       ->check(CLI::Range(0.0, 0.5));
+  app.add_option("--only-pages", view_range.only_pages,
+                 "query only the views of these registered pages (the views a full run draws for "
+                 "them; e.g. the pages --misses names)")
+      ->delimiter(',');
   app.add_flag("--undistort", view_range.undistort,
                "undistort each view with its own lens before querying it (texfree doc retrieve "
                "--undistort)");
