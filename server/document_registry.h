@@ -60,7 +60,7 @@ struct DocumentRegistryOptions {
   // queried: a view of a chart holds too few words for LLAH. A database keeps what its
   // pages were registered with (setting keypoints.figure_corners; databases from before it
   // have none), since a page's descriptors near a figure differ with and without them.
-  bool figure_corners = false;
+  bool figure_corners = true;
   FigureCornerOptions figure;
   // Used for a new database; an existing one keeps the settings it was built
   // with.
