@@ -30,8 +30,6 @@ constexpr const char *kHashVersion = "1";
 // How the database's pages were cut into words. Absent in databases built before it was
 // stored, which all used the line closing.
 constexpr const char *kGroupingKey = "keypoints.grouping";
-// "on" when the pages' keypoints include figure corners; absent in databases from before.
-constexpr const char *kFigureCornersKey = "keypoints.figure_corners";
 
 const char *GroupingName(WordGrouping g) {
   return g == WordGrouping::kLetterGraph ? "letter_graph" : "line_closing";
@@ -120,8 +118,6 @@ absl::Status DocumentRegistryOptions::Validate() const {
     return absl::InvalidArgumentError(
         absl::StrCat("assumed_horizontal_fov_deg must be in [0, 170) (0: none), got ",
                      assumed_horizontal_fov_deg));
-  if (absl::Status s = figure.Validate(); !s.ok())
-    return absl::InvalidArgumentError(absl::StrCat("figure: ", s.message()));
   if (absl::Status s = tracking_keypoints.Validate(); !s.ok())
     return absl::InvalidArgumentError(absl::StrCat("tracking_keypoints: ", s.message()));
   for (size_t i = 0; i < fallback_keypoints.size(); ++i) {
@@ -170,10 +166,7 @@ absl::Status DocumentRegistryOptions::Validate() const {
 
 DocumentRegistry::DocumentRegistry(std::unique_ptr<DocumentStore> store,
                                    DocumentRegistryOptions options)
-    : options_(std::move(options)),
-      store_(std::move(store)),
-      extractor_(options_.keypoints),
-      figure_extractor_(options_.figure) {
+    : options_(std::move(options)), store_(std::move(store)), extractor_(options_.keypoints) {
   for (const WordKeypointOptions &o : options_.fallback_keypoints)
     fallback_extractors_.emplace_back(o);
   for (const RegistrationLayer &layer : options_.registration_layers)
@@ -221,14 +214,6 @@ absl::Status DocumentRegistry::LoadIndex() {
         "(register the pages into a new database to use the {})",
         GroupingName(grouping), GroupingName(options_.keypoints.grouping));
     UseRegistrationGrouping(grouping);
-  }
-  ASSIGN_OR_RETURN(auto stored_corners, store_->GetSetting(kFigureCornersKey));
-  const bool figure_corners = stored_corners && *stored_corners == "on";
-  if (figure_corners != options_.figure_corners) {
-    spdlog::warn("document index: pages were registered {} figure corners; keeping that for "
-                 "this database (register the pages into a new database to change it)",
-                 figure_corners ? "with" : "without");
-    options_.figure_corners = figure_corners;
   }
   ASSIGN_OR_RETURN(InvariantQuantizer quantizer, ParseThresholds(*stored_thresholds, llah.k));
   auto retriever =
@@ -283,7 +268,6 @@ absl::Status DocumentRegistry::CreateRetriever(const std::vector<cv::Point2f> &t
   RETURN_IF_ERROR(store_->PutSetting(kLlahOptionsKey, FormatOptions(options_.llah)));
   RETURN_IF_ERROR(store_->PutSetting(kHashVersionKey, kHashVersion));
   RETURN_IF_ERROR(store_->PutSetting(kGroupingKey, GroupingName(options_.keypoints.grouping)));
-  RETURN_IF_ERROR(store_->PutSetting(kFigureCornersKey, options_.figure_corners ? "on" : "off"));
   spdlog::info("document index: learned {} quantisation levels: {}", options_.llah.k,
                FormatThresholds(quantizer.thresholds()));
   std::unique_lock lock(mutex_);
@@ -308,9 +292,6 @@ absl::StatusOr<DocumentRecord> DocumentRegistry::Register(
   }
   if (title.size() > 1024) return absl::InvalidArgumentError("title is over 1024 bytes");
   WordKeypoints kp = extractor_.Extract(gray);
-  const FigureCorners figure = FigureCornersOf(gray, kp);
-  kp.points.insert(kp.points.end(), figure.points.begin(), figure.points.end());
-  if (kp.char_height <= 0) kp.char_height = figure.char_height;
   if (static_cast<int>(kp.points.size()) < options_.min_keypoints) {
     return absl::FailedPreconditionError(
         absl::StrCat("found ", kp.points.size(), " word keypoints in the ", gray.cols, "x",
@@ -375,12 +356,6 @@ absl::StatusOr<DocumentRecord> DocumentRegistry::Register(
   return record;
 }
 
-FigureCorners DocumentRegistry::FigureCornersOf(const cv::Mat &gray,
-                                               const WordKeypoints &words) const {
-  if (!options_.figure_corners) return {};
-  return figure_extractor_.Extract(gray, words.char_height, words.text_angle_rad, words.points);
-}
-
 void DocumentRegistry::ExtractLayers(const cv::Mat &gray, size_t base_keypoints,
                                      DocumentRecord *record) const {
   // The index addresses a page's keypoints with 16 bits: layers that would not fit are left
@@ -394,9 +369,7 @@ void DocumentRegistry::ExtractLayers(const cv::Mat &gray, size_t base_keypoints,
     cv::Mat seen;
     cv::resize(gray, seen, size, 0, 0, cv::INTER_AREA);
     if (layer.blur_sigma > 0) cv::GaussianBlur(seen, seen, cv::Size(), layer.blur_sigma);
-    WordKeypoints kp = layer_extractors_[i].Extract(seen);
-    const FigureCorners figure = FigureCornersOf(seen, kp);
-    kp.points.insert(kp.points.end(), figure.points.begin(), figure.points.end());
+    const WordKeypoints kp = layer_extractors_[i].Extract(seen);
     if (total + kp.points.size() > kMaxKeypoints) break;
     // Pixel centres: pixel i of the small image covers page pixels [i / sx, (i + 1) / sx).
     // Positions stay the layer's own, even where it cuts a word as the base does: snapped to
@@ -622,7 +595,6 @@ absl::StatusOr<RetrievalResult> DocumentRegistry::RetrieveAsGiven(
   // Every extractor measures the text alike (pass 1); the fallbacks reuse the first's
   // measurement, and when it found no text there is nothing for them to group either.
   TextGeometry measured;
-  FigureCorners figure;            // the view's figure corners (FigureCornersOf)
   std::vector<cv::Point2f> tried;  // the previous extractor's keypoints
   // The first keypoints' text-line horizon, when the retriever's last try fitted it.
   std::optional<cv::Matx33d> text_line_horizon;
@@ -632,18 +604,12 @@ absl::StatusOr<RetrievalResult> DocumentRegistry::RetrieveAsGiven(
       kp = extractor_.Extract(gray);
       measured = {kp.char_height, kp.text_angle_rad};
       first_points = kp.points;
-      figure = FigureCornersOf(gray, kp);
     } else {
       kp = fallback_extractors_[attempt - 1].Extract(gray, measured);
     }
-    // Every cut of the words with the same corners; a view without text (a chart) is
-    // retrieved on its corners alone, at the height the strokes give.
-    kp.points.insert(kp.points.end(), figure.points.begin(), figure.points.end());
-    if (kp.char_height <= 0) kp.char_height = figure.char_height;
     extract_ms += MillisecondsSince(t);
     if (attempt == 0) result.query_keypoints = static_cast<int>(kp.points.size());
-    if (kp.char_height <= 0) break;
-    if (attempt > 0 && measured.char_height <= 0) break;  // no words to cut otherwise
+    if (measured.char_height <= 0) break;
     if (!retriever) break;
     // Two groupings often cut a view alike (the line closings at 0.25 and 0.35 text
     // heights agree on clearly spaced text): the same keypoints would find the same.

@@ -15,7 +15,6 @@
 
 #include "absl/status/statusor.h"
 #include "common/llah.h"
-#include "common/figure_keypoints.h"
 #include "common/llah_retriever.h"
 #include "common/planar_pose.h"
 #include "common/word_keypoints.h"
@@ -55,13 +54,6 @@ struct DocumentRegistryOptions {
   // held a correct pose to 79 deg at 4.2 ms CPU per frame, against 77.5 deg at 6.4 ms with
   // the letter graph; on-line learning absorbs the difference from the registered cut.
   WordKeypointOptions tracking_keypoints = DefaultFallbackKeypointOptions()[0];
-  // Corners of figures, rules and frames (FigureCornerExtractor: a plot's bends, a bar's
-  // corners) join the words as keypoints of a page at registration and of every view
-  // queried: a view of a chart holds too few words for LLAH. A database keeps what its
-  // pages were registered with (setting keypoints.figure_corners; databases from before it
-  // have none), since a page's descriptors near a figure differ with and without them.
-  bool figure_corners = true;
-  FigureCornerOptions figure;
   // Used for a new database; an existing one keeps the settings it was built
   // with.
   LlahOptions llah;
@@ -212,9 +204,6 @@ class DocumentRegistry {
   void ExtractLayers(const cv::Mat &gray, size_t base_keypoints, DocumentRecord *record) const;
   // Makes `grouping` the registration and first query extractor (the database's own).
   void UseRegistrationGrouping(WordGrouping grouping);
-  // The figure corners of `gray` for words measured as `words` (empty when the database
-  // has none).
-  FigureCorners FigureCornersOf(const cv::Mat &gray, const WordKeypoints &words) const;
   absl::Status CreateRetriever(const std::vector<cv::Point2f> &training_points);
   std::optional<DocumentSummary> Summary(uint32_t index_id) const;
   // The last try of RetrieveAsGiven: the picture warped by the text-line `horizon` (turned
@@ -235,7 +224,6 @@ class DocumentRegistry {
   DocumentRegistryOptions options_;
   std::unique_ptr<DocumentStore> store_;
   WordKeypointExtractor extractor_;
-  FigureCornerExtractor figure_extractor_;
   std::vector<WordKeypointExtractor> fallback_extractors_;
   std::vector<WordKeypointExtractor> layer_extractors_;  // per registration layer
   std::mutex register_mutex_;
