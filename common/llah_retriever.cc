@@ -22,6 +22,8 @@ namespace texfree {
 absl::Status RetrievalOptions::Validate() const {
   if (max_hits_per_descriptor < 1)
     return absl::InvalidArgumentError("max_hits_per_descriptor must be >= 1");
+  if (guided_growth_rounds < 0 || guided_growth_rounds > 20)
+    return absl::InvalidArgumentError("guided_growth_rounds must be in [0, 20]");
   if (max_hits_per_1000_documents < 0)
     return absl::InvalidArgumentError("max_hits_per_1000_documents must be >= 0");
   if (prefilter_documents < 0)
@@ -838,11 +840,12 @@ std::vector<DocumentHit> LlahRetriever::RetrieveDescribed(const std::vector<cv::
       // The gate starts at the RANSAC threshold and then shrinks to a few times the median
       // residual, so that extra keypoints a few pixels from a projected word stop pulling the
       // least-squares refit.
-      auto refine = [&](cv::Matx33d *h, const std::vector<std::pair<int, int>> &agreeing) {
+      auto refine_from = [&](cv::Matx33d *h, const std::vector<std::pair<int, int>> &agreeing) {
         std::vector<std::pair<int, int>> guided;
         double gate = threshold;
-        size_t grown = 0;  // matches of the last round at the full gate
-        for (int round = 0; round < 6; ++round) {
+        size_t grown = 0;   // matches of the last round at the full gate
+        int shrunk = 0;     // rounds since the gate began to shrink
+        for (int round = 0; round < o.guided_growth_rounds + 3; ++round) {
           std::vector<int> owner(query.size(), -1);
           std::vector<float> owner_d(query.size(), 0.f);
           for (int r = 0; r < static_cast<int>(model.base); ++r) {
@@ -864,7 +867,8 @@ std::vector<DocumentHit> LlahRetriever::RetrieveDescribed(const std::vector<cv::
               owner_d[nearest[0]] = d;
             }
           }
-          guided.clear();
+          std::vector<std::pair<int, int>> previous;
+          previous.swap(guided);
           std::vector<cv::Point2f> gr, gq;
           for (int q = 0; q < static_cast<int>(query.size()); ++q) {
             if (owner[q] < 0) continue;
@@ -876,24 +880,78 @@ std::vector<DocumentHit> LlahRetriever::RetrieveDescribed(const std::vector<cv::
             guided = agreeing;
             break;
           }
-          cv::Mat refined = cv::findHomography(gr, gq, 0);
+          // Growth rounds refit robustly: the full gate lets wrong matches in.
+          const bool growing = round > 0 && shrunk == 0;
+          cv::Mat refined = growing ? cv::findHomography(gr, gq, cv::RANSAC, gate, cv::noArray(),
+                                                         200)
+                                    : cv::findHomography(gr, gq, 0);
           if (refined.empty()) break;
           cv::Matx33d refined_h(refined);
           if (!MakePlausibleHomography(&refined_h, gr)) break;
+          // A refit of a growing match set must keep the consensus it started from: wrong
+          // matches gathered at the full gate in a noisy view would otherwise pull it away,
+          // round by round. Then the last refit that kept it stands.
+          if (growing) {
+            size_t kept = 0;
+            for (const auto &[qi, ri] : agreeing)
+              kept += cv::norm(ApplyHomography(refined_h, model.keypoints[ri]) -
+                               cv::Point2d(query[qi])) <= threshold;
+            if (kept * 5 < agreeing.size() * 4) {
+              guided = std::move(previous);
+              break;
+            }
+          }
           *h = refined_h;
           std::vector<double> residuals(gr.size());
           for (size_t i = 0; i < gr.size(); ++i)
             residuals[i] = cv::norm(ApplyHomography(*h, gr[i]) - cv::Point2d(gq[i]));
           // While the matches still grow at the full gate, the refit homography reaches
           // further from the consensus it started from: keep growing. Then shrink.
-          if (gate == threshold && guided.size() > grown && round < 4) {
+          if (shrunk == 0 && guided.size() > grown &&
+              guided.size() < 2 * static_cast<size_t>(o.min_layout_matches) &&
+              round < o.guided_growth_rounds) {
             grown = guided.size();
             continue;
           }
-          if (gate < threshold) break;  // the shrunk gate's refit was the last
+          if (++shrunk > 2) break;  // two refits at the shrunk gate
           std::nth_element(residuals.begin(), residuals.begin() + residuals.size() / 2,
                            residuals.end());
           gate = std::clamp(3.0 * residuals[residuals.size() / 2], 1.0, threshold);
+        }
+        return guided;
+      };
+      // A consensus along one line (a column of figures, a line of large type) leaves the
+      // homography free across it, and guided matching from it finds little beyond the
+      // line. A similarity (rotation, scale, shift) fitted to the same pairs extrapolates
+      // soundly from two points: when the homography's matches stay few and the consensus
+      // lies along a line, guided matching also starts from it, and the larger match set
+      // (and its refit homography) is kept.
+      auto refine = [&](cv::Matx33d *h, const std::vector<std::pair<int, int>> &agreeing) {
+        std::vector<std::pair<int, int>> guided = refine_from(h, agreeing);
+        if (!o.guided_similarity_start ||
+            guided.size() >= static_cast<size_t>(o.min_layout_matches) || agreeing.size() < 2)
+          return guided;
+        std::vector<cv::Point2f> r, q;
+        for (const auto &[qi, ri] : agreeing) {
+          r.push_back(model.keypoints[ri]);
+          q.push_back(query[qi]);
+        }
+        // Only a consensus along a line: its spread across it under a quarter of its spread
+        // along it (a chance consensus on a wrong page seldom is, and costs no second try).
+        cv::Mat cloud(static_cast<int>(r.size()), 2, CV_32F, r.data());
+        cv::Mat covariance, mean;
+        cv::calcCovarMatrix(cloud, covariance, mean, cv::COVAR_NORMAL | cv::COVAR_ROWS);
+        cv::Mat spread;
+        cv::eigen(covariance, spread);
+        if (!(spread.at<double>(1) < 0.0625 * spread.at<double>(0))) return guided;
+        const cv::Mat similarity = cv::estimateAffinePartial2D(r, q, cv::noArray(), cv::LMEDS);
+        if (similarity.empty()) return guided;
+        const cv::Mat_<double> m(similarity);
+        cv::Matx33d start(m(0, 0), m(0, 1), m(0, 2), m(1, 0), m(1, 1), m(1, 2), 0, 0, 1);
+        std::vector<std::pair<int, int>> other = refine_from(&start, agreeing);
+        if (other.size() > guided.size()) {
+          *h = start;
+          guided = std::move(other);
         }
         return guided;
       };

@@ -435,6 +435,11 @@ int main(int argc, char **argv) {
   app.add_option("--llah-n", registry_options.llah.n, "LLAH neighbours (new database only)");
   app.add_option("--llah-m", registry_options.llah.m, "LLAH neighbours per descriptor");
   app.add_option("--llah-k", registry_options.llah.k, "LLAH quantisation levels");
+  app.add_option("--guided-growth", registry_options.retrieval.guided_growth_rounds,
+                 "refits at the full gate while guided matching still grows (0: one)");
+  bool no_similarity_start = false;
+  app.add_flag("--no-similarity-start", no_similarity_start,
+               "guided matching from the homography only, not also from a similarity");
   bool line_closing = false;
   app.add_flag("--line-closing", line_closing,
                "register and query first with the line closing (new database only)");
@@ -556,6 +561,7 @@ int main(int argc, char **argv) {
   }
   if (no_rectify) registry_options.retrieval.rectify_perspective = false;
   if (line_closing) std::swap(registry_options.keypoints, registry_options.fallback_keypoints[0]);
+  if (no_similarity_start) registry_options.retrieval.guided_similarity_start = false;
   if (no_fallback) registry_options.fallback_keypoints.clear();
   if (no_line_refinement) registry_options.retrieval.refine_perspective = false;
   if (no_rectified_picture) registry_options.rectified_picture_retry = false;

@@ -343,6 +343,46 @@ TEST_P(LlahRetrieverTest, LayoutCheckConfirmsWeaklyMatchedWindowsAndNoWrongDocum
               trials, without_layout);
 }
 
+// Guided matching that keeps its full gate while it grows, and that also starts from a
+// similarity when the homography's matches stay few, confirms at least the windows that one
+// round from the homography does, with as accurate homographies, and never a wrong
+// document.
+TEST_P(LlahRetrieverTest, GuidedGrowthKeepsWeakWindowsAccurateAndNoWrongDocument) {
+  constexpr Disturbance kSevere{25, 0.7, 0.25, 0.15};
+  RetrievalOptions grown;
+  grown.rectify_perspective = false;
+  grown.deep_max_keypoints = 0;
+  RetrievalOptions single = grown;
+  single.guided_growth_rounds = 0;
+  single.guided_similarity_start = false;
+  std::mt19937 rng(GetParam() == Layout::kUniform ? 171 : 172);
+  int found_grown = 0, found_single = 0, matches_grown = 0, matches_single = 0;
+  for (int d = 0; d < kDocuments; d += 2) {
+    const Query q = MakeQuery(db().documents[d], rng, kSevere);
+    const auto a = db().retriever->Retrieve(q.points, kQueryCharHeight, grown);
+    const auto b = db().retriever->Retrieve(q.points, kQueryCharHeight, single);
+    for (const DocumentHit& h : a) {
+      ASSERT_EQ(h.document, DocumentId(d)) << "document " << d << ": " << Describe(a);
+      // Within 2 px over the window, or (where one round was off too: a severe
+      // disturbance can confirm the page under a homography off at the window's corners)
+      // no worse than one round.
+      const double single_error = b.empty() ? 0 : MaxHomographyError(b[0].homography, q);
+      EXPECT_LT(MaxHomographyError(h.homography, q), std::max(2.0, single_error + 0.5))
+          << "document " << d << " inliers " << h.inliers << " matches " << h.matches.size();
+    }
+    found_grown += !a.empty();
+    found_single += !b.empty();
+    if (!a.empty() && !b.empty()) {
+      matches_grown += static_cast<int>(a[0].matches.size());
+      matches_single += static_cast<int>(b[0].matches.size());
+    }
+  }
+  EXPECT_GE(found_grown, found_single);
+  EXPECT_GE(matches_grown, matches_single);
+  std::printf("guided growth: %d windows found (one round: %d), %d matches (%d)\n", found_grown,
+              found_single, matches_grown, matches_single);
+}
+
 // Where the query's keypoints repeat the page's too poorly for the layout check, the LLAH
 // inliers decide when chance could hardly have made them agree (a-contrario): windows the
 // layout check cannot confirm are found, and neither a wrong document nor an unknown one.
@@ -802,6 +842,7 @@ TEST(RetrievalOptionsTest, ValidateRejectsBadValuesWithAMessage) {
       {"deep_min_weak_inliers", [](RetrievalOptions& o) { o.deep_min_weak_inliers = 3; }},
       {"deep_min_weak_inliers", [](RetrievalOptions& o) { o.deep_min_weak_inliers = 7; }},
       {"deep_min_layout_ratio", [](RetrievalOptions& o) { o.deep_min_layout_ratio = 0.2; }},
+      {"guided_growth_rounds", [](RetrievalOptions& o) { o.guided_growth_rounds = -1; }},
   };
   for (const Case& c : cases) {
     RetrievalOptions o;
