@@ -843,8 +843,8 @@ std::vector<DocumentHit> LlahRetriever::RetrieveDescribed(const std::vector<cv::
       auto refine_from = [&](cv::Matx33d *h, const std::vector<std::pair<int, int>> &agreeing) {
         std::vector<std::pair<int, int>> guided;
         double gate = threshold;
-        size_t grown = 0;   // matches of the last round at the full gate
-        int shrunk = 0;     // rounds since the gate began to shrink
+        size_t grown = 0;  // matches of the last round at the full gate
+        int shrunk = 0;    // rounds since the gate began to shrink
         for (int round = 0; round < o.guided_growth_rounds + 3; ++round) {
           std::vector<int> owner(query.size(), -1);
           std::vector<float> owner_d(query.size(), 0.f);
@@ -882,9 +882,9 @@ std::vector<DocumentHit> LlahRetriever::RetrieveDescribed(const std::vector<cv::
           }
           // Growth rounds refit robustly: the full gate lets wrong matches in.
           const bool growing = round > 0 && shrunk == 0;
-          cv::Mat refined = growing ? cv::findHomography(gr, gq, cv::RANSAC, gate, cv::noArray(),
-                                                         200)
-                                    : cv::findHomography(gr, gq, 0);
+          cv::Mat refined = growing
+                                ? cv::findHomography(gr, gq, cv::RANSAC, gate, cv::noArray(), 200)
+                                : cv::findHomography(gr, gq, 0);
           if (refined.empty()) break;
           cv::Matx33d refined_h(refined);
           if (!MakePlausibleHomography(&refined_h, gr)) break;
