@@ -226,7 +226,8 @@ void PrintMiss(const DocumentRegistry &registry, const Query &q, const cv::Mat &
                     "%d final %d guided %d inside %d%s]",
                     t.rectified ? "rectified, " : "", t.stop_word_lookups, t.hits, t.total_hits,
                     t.coherent, t.strong, t.votes, t.rank_by_score, t.rank, t.candidates,
-                    t.ransac_inliers, t.final_inliers, t.guided, t.layout_inside, t.accepted ? " accepted" : "");
+                    t.ransac_inliers, t.final_inliers, t.guided, t.layout_inside,
+                    t.accepted ? " accepted" : "");
       return std::string(line);
     };
     stats += gates(t);
