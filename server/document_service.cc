@@ -7,6 +7,7 @@
 
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
 #include "common/timing.h"
 #include "server/proto_convert.h"
 
@@ -148,9 +149,16 @@ grpc::Status DocumentServiceImpl::RetrieveDocuments(grpc::ServerContext*,
   }
   response->set_query_keypoints(result->query_keypoints);
   response->set_server_ms(MillisecondsSince(t0));
-  spdlog::debug("RetrieveDocuments: {}x{}, {} keypoints, {} matches, {:.1f} ms", image->cols,
-                image->rows, result->query_keypoints, result->documents.size(),
-                response->server_ms());
+  // One line per query, at info level: what was found and where the time went.
+  std::string found, stages = absl::StrFormat("decode %.1f", decode_ms);
+  for (const auto& doc : result->documents)
+    absl::StrAppend(&found, found.empty() ? "" : ", ", doc.document.id, " (", doc.inliers,
+                    " inliers)");
+  for (const auto& [stage, ms] : result->timings.stages)
+    absl::StrAppend(&stages, absl::StrFormat(", %s %.1f", stage, ms));
+  spdlog::info("RetrieveDocuments: {}x{}, {} keypoints: {}; {:.1f} ms ({} ms)", image->cols,
+               image->rows, result->query_keypoints, found.empty() ? "no document" : found,
+               response->server_ms(), stages);
   return grpc::Status::OK;
 }
 
