@@ -1,9 +1,9 @@
 // DocumentService handlers: validate, convert, call the registry, convert back.
 #include "server/document_service.h"
 
-#include <chrono>
-
 #include <spdlog/spdlog.h>
+
+#include <chrono>
 
 #include "absl/strings/numbers.h"
 #include "absl/strings/str_cat.h"
