@@ -2,7 +2,10 @@
 #include "common/inverted_index.h"
 
 #include <algorithm>
+#include <functional>
 #include <stdexcept>
+#include <thread>
+#include <utility>
 
 namespace texfree {
 
@@ -56,17 +59,38 @@ void InvertedIndex::Add(uint32_t document, const std::vector<uint64_t>& hashes, 
   }
 }
 
-void InvertedIndex::AddBatch(const std::vector<Batch>& batch, int per_point) {
-  // Counting sort of the new entries by bucket.
-  std::vector<uint32_t> cursor(heads_.size(), 0);
-  size_t total = 0;
-  for (const Batch& d : batch) {
-    for (uint64_t h : *d.hashes) {
-      if (h == 0) continue;
-      ++cursor[Bucket(h)];
-      ++total;
+void InvertedIndex::AddBatch(const std::vector<Batch>& batch, int per_point, int threads) {
+  // Counting sort of the new entries by bucket. Each thread owns a range of buckets (their
+  // counts, their runs in the pool, their heads) and one sketch row, and reads every hash:
+  // the scatter into a pool of hundreds of megabytes is cache misses, which threads overlap
+  // (at 10,000 pages, 64 million entries: 6.0 s on one thread).
+  threads = std::clamp(threads, 1, 8);
+  const size_t buckets = heads_.size();
+  auto in_parallel = [threads](const std::function<void(int)>& task) {
+    std::vector<std::thread> pool;
+    for (int t = 1; t < threads; ++t) pool.emplace_back(task, t);
+    task(0);
+    for (auto& t : pool) t.join();
+  };
+  auto range = [&](int t) {
+    return std::pair<size_t, size_t>{buckets * t / threads, buckets * (t + 1) / threads};
+  };
+  std::vector<uint32_t> cursor(buckets, 0);
+  std::vector<size_t> counted(threads, 0);
+  in_parallel([&](int t) {
+    const auto [lo, hi] = range(t);
+    for (const Batch& d : batch) {
+      for (uint64_t h : *d.hashes) {
+        if (h == 0) continue;
+        const size_t b = Bucket(h);
+        if (b < lo || b >= hi) continue;
+        ++cursor[b];
+        ++counted[t];
+      }
     }
-  }
+  });
+  size_t total = 0;
+  for (size_t c : counted) total += c;
   if (total == 0) return;
   const size_t base = pool_.size();
   if (base + total >= kNil) throw std::length_error("inverted index is full (4G entries)");
@@ -77,26 +101,48 @@ void InvertedIndex::AddBatch(const std::vector<Batch>& batch, int per_point) {
     offset += n;
   }
   pool_.resize(base + total);
-  for (const Batch& d : batch) {
-    const std::vector<uint64_t>& hashes = *d.hashes;
-    for (size_t i = 0; i < hashes.size(); ++i) {
-      const uint64_t h = hashes[i];
-      if (h == 0) continue;
-      pool_[base + cursor[Bucket(h)]++] = {d.document, static_cast<uint16_t>(i / per_point),
-                                           Check(h), kNil};
-      SketchAdd(h, 1);
+  in_parallel([&](int t) {
+    const auto [lo, hi] = range(t);
+    const uint32_t first = lo < buckets ? cursor[lo] : offset;  // the range's first run
+    for (const Batch& d : batch) {
+      const std::vector<uint64_t>& hashes = *d.hashes;
+      for (size_t i = 0; i < hashes.size(); ++i) {
+        const uint64_t h = hashes[i];
+        if (h == 0) continue;
+        const size_t b = Bucket(h);
+        if (b < lo || b >= hi) continue;
+        pool_[base + cursor[b]++] = {d.document, static_cast<uint16_t>(i / per_point), Check(h),
+                                     kNil};
+      }
     }
-  }
-  // cursor[b] is now the end of bucket b's run; link each run, then the older chain.
-  uint32_t begin = 0;
-  for (size_t b = 0; b < heads_.size(); ++b) {
-    const uint32_t end = cursor[b];
-    if (end == begin) continue;
-    for (uint32_t e = begin; e + 1 < end; ++e)
-      pool_[base + e].next = static_cast<uint32_t>(base + e + 1);
-    pool_[base + end - 1].next = heads_[b];
-    heads_[b] = static_cast<uint32_t>(base + begin);
-    begin = end;
+    // cursor[b] is now the end of bucket b's run; link each run, then the older chain.
+    uint32_t begin = first;
+    for (size_t b = lo; b < hi; ++b) {
+      const uint32_t end = cursor[b];
+      if (end == begin) continue;
+      for (uint32_t e = begin; e + 1 < end; ++e)
+        pool_[base + e].next = static_cast<uint32_t>(base + e + 1);
+      pool_[base + end - 1].next = heads_[b];
+      heads_[b] = static_cast<uint32_t>(base + begin);
+      begin = end;
+    }
+  });
+  // The sketch's two rows are disjoint: one thread each.
+  auto add_row = [&](int row) {
+    for (const Batch& d : batch)
+      for (uint64_t h : *d.hashes) {
+        if (h == 0) continue;
+        uint16_t& c = sketch_[SketchSlot(h, row)];
+        if (c != 0xFFFF) ++c;
+      }
+  };
+  if (threads >= 2) {
+    std::thread second(add_row, 1);
+    add_row(0);
+    second.join();
+  } else {
+    add_row(0);
+    add_row(1);
   }
   live_ += total;
 }

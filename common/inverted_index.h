@@ -29,7 +29,8 @@ class InvertedIndex {
     uint32_t document;
     const std::vector<uint64_t>* hashes;
   };
-  void AddBatch(const std::vector<Batch>& batch, int per_point);
+  // `threads` share the work (each owns a range of buckets); the result is the same.
+  void AddBatch(const std::vector<Batch>& batch, int per_point, int threads = 1);
 
   // Adds one entry unless this (document, keypoint) already sits under that descriptor.
   // Returns true when added.

@@ -296,7 +296,7 @@ absl::Status LlahRetriever::AddDocuments(
     batch.push_back({d.id, &d.hashes});
     added[i] = 1;
   }
-  index_.AddBatch(batch, static_cast<int>(per));
+  index_.AddBatch(batch, static_cast<int>(per), threads);
   for (size_t i = 0; i < documents.size(); ++i) {
     if (!added[i]) continue;
     DocumentKeypoints &d = documents[i];

@@ -166,6 +166,19 @@ TEST(InvertedIndexTest, AddBatchEqualsAddAndSupportsRemove) {
   EXPECT_EQ(batched.entries(), one_by_one.entries());
   for (const auto& d : docs)
     for (uint64_t h : d) EXPECT_EQ(Lookup(batched, h), Lookup(one_by_one, h));
+  // Threads sharing the load (each a range of buckets, and a sketch row) build the same.
+  for (int threads : {2, 3}) {
+    InvertedIndex threaded(12);
+    threaded.Add(500, docs[0], 3);
+    threaded.AddBatch(batch, 3, threads);
+    EXPECT_EQ(threaded.entries(), one_by_one.entries()) << threads << " threads";
+    for (const auto& d : docs)
+      for (uint64_t h : d) {
+        EXPECT_EQ(Lookup(threaded, h), Lookup(one_by_one, h)) << threads << " threads";
+        for (int limit : {0, 1, 2, 5})
+          EXPECT_EQ(threaded.LikelyExceeds(h, limit), one_by_one.LikelyExceeds(h, limit));
+      }
+  }
   EXPECT_EQ(batched.Remove(7, docs[7], 3), 119u);
   EXPECT_EQ(batched.Remove(500, docs[0], 3), 119u);
   one_by_one.Remove(7, docs[7], 3);
