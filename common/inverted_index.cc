@@ -28,11 +28,13 @@ int InvertedIndex::SketchCount(uint64_t hash) const {
 }
 
 void InvertedIndex::SketchAdd(uint64_t hash, int delta) {
-  for (int row = 0; row < 2; ++row) {
-    uint16_t& c = sketch_[SketchSlot(hash, row)];
-    if (c == 0xFFFF) continue;  // saturated: stays an upper bound
-    c = static_cast<uint16_t>(c + delta);
-  }
+  for (int row = 0; row < 2; ++row) SketchAddToRow(hash, row, delta);
+}
+
+void InvertedIndex::SketchAddToRow(uint64_t hash, int row, int delta) {
+  uint16_t& c = sketch_[SketchSlot(hash, row)];
+  if (c == 0xFFFF) return;  // saturated: stays an upper bound
+  c = static_cast<uint16_t>(c + delta);
 }
 
 uint32_t InvertedIndex::Allocate() {
@@ -66,9 +68,9 @@ void InvertedIndex::AddBatch(const std::vector<Batch>& batch, int per_point, int
   // (at 10,000 pages, 64 million entries: 6.0 s on one thread).
   threads = std::clamp(threads, 1, 8);
   const size_t buckets = heads_.size();
-  auto in_parallel = [threads](const std::function<void(int)>& task) {
+  auto in_parallel = [](int count, const std::function<void(int)>& task) {
     std::vector<std::thread> pool;
-    for (int t = 1; t < threads; ++t) pool.emplace_back(task, t);
+    for (int t = 1; t < count; ++t) pool.emplace_back(task, t);
     task(0);
     for (auto& t : pool) t.join();
   };
@@ -76,34 +78,29 @@ void InvertedIndex::AddBatch(const std::vector<Batch>& batch, int per_point, int
     return std::pair<size_t, size_t>{buckets * t / threads, buckets * (t + 1) / threads};
   };
   std::vector<uint32_t> cursor(buckets, 0);
-  std::vector<size_t> counted(threads, 0);
-  in_parallel([&](int t) {
+  in_parallel(threads, [&](int t) {
     const auto [lo, hi] = range(t);
     for (const Batch& d : batch) {
       for (uint64_t h : *d.hashes) {
         if (h == 0) continue;
         const size_t b = Bucket(h);
-        if (b < lo || b >= hi) continue;
-        ++cursor[b];
-        ++counted[t];
+        if (b >= lo && b < hi) ++cursor[b];
       }
     }
   });
-  size_t total = 0;
-  for (size_t c : counted) total += c;
+  size_t total = 0;  // exclusive prefix sums: where each bucket's run starts
+  for (uint32_t& c : cursor) {
+    const uint32_t n = c;
+    c = static_cast<uint32_t>(total);
+    total += n;
+  }
   if (total == 0) return;
   const size_t base = pool_.size();
   if (base + total >= kNil) throw std::length_error("inverted index is full (4G entries)");
-  uint32_t offset = 0;
-  for (uint32_t& c : cursor) {  // exclusive prefix sums: where each bucket's run starts
-    const uint32_t n = c;
-    c = offset;
-    offset += n;
-  }
   pool_.resize(base + total);
-  in_parallel([&](int t) {
+  in_parallel(threads, [&](int t) {
     const auto [lo, hi] = range(t);
-    const uint32_t first = lo < buckets ? cursor[lo] : offset;  // the range's first run
+    const uint32_t first = cursor[lo];  // where the range's first run starts
     for (const Batch& d : batch) {
       const std::vector<uint64_t>& hashes = *d.hashes;
       for (size_t i = 0; i < hashes.size(); ++i) {
@@ -127,23 +124,14 @@ void InvertedIndex::AddBatch(const std::vector<Batch>& batch, int per_point, int
       begin = end;
     }
   });
-  // The sketch's two rows are disjoint: one thread each.
-  auto add_row = [&](int row) {
-    for (const Batch& d : batch)
-      for (uint64_t h : *d.hashes) {
-        if (h == 0) continue;
-        uint16_t& c = sketch_[SketchSlot(h, row)];
-        if (c != 0xFFFF) ++c;
-      }
-  };
-  if (threads >= 2) {
-    std::thread second(add_row, 1);
-    add_row(0);
-    second.join();
-  } else {
-    add_row(0);
-    add_row(1);
-  }
+  // The sketch's two rows are disjoint: one thread each (one thread: both in turn).
+  const int sketch_threads = std::min(threads, 2);
+  in_parallel(sketch_threads, [&](int t) {
+    for (int row = t; row < 2; row += sketch_threads)
+      for (const Batch& d : batch)
+        for (uint64_t h : *d.hashes)
+          if (h != 0) SketchAddToRow(h, row, 1);
+  });
   live_ += total;
 }
 

@@ -96,6 +96,7 @@ class InvertedIndex {
   size_t SketchSlot(uint64_t hash, int row) const;
   int SketchCount(uint64_t hash) const;
   void SketchAdd(uint64_t hash, int delta);
+  void SketchAddToRow(uint64_t hash, int row, int delta);  // one row (0 or 1) only
 
   int shift_;
   std::vector<uint32_t> heads_;

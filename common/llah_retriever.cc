@@ -480,12 +480,15 @@ int InsideHull(const std::vector<cv::Point2f> &reference, size_t count, const cv
 // min_inliers when chance could hardly give that share (max_layout_tail).
 // Only the first `count` reference keypoints (the base layer) count.
 // `hypotheses` > 0: the homography is the best of that many (the few-keypoint pass), so only
-// the tail decides, with that many chances.
+// the tail decides, with that many chances. `inside_out` (when given) receives the number of
+// reference keypoints projected inside the hull, when they were counted.
 bool LayoutConfirms(const std::vector<cv::Point2f> &reference, size_t count, const cv::Matx33d &H,
                     const std::vector<cv::Point2f> &query_hull, int matched,
-                    const RetrievalOptions &o, double min_ratio, int hypotheses = 0) {
+                    const RetrievalOptions &o, double min_ratio, int hypotheses = 0,
+                    int *inside_out = nullptr) {
   if (matched < o.min_inliers || query_hull.size() < 3) return false;
   const int inside = InsideHull(reference, count, H, query_hull);
+  if (inside_out) *inside_out = inside;
   if (matched < min_ratio * inside) return false;
   if (hypotheses == 0 && matched >= o.min_layout_matches) return true;
   return o.max_layout_tail > 0 &&
@@ -1060,12 +1063,12 @@ std::vector<DocumentHit> LlahRetriever::RetrieveDescribed(const std::vector<cv::
         // Fewer LLAH inliers than the first pass's gate (the few-keypoint pass): the layout
         // alone decides, with every homography tried counted as a chance.
         const bool layout_only = inliers < o.min_weak_inliers;
-        if (traced) trace->layout_inside = InsideHull(model.keypoints, model.base, H, query_hull);
         if (!LayoutConfirms(model.keypoints, model.base, H, query_hull, matched, o,
                             layout_only   ? o.deep_min_layout_ratio
                             : significant ? o.min_significant_layout_ratio
                                           : o.min_layout_ratio,
-                            layout_only ? std::max(1, hypotheses) : 0))
+                            layout_only ? std::max(1, hypotheses) : 0,
+                            traced ? &trace->layout_inside : nullptr))
           continue;
       }
       if (traced) trace->accepted = true;

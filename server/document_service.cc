@@ -138,24 +138,25 @@ grpc::Status DocumentServiceImpl::RetrieveDocuments(grpc::ServerContext*,
     return Fail("RetrieveDocuments", absl::InvalidArgumentError("max_results is over 1000"));
   auto result = registry_->Retrieve(*image, *camera, static_cast<int>(request->max_results()));
   if (!result.ok()) return Fail("RetrieveDocuments", result.status());
-  for (const auto& doc : result->documents) MatchToProto(doc, response->add_matches());
+  std::string found;  // for the log line
+  for (const auto& doc : result->documents) {
+    MatchToProto(doc, response->add_matches());
+    absl::StrAppend(&found, found.empty() ? "" : ", ", doc.document.id, " (", doc.inliers,
+                    " inliers)");
+  }
   auto* decode = response->add_timings();
   decode->set_stage("decode");
   decode->set_ms(decode_ms);
+  std::string stages = absl::StrFormat("decode %.1f", decode_ms);  // for the log line
   for (const auto& [stage, ms] : result->timings.stages) {
     auto* t = response->add_timings();
     t->set_stage(stage);
     t->set_ms(ms);
+    absl::StrAppend(&stages, absl::StrFormat(", %s %.1f", stage, ms));
   }
   response->set_query_keypoints(result->query_keypoints);
   response->set_server_ms(MillisecondsSince(t0));
   // One line per query, at info level: what was found and where the time went.
-  std::string found, stages = absl::StrFormat("decode %.1f", decode_ms);
-  for (const auto& doc : result->documents)
-    absl::StrAppend(&found, found.empty() ? "" : ", ", doc.document.id, " (", doc.inliers,
-                    " inliers)");
-  for (const auto& [stage, ms] : result->timings.stages)
-    absl::StrAppend(&stages, absl::StrFormat(", %s %.1f", stage, ms));
   spdlog::info("RetrieveDocuments: {}x{}, {} keypoints: {}; {:.1f} ms ({} ms)", image->cols,
                image->rows, result->query_keypoints, found.empty() ? "no document" : found,
                response->server_ms(), stages);

@@ -121,14 +121,9 @@ std::vector<Query> MakeQueries(int count, int registered, uint64_t seed, bool un
     options.scale *= resolution * 1000.0 / page_options.width;
     options.blur_sigma *= resolution;
     if (range.max_curl > 0 || range.max_k1 > 0 || range.max_motion_px > 0) {
-      std::mt19937_64 bend(seed * 1'000'003 + static_cast<uint64_t>(i) + 0xb3e7);
-      auto unit = [&bend] { return static_cast<double>(bend() >> 11) * 0x1.0p-53; };
-      options.page_curl = range.max_curl * unit();
-      options.curl_azimuth_deg = -180 + 360 * unit();
-      options.curl_one_sided = unit() < 0.5;
-      options.radial_k1 = range.max_k1 * (1.5 * unit() - 1.0);
-      options.motion_blur_px = range.max_motion_px * resolution * unit();
-      options.motion_blur_angle_deg = 180 * unit();
+      texfree::testdata::DrawBends(seed * 1'000'003 + static_cast<uint64_t>(i) + 0xb3e7,
+                                   range.max_curl, range.max_k1,
+                                   range.max_motion_px * resolution, &options);
     }
     auto view = texfree::testdata::RenderCameraView(rendered.image, options, seed + i);
     if (range.undistort) view.image = texfree::testdata::UndistortView(view.image, view, &options);
@@ -254,8 +249,9 @@ void PrintMiss(const DocumentRegistry &registry, const Query &q, const cv::Mat &
 }
 
 // `gray` warped by `warp`, shifted so that the whole picture lands in the result (at most
-// 4000 px a side, white around it); `shifted` receives the shifted warp.
-cv::Mat WarpWhole(const cv::Mat &gray, const cv::Matx33d &warp, cv::Matx33d *shifted) {
+// 4000 px a side, white around it); `shifted` (when given) receives the shifted warp.
+cv::Mat WarpWhole(const cv::Mat &gray, const cv::Matx33d &warp,
+                  cv::Matx33d *shifted = nullptr) {
   double min_x = 1e18, min_y = 1e18, max_x = -1e18, max_y = -1e18;
   for (const cv::Point2d &corner : {cv::Point2d(0, 0), cv::Point2d(gray.cols, 0),
                                     cv::Point2d(gray.cols, gray.rows), cv::Point2d(0, gray.rows)}) {
@@ -265,9 +261,10 @@ cv::Mat WarpWhole(const cv::Mat &gray, const cv::Matx33d &warp, cv::Matx33d *shi
     max_x = std::max(max_x, p.x);
     max_y = std::max(max_y, p.y);
   }
-  *shifted = cv::Matx33d(1, 0, -min_x, 0, 1, -min_y, 0, 0, 1) * warp;
+  const cv::Matx33d moved = cv::Matx33d(1, 0, -min_x, 0, 1, -min_y, 0, 0, 1) * warp;
+  if (shifted) *shifted = moved;
   cv::Mat out;
-  cv::warpPerspective(gray, out, cv::Mat(*shifted),
+  cv::warpPerspective(gray, out, cv::Mat(moved),
                       cv::Size(std::min(4000, static_cast<int>(max_x - min_x)),
                                std::min(4000, static_cast<int>(max_y - min_y))),
                       cv::INTER_LINEAR, cv::BORDER_CONSTANT, cv::Scalar(255));
@@ -297,9 +294,7 @@ void PrintTrueRectification(const DocumentRegistry &registry, const Query &q, co
   bool horizon_found = false;
   const cv::Point2d view_centre(gray.cols / 2.0, gray.rows / 2.0);
   if (const auto projective = texfree::PerspectiveOnly(inv, view_centre)) {
-    cv::Matx33d shifted;
-    const cv::Mat warped = WarpWhole(gray, *projective, &shifted);
-    auto r = registry.Retrieve(warped, std::nullopt, 0);
+    auto r = registry.Retrieve(WarpWhole(gray, *projective), std::nullopt, 0);
     horizon_found = r.ok() && !r->documents.empty() && r->documents[0].document.id == id;
   }
   auto record = registry.Get(id);

@@ -635,6 +635,17 @@ cv::Point2d ProjectPagePoint(const CameraView &view, const CameraViewOptions &op
   return {k(0, 0) * x + k(0, 1) * y + k(0, 2), k(1, 1) * y + k(1, 2)};
 }
 
+void DrawBends(uint64_t stream_seed, double max_curl, double max_k1, double max_motion_px,
+               CameraViewOptions *options) {
+  std::mt19937_64 bend(stream_seed);
+  options->page_curl = max_curl * Unit(bend);
+  options->curl_azimuth_deg = Uniform(bend, -180, 180);
+  options->curl_one_sided = Unit(bend) < 0.5;
+  options->radial_k1 = max_k1 * (1.5 * Unit(bend) - 1.0);
+  options->motion_blur_px = max_motion_px * Unit(bend);
+  options->motion_blur_angle_deg = 180 * Unit(bend);
+}
+
 cv::Mat UndistortView(const cv::Mat &image, const CameraView &view, CameraViewOptions *options) {
   if (options->radial_k1 == 0) return image;
   cv::Mat ideal;

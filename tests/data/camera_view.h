@@ -81,6 +81,14 @@ CameraViewOptions RandomViewOptions(std::mt19937_64& rng,
                                     double min_scale = 0.6,
                                     double max_scale = 1.3);
 
+// Real-world bends of one view, drawn from their own stream `stream_seed` (so that the view
+// is otherwise what it was without them): a sheet lifted by up to max_curl page widths
+// (half bowed, half curled from one edge, any azimuth), a radial k1 in
+// [-max_k1, max_k1 / 2] (mostly barrel) and camera shake of up to max_motion_px pixels in
+// any direction. Portable: uses no std distributions.
+void DrawBends(uint64_t stream_seed, double max_curl, double max_k1, double max_motion_px,
+               CameraViewOptions* options);
+
 // Mean distance in image pixels between where `estimated` and `truth` (both page ->
 // image) put an 11 x 11 grid of page points, over the points `truth` places inside the
 // image. Returns 1e9 when no grid point is visible.

@@ -144,16 +144,9 @@ int main(int argc, char** argv) {
     std::mt19937_64 rng(page_seed ^ 0x5eed5eed5eedULL);
     for (long v = 0; v < views; ++v) {
       auto options = texfree::testdata::RandomViewOptions(rng, page.image.size(), max_tilt);
-      if (max_curl > 0 || max_k1 > 0 || max_motion > 0) {
-        std::mt19937_64 bend(page_seed * 131 + static_cast<uint64_t>(v) + 0xb3e7);
-        auto unit = [&bend] { return static_cast<double>(bend() >> 11) * 0x1.0p-53; };
-        options.page_curl = max_curl * unit();
-        options.curl_azimuth_deg = -180 + 360 * unit();
-        options.curl_one_sided = unit() < 0.5;
-        options.radial_k1 = max_k1 * (1.5 * unit() - 1.0);
-        options.motion_blur_px = max_motion * unit();
-        options.motion_blur_angle_deg = 180 * unit();
-      }
+      if (max_curl > 0 || max_k1 > 0 || max_motion > 0)
+        texfree::testdata::DrawBends(page_seed * 131 + static_cast<uint64_t>(v) + 0xb3e7,
+                                     max_curl, max_k1, max_motion, &options);
       // Render without the JPEG round trip and let the file itself be the
       // single JPEG compression at the chosen quality.
       auto raw_options = options;
