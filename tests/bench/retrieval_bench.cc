@@ -122,8 +122,8 @@ std::vector<Query> MakeQueries(int count, int registered, uint64_t seed, bool un
     options.blur_sigma *= resolution;
     if (range.max_curl > 0 || range.max_k1 > 0 || range.max_motion_px > 0) {
       texfree::testdata::DrawBends(seed * 1'000'003 + static_cast<uint64_t>(i) + 0xb3e7,
-                                   range.max_curl, range.max_k1,
-                                   range.max_motion_px * resolution, &options);
+                                   range.max_curl, range.max_k1, range.max_motion_px * resolution,
+                                   &options);
     }
     auto view = texfree::testdata::RenderCameraView(rendered.image, options, seed + i);
     if (range.undistort) view.image = texfree::testdata::UndistortView(view.image, view, &options);
@@ -250,8 +250,7 @@ void PrintMiss(const DocumentRegistry &registry, const Query &q, const cv::Mat &
 
 // `gray` warped by `warp`, shifted so that the whole picture lands in the result (at most
 // 4000 px a side, white around it); `shifted` (when given) receives the shifted warp.
-cv::Mat WarpWhole(const cv::Mat &gray, const cv::Matx33d &warp,
-                  cv::Matx33d *shifted = nullptr) {
+cv::Mat WarpWhole(const cv::Mat &gray, const cv::Matx33d &warp, cv::Matx33d *shifted = nullptr) {
   double min_x = 1e18, min_y = 1e18, max_x = -1e18, max_y = -1e18;
   for (const cv::Point2d &corner : {cv::Point2d(0, 0), cv::Point2d(gray.cols, 0),
                                     cv::Point2d(gray.cols, gray.rows), cv::Point2d(0, gray.rows)}) {

@@ -145,8 +145,8 @@ int main(int argc, char** argv) {
     for (long v = 0; v < views; ++v) {
       auto options = texfree::testdata::RandomViewOptions(rng, page.image.size(), max_tilt);
       if (max_curl > 0 || max_k1 > 0 || max_motion > 0)
-        texfree::testdata::DrawBends(page_seed * 131 + static_cast<uint64_t>(v) + 0xb3e7,
-                                     max_curl, max_k1, max_motion, &options);
+        texfree::testdata::DrawBends(page_seed * 131 + static_cast<uint64_t>(v) + 0xb3e7, max_curl,
+                                     max_k1, max_motion, &options);
       // Render without the JPEG round trip and let the file itself be the
       // single JPEG compression at the chosen quality.
       auto raw_options = options;
