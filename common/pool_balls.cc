@@ -163,6 +163,10 @@ class SilhouetteScorer {
 
   cv::Vec3d Ray(double u, double v) const { return ray0_ + u * ray_u_ + v * ray_v_; }
 
+  // Score() and Fit() over the dark zone under the ball as well: right for a ball-ness by
+  // colour alone, in which a shadow stays cloth.
+  void CountShadowZone() { count_shadow_zone_ = true; }
+
   // A ball against a cushion is partly hidden behind it: is the sphere point seen through
   // pixel (u, v) below the cushion top and the ray over the cushion when it gets there?
   bool HiddenByCushion(const cv::Vec3d& centre, double u, double v) const {
@@ -224,7 +228,7 @@ class SilhouetteScorer {
         if (w <= 0) continue;
         const double cov = Coverage(Q, u, v);
         if (near_cushion && cov > 0 && HiddenByCushion(centre, u, v)) continue;
-        if (InShadowZone(centre, u, v)) continue;
+        if (!count_shadow_zone_ && InShadowZone(centre, u, v)) continue;
         const double bn = b[u - roi_.x];
         if (bn < 0) continue;  // kMaskedOut: a pocket
         score += w * (2 * cov - 1) * (2 * bn - 1);
@@ -267,6 +271,7 @@ class SilhouetteScorer {
   const cv::Mat& ballness_;
   cv::Rect roi_;
   const cv::Mat& claimed_;
+  bool count_shadow_zone_ = false;
   cv::Matx33d K_, K_inv_;
   PlanarPose pose_;
   cv::Vec3d camera_;
@@ -994,6 +999,12 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
   std::vector<cv::Point2d> seeds;
   // Blobs with the area of more balls than their distance maxima gave seeds for.
   std::vector<int> under_split;
+  struct Fragment {
+    cv::Point2d centroid;  // image pixels
+    int area;
+    double radius_px, expected;  // a ball's apparent radius and area there
+  };
+  std::vector<Fragment> fragments;  // blobs too small for a ball
   for (int i = 1; i < n; ++i) {
     const cv::Point2d c(centroids.at<double>(i, 0) + roi.x, centroids.at<double>(i, 1) + roi.y);
     cv::Point2d xy;
@@ -1002,7 +1013,10 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
     const double r_px = K(0, 0) * r / cv::norm(cam);
     const double expected = kPi * r_px * r_px;
     const int area = stats.at<int>(i, cv::CC_STAT_AREA);
-    if (area < options.min_area_fraction * expected) continue;
+    if (area < options.min_area_fraction * expected) {
+      fragments.push_back({c, area, r_px, expected});
+      continue;
+    }
     const int count = std::max(1, static_cast<int>(std::floor(area / expected + 0.35)));
     if (count == 1) {
       seeds.push_back(xy);
@@ -1025,6 +1039,33 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
       cv::circle(dist, max_at, static_cast<int>(std::ceil(1.4 * r_px)), cv::Scalar(0), -1);
     }
     if (seeds.size() - seeds_before == 1) under_split.push_back(i);
+  }
+  {
+    // A small ball of nearly the cloth's colour (a far green 6 on green cloth) can break
+    // into fragments each under min_area_fraction of a ball: its dark lower half, a rim
+    // pixel or two beside its lit top. Fragments within a ball's diameter of the largest
+    // one are taken together; the silhouette fit and its ball-ness gate then judge them.
+    std::sort(fragments.begin(), fragments.end(),
+              [](const Fragment& a, const Fragment& b) { return a.area > b.area; });
+    std::vector<char> used(fragments.size(), 0);
+    for (size_t a = 0; a < fragments.size(); ++a) {
+      if (used[a] || fragments[a].area < 2) continue;
+      double area = 0;
+      cv::Point2d sum(0, 0);
+      std::vector<size_t> group;
+      for (size_t b = a; b < fragments.size(); ++b)
+        if (!used[b] && cv::norm(fragments[b].centroid - fragments[a].centroid) <=
+                            2 * fragments[a].radius_px) {
+          group.push_back(b);
+          area += fragments[b].area;
+          sum += fragments[b].area * fragments[b].centroid;
+        }
+      if (group.size() < 2 || area < options.min_area_fraction * fragments[a].expected) continue;
+      cv::Point2d xy;
+      if (!BackProjectToPlane(pose, K, sum / area, r, &xy)) continue;
+      for (size_t b : group) used[b] = 1;
+      seeds.push_back(xy);
+    }
   }
 
   // Fit each ball's silhouette, nearest balls first; a farther ball ignores pixels that a
@@ -1601,6 +1642,7 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
   double cloth_hue, unused_saturation, unused_intensity;  // for the dark reflection votes
   HueSaturation(cloth, &cloth_hue, &unused_saturation, &unused_intensity);
   std::vector<cv::Point2d> kept;
+  cv::Mat colour_ballness;  // by colour alone, made when a seed needs it
   for (size_t i = 0; i < seeds.size(); ++i) {
     if (seeds[i].x < -r / 2 || seeds[i].y < -r / 2 || seeds[i].x > L + r / 2 ||
         seeds[i].y > W + r / 2)
@@ -1612,7 +1654,7 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
     const double inset = 0.9 * r;
     seeds[i].x = std::clamp(seeds[i].x, inset, L - inset);
     seeds[i].y = std::clamp(seeds[i].y, inset, W - inset);
-    const cv::Point2d xy = seeds[i];
+    cv::Point2d xy = seeds[i];
     bool duplicate = false;
     for (const auto& k : kept)
       if (cv::norm(k - xy) < r) duplicate = true;
@@ -1621,6 +1663,28 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
     SilhouetteScorer scorer(ballness_in_region, roi, claimed, K, pose, profile);
     double mean_ballness = 0;
     scorer.Score(xy, &mean_ballness);
+    if (!moved[i] && mean_ballness < options.min_fit_ballness) {
+      // A small dark ball of nearly the cloth's hue (a far green 6 on green cloth) shows
+      // ball only in its lower half, dark and far from the cloth's chromaticity; its lit
+      // top is of the cloth's colour. The fits leave the zone under the ball out (a ball's
+      // own shadow is as dark as a dark ball), so they slid up onto the cloth. By colour
+      // alone a shadow stays cloth: the seed is fitted once more on that, over the whole
+      // silhouette, and kept where it is then mostly ball.
+      if (colour_ballness.empty()) {
+        colour_ballness = BallnessMap(bgr, roi, cloth, options, /*dark_counts=*/false);
+        colour_ballness.setTo(0, playing_volume == 0);
+        colour_ballness.setTo(kMaskedOut, (region == 0) & (playing_volume != 0));
+      }
+      SilhouetteScorer by_colour(colour_ballness, roi, claimed, K, pose, profile);
+      by_colour.CountShadowZone();
+      const cv::Point2d refit = by_colour.Fit(xy, 0.35 * r);
+      double colour_mean = 0;
+      by_colour.Score(refit, &colour_mean);
+      if (colour_mean >= options.min_fit_ballness && cv::norm(refit - xy) < r) {
+        seeds[i] = xy = refit;
+        mean_ballness = colour_mean;
+      }
+    }
     // A ball moved out of its neighbour is where the rule put it: it must be half ball.
     if (mean_ballness < (moved[i] ? 0.5 : options.min_fit_ballness)) continue;
     // Votes: pixels not covered by a nearer ball (by distance now: a ball split off a
