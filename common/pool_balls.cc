@@ -1054,8 +1054,8 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
       cv::Point2d sum(0, 0);
       std::vector<size_t> group;
       for (size_t b = a; b < fragments.size(); ++b)
-        if (!used[b] && cv::norm(fragments[b].centroid - fragments[a].centroid) <=
-                            2 * fragments[a].radius_px) {
+        if (!used[b] &&
+            cv::norm(fragments[b].centroid - fragments[a].centroid) <= 2 * fragments[a].radius_px) {
           group.push_back(b);
           area += fragments[b].area;
           sum += fragments[b].area * fragments[b].centroid;
