@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <numeric>
 #include <opencv2/imgproc.hpp>
 
 #include "absl/strings/str_cat.h"
@@ -833,28 +834,54 @@ std::array<double, 10> PoolNumberScores(const PoolVotes& votes, const PoolBallOp
   return s;
 }
 
-double PoolRedShareOfThree(double saturation, double brightness, const PoolTableProfile& profile) {
-  double sat[2], bright[2];
+namespace {
+// A cloth within this hue of the red 3 (burgundy) votes red inside a ball's outline.
+constexpr double kRedClothHueGapDeg = 45;
+// The two calibrated red colours' cues: saturation and log brightness over the cloth.
+struct RedCues {
+  double sat[2], log_bright[2];  // [0] the 3, [1] the 7; log_bright NaN when unusable
+};
+RedCues RedCuesOf(const PoolTableProfile& profile) {
+  RedCues c;
   const cv::Vec3b& pc = profile.cloth_bgr;
   const double cloth = std::max(1.0, (pc[0] + pc[1] + pc[2]) / 3.0);
   for (int k = 0; k < 2; ++k) {
-    const cv::Vec3b& c = profile.ball_bgr[k == 0 ? 3 : 7];
+    const cv::Vec3b& b = profile.ball_bgr[k == 0 ? 3 : 7];
     double hue, intensity;
-    HueSaturation(cv::Vec3f(c[0], c[1], c[2]), &hue, &sat[k], &intensity);
-    bright[k] = intensity / cloth;
+    HueSaturation(cv::Vec3f(b[0], b[1], b[2]), &hue, &c.sat[k], &intensity);
+    c.log_bright[k] = intensity > 0 ? std::log(intensity / cloth) : std::nan("");
   }
-  // Each cue as a signed distance from the middle of the two calibrated colours, in
-  // quarters of their gap. Brightness depends on how each ball sits in the light (a 3
-  // away from the lamps is as dark as a 7 under one), so it is capped at half the gap: it
-  // tips a ball whose saturation lies within half the gap of the middle, never a clear one.
-  double z = 0;
-  if (std::abs(sat[0] - sat[1]) > 0.05)
-    z += std::clamp((saturation - (sat[0] + sat[1]) / 2) / ((sat[0] - sat[1]) / 4), -4.0, 4.0);
-  if (brightness > 0 && bright[0] > 0 && bright[1] > 0 &&
-      std::abs(std::log(bright[0] / bright[1])) > 0.1) {
-    const double l3 = std::log(bright[0]), l7 = std::log(bright[1]);
-    z += std::clamp((std::log(brightness) - (l3 + l7) / 2) / ((l3 - l7) / 4), -2.0, 2.0);
-  }
+  return c;
+}
+// Each cue as a signed distance in quarters of the gap between the two calibrated colours
+// (positive: towards the 3); 0 when the colours do not differ in it. Brightness depends on
+// how each ball sits in the light (a 3 away from the lamps is as dark as a 7 under one), so
+// it is capped at half the gap: it tips a ball whose saturation lies within half the gap,
+// never a clear one.
+double SaturationZ(double saturation_delta, const RedCues& c) {
+  if (std::abs(c.sat[0] - c.sat[1]) <= 0.05) return 0;
+  return std::clamp(saturation_delta / ((c.sat[0] - c.sat[1]) / 4), -4.0, 4.0);
+}
+double BrightnessZ(double log_brightness_delta, const RedCues& c) {
+  if (!(std::abs(c.log_bright[0] - c.log_bright[1]) > 0.1)) return 0;
+  return std::clamp(log_brightness_delta / ((c.log_bright[0] - c.log_bright[1]) / 4), -2.0, 2.0);
+}
+}  // namespace
+
+double PoolRedShareOfThree(double saturation, double brightness, const PoolTableProfile& profile) {
+  const RedCues c = RedCuesOf(profile);
+  double z = SaturationZ(saturation - (c.sat[0] + c.sat[1]) / 2, c);
+  if (brightness > 0)
+    z += BrightnessZ(std::log(brightness) - (c.log_bright[0] + c.log_bright[1]) / 2, c);
+  return 1 / (1 + std::exp(-z));
+}
+
+double PoolRedPairShareOfThree(double saturation_a, double brightness_a, double saturation_b,
+                               double brightness_b, const PoolTableProfile& profile) {
+  const RedCues c = RedCuesOf(profile);
+  double z = SaturationZ(saturation_a - saturation_b, c);
+  if (brightness_a > 0 && brightness_b > 0)
+    z += BrightnessZ(std::log(brightness_a / brightness_b), c);
   return 1 / (1 + std::exp(-z));
 }
 
@@ -1076,6 +1103,7 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
   });
   cv::Mat claimed = cv::Mat::zeros(roi.size(), CV_32FC1);
   std::vector<PoolDetectedBall> balls;
+  std::vector<std::pair<size_t, double>> red_of_ball;  // (index into balls, red votes)
   // Paints the silhouettes of balls[j] for j in `others` into `claimed`.
   auto claim = [&](const std::vector<cv::Point2d>& positions, size_t skip, size_t count) {
     claimed.setTo(0);
@@ -1822,12 +1850,42 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
       }
       ball.votes[3] += red_votes * t;
       ball.votes[7] += red_votes * (1 - t);
+      red_of_ball.push_back({balls.size(), red_votes});
     }
     const double white_yellow = ball.votes[0] + ball.votes[1];
     ball.white_share = white_yellow > 0 ? ball.votes[0] / white_yellow : 0;
     if (ball.votes[0] > 0 && ball.votes[1] > 0)
       ball.white_outward = white_rho / ball.votes[0] - yellow_rho / ball.votes[1];
     balls.push_back(ball);
+  }
+  {
+    // Two balls that are mostly red are the 3 and the 7 (a set has one of each): they are
+    // told apart by their differences, which the picture's blur and light leave alone. Not
+    // on a cloth of the red balls' hue (burgundy), whose pixels inside a ball's outline
+    // also vote red: a red ball there may be a fit of cloth.
+    double red_hue, unused_red_saturation, unused_red_intensity;
+    const cv::Vec3b& three = profile.ball_bgr[3];
+    HueSaturation(cv::Vec3f(three[0], three[1], three[2]), &red_hue, &unused_red_saturation,
+                  &unused_red_intensity);
+    double cloth_red_gap = std::abs(red_hue - cloth_hue);
+    if (cloth_red_gap > 180) cloth_red_gap = 360 - cloth_red_gap;
+    std::vector<std::pair<size_t, double>> red_balls;
+    if (cloth_red_gap < kRedClothHueGapDeg) red_of_ball.clear();
+    for (const auto& [index, red] : red_of_ball) {
+      const PoolDetectedBall& b = balls[index];
+      const double others = std::accumulate(b.votes.begin(), b.votes.end(), 0.0) - red;
+      if (red > others && b.colour_saturation > 0) red_balls.emplace_back(index, red);
+    }
+    if (red_balls.size() == 2) {
+      PoolDetectedBall& a = balls[red_balls[0].first];
+      PoolDetectedBall& b = balls[red_balls[1].first];
+      const double t = PoolRedPairShareOfThree(a.colour_saturation, a.colour_brightness,
+                                               b.colour_saturation, b.colour_brightness, profile);
+      a.votes[3] = red_balls[0].second * t;
+      a.votes[7] = red_balls[0].second * (1 - t);
+      b.votes[3] = red_balls[1].second * (1 - t);
+      b.votes[7] = red_balls[1].second * t;
+    }
   }
   std::vector<std::array<double, 10>> scores;
   for (const auto& b : balls) scores.push_back(PoolNumberScores(b.votes, options, b.white_outward));

@@ -189,6 +189,14 @@ std::array<double, 10> PoolNumberScores(const PoolVotes& votes, const PoolBallOp
 // saturation to the cloth mixed in at its edge), never against a clear saturation.
 // `brightness` <= 0: saturation alone.
 double PoolRedShareOfThree(double saturation, double brightness, const PoolTableProfile& profile);
+// The same for two red balls of one picture, one of which is the 3 and the other the 7:
+// the share of ball a's votes that go to the 3 (ball b's is one minus it), from their
+// differences in the two cues (saturation, and brightness capped as above). Both balls lose
+// saturation alike to the blur and the light of one picture: the far 3 of benchmark seed
+// 31's frame 32 measured 1.11 and 1.62 (saturation, brightness), its 7 1.14 and 1.10, each
+// nearer the calibrated 7 in saturation.
+double PoolRedPairShareOfThree(double saturation_a, double brightness_a, double saturation_b,
+                               double brightness_b, const PoolTableProfile& profile);
 
 // Assigns numbers to balls so that each number is used at most once and the sum of
 // scores is largest (a ball stays unknown, -1, when no number scores over `unnamed_score`).

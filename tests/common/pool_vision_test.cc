@@ -798,6 +798,25 @@ TEST(PoolNumbers, OneAndNineOfRenderedFramesAreNotSwapped) {
   EXPECT_EQ(MatchOfBall(1, 54, 41).estimated_number, 1);
 }
 
+// Two red balls of one picture are the 3 and the 7, told apart by their differences: blur
+// and the cloth mixed in lower both balls' saturation alike. Benchmark seed 31's frame 32
+// measured its far, separated 3 at 1.11 saturation and 1.62 brightness and its 7 at 1.14 and
+// 1.10: each alone is nearer the calibrated 7 in saturation, and the brightness (capped at
+// half the gap) could not tip either, so the two were swapped.
+TEST(PoolNumbers, TwoRedBallsOfOnePictureAreToldApartByTheirDifferences) {
+  const PoolTableProfile profile = BenchPoolProfile();
+  EXPECT_LT(PoolRedShareOfThree(1.11, 1.62, profile), 0.5);  // alone: read as the 7
+  EXPECT_GT(PoolRedPairShareOfThree(1.11, 1.62, 1.14, 1.10, profile), 0.8);
+  EXPECT_LT(PoolRedPairShareOfThree(1.14, 1.10, 1.11, 1.62, profile), 0.2);  // symmetric
+  // Clear pairs stay clear, and a clearly more saturated ball in the shade is still the 3.
+  EXPECT_GT(PoolRedPairShareOfThree(1.89, 1.13, 1.34, 0.77, profile), 0.99);
+  EXPECT_GT(PoolRedPairShareOfThree(1.80, 0.70, 1.35, 1.20, profile), 0.8);
+  // Without brightness, saturation alone decides.
+  EXPECT_GT(PoolRedPairShareOfThree(1.70, 0, 1.40, 0, profile), 0.9);
+  for (const auto& [number, seen_as] : {std::pair<int, int>{3, 3}, {7, 7}})
+    EXPECT_EQ(MatchOfBall(number, 32, 31).estimated_number, seen_as) << "ball " << number;
+}
+
 // The black 8 mirrors the green cloth on its lower half and JPEG tints its dark pixels
 // the cloth's way, so its darkest pixels read as the dark green 6: benchmark seed 19's
 // frames 24, 26 and 37 numbered their 8 as the 6 (31, 17 and 48 votes for the 6 against
