@@ -89,6 +89,10 @@ struct DocumentRegistryOptions {
   // page), with no false match of 100 unregistered views; the median moved by under 1 ms,
   // the p95 by 20-28 ms (views of unregistered pages pay for it).
   bool rectified_picture_retry = true;
+  // ...also when the extractors found a page only weakly (fewer than
+  // RetrievalOptions::min_inliers LLAH inliers, confirmed by the layout check); the answer
+  // with more inliers is kept. A weak consensus can hold in one part of the view only.
+  bool rectified_picture_after_weak = true;
   // ...for pictures of at most this many first-extractor keypoints. Steep views of small
   // type (300-700 keypoints at 35-40 degrees, text 4-6 px high) keep few neighbourhoods:
   // perspective merges the far side's words differently than the page. 0: none.
@@ -210,7 +214,8 @@ class DocumentRegistry {
   // so that the text lines are horizontal), cut anew and retrieved, in up to
   // options_.rectified_picture_rounds rounds, then (options_.rectified_picture_projective)
   // warped by the horizon's perspective alone. A page found fills `hits` and `hits_kp` in the
-  // picture's pixels; the stage times are added to `extract_ms` and `match_ms`.
+  // picture's pixels, unless `hits` already holds a page with as many inliers or more; the
+  // stage times are added to `extract_ms` and `match_ms`.
   void RetrieveRectifiedPicture(const cv::Mat &gray, const cv::Matx33d &horizon,
                                 double text_angle_rad, const LlahRetriever &retriever,
                                 const RetrievalOptions &ro, std::vector<DocumentHit> *hits,

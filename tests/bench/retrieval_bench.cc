@@ -511,6 +511,10 @@ int main(int argc, char **argv) {
   app.add_flag("--no-rectified-picture", no_rectified_picture,
                "no last try of views nothing found on the picture warped by their text-line "
                "horizon and cut anew");
+  bool no_picture_after_weak = false;
+  app.add_flag("--no-picture-after-weak", no_picture_after_weak,
+               "the rectified-picture retry only for views no extractor found a page in, not "
+               "also after a page found with fewer than min_inliers LLAH inliers");
   bool no_line_refinement = false;
   app.add_flag("--no-line-refinement", no_line_refinement,
                "no last try of views nothing found, rectified by the horizon that makes their "
@@ -560,6 +564,7 @@ int main(int argc, char **argv) {
   if (no_fallback) registry_options.fallback_keypoints.clear();
   if (no_line_refinement) registry_options.retrieval.refine_perspective = false;
   if (no_rectified_picture) registry_options.rectified_picture_retry = false;
+  if (no_picture_after_weak) registry_options.rectified_picture_after_weak = false;
   if (no_picture_fallbacks) registry_options.rectified_picture_fallbacks = false;
   if (no_picture_projective) registry_options.rectified_picture_projective = false;
   if (picture_max_keypoints >= 0)
