@@ -652,10 +652,8 @@ absl::StatusOr<RetrievalResult> DocumentRegistry::RetrieveAsGiven(
   // 13 inliers and 0.2 px).
   if ((hits.empty() ||
        (options_.rectified_picture_after_weak && hits[0].inliers < ro.min_inliers)) &&
-      retriever &&
-      options_.rectified_picture_retry &&
-      options_.retrieval.refine_perspective && measured.char_height > 0 &&
-      first_points.size() >= 12 &&
+      retriever && options_.rectified_picture_retry && options_.retrieval.refine_perspective &&
+      measured.char_height > 0 && first_points.size() >= 12 &&
       static_cast<int>(first_points.size()) <= options_.rectified_picture_max_keypoints) {
     // The retriever's last try fitted the horizon (or found none) for the first keypoints
     // when there were at most refine_max_keypoints of them; larger views are fitted here.

@@ -363,9 +363,8 @@ TEST_F(DocumentRegistryTest, WeakAnswerIsReplacedByTheRectifiedPicturesFirmerOne
     ASSERT_EQ(result->documents.size(), 1u) << "page " << page;
     EXPECT_EQ(result->documents[0].document.id, pages[page].first);
     EXPECT_GT(result->documents[0].inliers, weak_inliers[i]) << "page " << page;
-    EXPECT_LT(testdata::MeanHomographyError(result->documents[0].homography,
-                                            photos[i].homography, pages[page].second.size(),
-                                            photos[i].image.size()),
+    EXPECT_LT(testdata::MeanHomographyError(result->documents[0].homography, photos[i].homography,
+                                            pages[page].second.size(), photos[i].image.size()),
               1.0)
         << "page " << page;
   }
