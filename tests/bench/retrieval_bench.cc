@@ -87,6 +87,9 @@ struct ViewRange {
   // Each view is undistorted with its own lens before it is queried (as `texfree doc
   // retrieve --undistort` does with a calibration), and scored through the ideal pinhole.
   bool undistort = false;
+  // The camera held upright (a phone in portrait): 480x640 views whose long side, now the
+  // height, sees the field of view drawn for it; the same views otherwise.
+  bool portrait = false;
   // Only views of these registered pages are rendered and queried (empty: all). The other
   // views still draw from the streams, so each kept view is the one a full run queries.
   std::vector<int> only_pages;
@@ -117,6 +120,13 @@ std::vector<Query> MakeQueries(int count, int registered, uint64_t seed, bool un
     options.image_size =
         cv::Size(static_cast<int>(std::lround(options.image_size.width * resolution)),
                  static_cast<int>(std::lround(options.image_size.height * resolution)));
+    if (range.portrait) {
+      std::swap(options.image_size.width, options.image_size.height);
+      const double half = options.horizontal_fov_deg * CV_PI / 360.0;
+      options.horizontal_fov_deg =
+          360.0 / CV_PI *
+          std::atan(std::tan(half) * options.image_size.width / options.image_size.height);
+    }
     // Pages rendered wider than the default 1,000 px (a higher dpi) are seen alike.
     options.scale *= resolution * 1000.0 / page_options.width;
     options.blur_sigma *= resolution;
@@ -466,6 +476,9 @@ int main(int argc, char **argv) {
                  "query only the views of these registered pages (the views a full run draws for "
                  "them; e.g. the pages --misses names)")
       ->delimiter(',');
+  app.add_flag("--portrait", view_range.portrait,
+               "views of 480x640 (a phone held upright), the drawn field of view along the long "
+               "side");
   app.add_flag("--undistort", view_range.undistort,
                "undistort each view with its own lens before querying it (texfree doc retrieve "
                "--undistort)");
