@@ -48,9 +48,11 @@ struct TextPerspectiveOptions {
   // the layout's (a heading, a short line), and a wrong stretch costs more than none (a
   // frontal view of 35 words was lost to one).
   int min_points_metric = 50;
-  // A slope implying a steeper view than this stretch (1 / cos 48 degrees) is taken for the
-  // layout's (large type, a heading: a frontal view of 71 words fitted 1.56) and only the
-  // affine rectification is applied: a wrong stretch costs more than the missing one.
+  // A slope implying a steeper camera than this (1 / cos of its tilt, the angle between the
+  // page's normal and the optical axis: 48 degrees) is taken for the layout's (large type, a
+  // heading: a frontal view of 71 words fitted 1.56) and only the affine rectification is
+  // applied: a wrong stretch costs more than the missing one. The stretch applied is the
+  // one at the keypoints' centre, which adds the centre's angle off the axis.
   double max_stretch = 1.5;
 
   absl::Status Validate() const;
