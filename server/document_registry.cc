@@ -667,18 +667,6 @@ absl::StatusOr<RetrievalResult> DocumentRegistry::RetrieveAsGiven(
       RetrieveRectifiedPicture(gray, *horizon, measured.text_angle_rad, *retriever, ro, &hits,
                                &hits_kp, &extract_ms, &match_ms);
     }
-    if (getenv("PNEW") && hits.empty() && !camera && gray.rows > gray.cols &&
-        options_.assumed_horizontal_fov_deg > 0) {
-      RetrievalOptions upright = ro;
-      upright.perspective.focal_px =
-          gray.rows / 2.0 / std::tan(options_.assumed_horizontal_fov_deg * CV_PI / 360.0);
-      std::optional<cv::Matx33d> h2 = RefineTextPerspective(
-          first_points, measured.text_angle_rad,
-          EstimateTextPerspective(first_points, upright.perspective), upright.perspective);
-      if (h2)
-        RetrieveRectifiedPicture(gray, *h2, measured.text_angle_rad, *retriever, upright, &hits,
-                                 &hits_kp, &extract_ms, &match_ms);
-    }
   }
   kp = std::move(hits_kp);
   result.timings.Add("extract", extract_ms);
