@@ -41,13 +41,9 @@ struct ProjectedView {
   cv::Matx33d camera_matrix;
 };
 
+// The words seen by the camera `o` (its geometry only).
 ProjectedView Project(const std::vector<cv::Point2f> &words, const cv::Size &page_size,
-                      double tilt_deg, double azimuth_deg, double scale) {
-  testdata::CameraViewOptions o;
-  o.tilt_deg = tilt_deg;
-  o.tilt_azimuth_deg = azimuth_deg;
-  o.roll_deg = 20;
-  o.scale = scale;
+                      const testdata::CameraViewOptions &o) {
   const testdata::CameraView view = testdata::ComputeCameraGeometry(page_size, o);
   ProjectedView out;
   out.camera_matrix = view.camera_matrix;
@@ -59,6 +55,16 @@ ProjectedView Project(const std::vector<cv::Point2f> &words, const cv::Size &pag
     out.page.push_back(w);
   }
   return out;
+}
+
+ProjectedView Project(const std::vector<cv::Point2f> &words, const cv::Size &page_size,
+                      double tilt_deg, double azimuth_deg, double scale) {
+  testdata::CameraViewOptions o;
+  o.tilt_deg = tilt_deg;
+  o.tilt_azimuth_deg = azimuth_deg;
+  o.roll_deg = 20;
+  o.scale = scale;
+  return Project(words, page_size, o);
 }
 
 // The least-squares affine map from -> to: x (3x2) minimising |A x - b| with the rows of A
@@ -156,23 +162,19 @@ TEST(TextPerspectiveTest, FocalLengthAlsoUndoesTheForeshortening) {
 // 0.98 here, but found fewer benchmark views with an assumed focal length: README, round 21.)
 TEST(TextPerspectiveTest, ForeshorteningIsUndoneForKeypointsOffTheAxis) {
   const cv::Size page(1000, 1414);
-  const auto words = PageWords(11, page);
   testdata::CameraViewOptions o;
   o.tilt_deg = 35;
-  o.tilt_azimuth_deg = 0;
   o.roll_deg = 20;
   o.image_size = {1280, 960};
   o.horizontal_fov_deg = 98;
   o.scale = 1.2;
-  const testdata::CameraView camera = testdata::ComputeCameraGeometry(page, o);
+  const ProjectedView camera = Project(PageWords(11, page), page, o);
   std::vector<cv::Point2f> image, on_page;
-  for (const cv::Point2f &w : words) {
-    const cv::Vec3d p = camera.homography * cv::Vec3d(w.x, w.y, 1);
-    const cv::Point2f q(static_cast<float>(p[0] / p[2]), static_cast<float>(p[1] / p[2]));
-    if (q.x < 800 || q.y < 0 || q.x >= o.image_size.width || q.y >= o.image_size.height) continue;
-    image.push_back(q);
-    on_page.push_back(w);
-  }
+  for (size_t i = 0; i < camera.image.size(); ++i)
+    if (camera.image[i].x >= 800) {
+      image.push_back(camera.image[i]);
+      on_page.push_back(camera.page[i]);
+    }
   ASSERT_GT(image.size(), 60u);
   const double seen = Anisotropy(on_page, image);
   TextPerspectiveOptions options;
