@@ -203,8 +203,8 @@ struct RetrievalTrace {
   int ransac_inliers = -1;    // -1: not verified
   int final_inliers = -1;
   int guided = -1;
-  int layout_inside =
-      -1;  // page keypoints the layout check projected into the query's hull (-1: none counted)
+  // Page keypoints the layout check projected into the query's hull (-1: none counted).
+  int layout_inside = -1;
   bool accepted = false;
 };
 

@@ -38,6 +38,12 @@ void HueSaturation(const cv::Vec3f& bgr, double* hue, double* saturation, double
   *intensity = i;
 }
 
+// Angle between two hues, degrees in [0, 180].
+double HueGapDeg(double a, double b) {
+  const double gap = std::abs(a - b);
+  return gap > 180 ? 360 - gap : gap;
+}
+
 // The ball-ness of every pixel in `roi` (0 = cloth, 1 = ball), soft around the
 // thresholds so that sub-pixel fitting sees a continuous image.
 // `dark_counts` false: by colour alone (a shadow on the cloth is dark, never coloured).
@@ -966,15 +972,18 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
   }
   const cv::Mat ballness = BallnessMap(bgr, roi, cloth, options);
   cv::Mat mask = (ballness > 0.5) & region;
-  cv::Mat ballness_in_region;
-  ballness.copyTo(ballness_in_region);
   // Outside the playing volume no ball can be: 0. The pockets are masked out at the cloth
   // and at the cushion top; seen from low on the table's long axis, a ball in front of a
   // side pocket lies partly over that mask. Those pixels say nothing about the ball (they
   // are not cloth): kMaskedOut, left out of the fits (a 7 beside a side pocket with a
   // third of its silhouette masked was rejected as half cloth, benchmark frame 53).
-  ballness_in_region.setTo(0, playing_volume == 0);
-  ballness_in_region.setTo(kMaskedOut, (region == 0) & (playing_volume != 0));
+  const auto in_playing_volume = [&](const cv::Mat& map) {
+    cv::Mat out = map.clone();
+    out.setTo(0, playing_volume == 0);
+    out.setTo(kMaskedOut, (region == 0) & (playing_volume != 0));
+    return out;
+  };
+  cv::Mat ballness_in_region = in_playing_volume(ballness);
   {
     // A ball's highlight or lit cap can come close to the cloth's colour (the far dark
     // green 6 of benchmark frame 49 is a ring of ball pixels around a lit cap that
@@ -1103,7 +1112,6 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
   });
   cv::Mat claimed = cv::Mat::zeros(roi.size(), CV_32FC1);
   std::vector<PoolDetectedBall> balls;
-  std::vector<std::pair<size_t, double>> red_of_ball;  // (index into balls, red votes)
   // Paints the silhouettes of balls[j] for j in `others` into `claimed`.
   auto claim = [&](const std::vector<cv::Point2d>& positions, size_t skip, size_t count) {
     claimed.setTo(0);
@@ -1698,11 +1706,9 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
       // own shadow is as dark as a dark ball), so they slid up onto the cloth. By colour
       // alone a shadow stays cloth: the seed is fitted once more on that, over the whole
       // silhouette, and kept where it is then mostly ball.
-      if (colour_ballness.empty()) {
-        colour_ballness = BallnessMap(bgr, roi, cloth, options, /*dark_counts=*/false);
-        colour_ballness.setTo(0, playing_volume == 0);
-        colour_ballness.setTo(kMaskedOut, (region == 0) & (playing_volume != 0));
-      }
+      if (colour_ballness.empty())
+        colour_ballness =
+            in_playing_volume(BallnessMap(bgr, roi, cloth, options, /*dark_counts=*/false));
       SilhouetteScorer by_colour(colour_ballness, roi, claimed, K, pose, profile);
       by_colour.CountShadowZone();
       const cv::Point2d refit = by_colour.Fit(xy, 0.35 * r);
@@ -1806,9 +1812,7 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
           }
         }
         if (vote != 8 && q < options.dark_reflection_brightness) {
-          double hue_gap = std::abs(hue - cloth_hue);
-          if (hue_gap > 180) hue_gap = 360 - hue_gap;
-          if (hue_gap < options.dark_reflection_hue_deg) vote = 8;
+          if (HueGapDeg(hue, cloth_hue) < options.dark_reflection_hue_deg) vote = 8;
         }
         if (vote == 0 || vote == 1) {
           // White and yellow mix at the 9's stripe edges, in the highlight and in any
@@ -1850,7 +1854,6 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
       }
       ball.votes[3] += red_votes * t;
       ball.votes[7] += red_votes * (1 - t);
-      red_of_ball.push_back({balls.size(), red_votes});
     }
     const double white_yellow = ball.votes[0] + ball.votes[1];
     ball.white_share = white_yellow > 0 ? ball.votes[0] / white_yellow : 0;
@@ -1867,14 +1870,14 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
     const cv::Vec3b& three = profile.ball_bgr[3];
     HueSaturation(cv::Vec3f(three[0], three[1], three[2]), &red_hue, &unused_red_saturation,
                   &unused_red_intensity);
-    double cloth_red_gap = std::abs(red_hue - cloth_hue);
-    if (cloth_red_gap > 180) cloth_red_gap = 360 - cloth_red_gap;
+    // (index, red votes): the red votes are all the 3's and the 7's.
     std::vector<std::pair<size_t, double>> red_balls;
-    if (cloth_red_gap < kRedClothHueGapDeg) red_of_ball.clear();
-    for (const auto& [index, red] : red_of_ball) {
-      const PoolDetectedBall& b = balls[index];
+    for (size_t i = 0; i < balls.size() && HueGapDeg(red_hue, cloth_hue) >= kRedClothHueGapDeg;
+         ++i) {
+      const PoolDetectedBall& b = balls[i];
+      const double red = b.votes[3] + b.votes[7];
       const double others = std::accumulate(b.votes.begin(), b.votes.end(), 0.0) - red;
-      if (red > others && b.colour_saturation > 0) red_balls.emplace_back(index, red);
+      if (red > 0 && red > others && b.colour_saturation > 0) red_balls.emplace_back(i, red);
     }
     if (red_balls.size() == 2) {
       PoolDetectedBall& a = balls[red_balls[0].first];
