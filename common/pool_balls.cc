@@ -758,6 +758,10 @@ absl::Status PoolBallOptions::Validate() const {
         absl::StrCat("white_outward_of_one must be in [-1, 1], got ", white_outward_of_one));
   if (!(five_orange_share > 0 && five_orange_share < 0.5))
     return absl::InvalidArgumentError("five_orange_share must be in (0, 0.5)");
+  if (!(moved_number_weight > 0 && moved_number_weight <= 1))
+    return absl::InvalidArgumentError(absl::StrCat(
+        "moved_number_weight must be in (0, 1] (a factor on a moved ball's number scores), got ",
+        moved_number_weight));
   if (!(unnamed_score >= 0 && unnamed_score < 1))
     return absl::InvalidArgumentError(absl::StrCat(
         "unnamed_score must be in [0, 1) (a number's share of the votes), got ", unnamed_score));
@@ -1112,6 +1116,7 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
   });
   cv::Mat claimed = cv::Mat::zeros(roi.size(), CV_32FC1);
   std::vector<PoolDetectedBall> balls;
+  std::vector<char> balls_moved;  // per ball: placed by the overlap rule
   // Paints the silhouettes of balls[j] for j in `others` into `claimed`.
   auto claim = [&](const std::vector<cv::Point2d>& positions, size_t skip, size_t count) {
     claimed.setTo(0);
@@ -1860,6 +1865,7 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
     if (ball.votes[0] > 0 && ball.votes[1] > 0)
       ball.white_outward = white_rho / ball.votes[0] - yellow_rho / ball.votes[1];
     balls.push_back(ball);
+    balls_moved.push_back(moved[i]);
   }
   {
     // Two balls that are mostly red are the 3 and the 7 (a set has one of each): they are
@@ -1891,7 +1897,11 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
     }
   }
   std::vector<std::array<double, 10>> scores;
-  for (const auto& b : balls) scores.push_back(PoolNumberScores(b.votes, options, b.white_outward));
+  for (size_t i = 0; i < balls.size(); ++i) {
+    scores.push_back(PoolNumberScores(balls[i].votes, options, balls[i].white_outward));
+    if (balls_moved[i])
+      for (double& v : scores.back()) v *= options.moved_number_weight;
+  }
   const std::vector<int> numbers = AssignPoolNumbers(scores, options.unnamed_score);
   for (size_t i = 0; i < balls.size(); ++i) {
     balls[i].number = numbers[i];
