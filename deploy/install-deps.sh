@@ -23,9 +23,10 @@ PACKAGES=(
   libgtest-dev libgmock-dev googletest libbenchmark-dev
   # Fonts for overlays and rendered pages.
   fonts-dejavu-core fonts-dejavu-extra
-  # Held-out fonts for test pages (Times/Arial/Courier-like, never used in
-  # tuning): texfree-bench-retrieval --fonts liberation|freefont.
-  fonts-liberation2 fonts-freefont-ttf
+  # Held-out fonts for test pages (Times/Arial/Courier-like and TeX's Latin
+  # Modern, never used in tuning): texfree-bench-retrieval --fonts
+  # liberation|freefont|latinmodern.
+  fonts-liberation2 fonts-freefont-ttf fonts-lmodern
 )
 
 missing=()

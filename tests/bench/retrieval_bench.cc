@@ -492,7 +492,7 @@ int main(int argc, char **argv) {
   std::string fonts = "dejavu";
   app.add_option("--fonts", fonts,
                  "font set of the registered and the unregistered pages: dejavu (the one the "
-                 "extractor was tuned on), liberation, freefont or all (held out)");
+                 "extractor was tuned on), liberation, freefont, latinmodern or all (held out)");
   bool no_fallback = false, misses = false;
   double slow_ms = 0;
   app.add_option("--slow", slow_ms, "print the stages of queries slower than this (ms)");

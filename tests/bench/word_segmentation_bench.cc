@@ -107,7 +107,7 @@ int main(int argc, char **argv) {
   std::string fonts = "dejavu";
   app.add_option("--fonts", fonts,
                  "font set of the pages: dejavu (the one the extractors were tuned on), "
-                 "liberation, freefont or all (held out)");
+                 "liberation, freefont, latinmodern or all (held out)");
 
   CLI11_PARSE(app, argc, argv);
   texfree::testdata::PageOptions page_options;

@@ -31,7 +31,7 @@ namespace {
 void Usage() {
   std::cerr << "usage: texfree-gen-pages --out DIR --count N --seed S "
                "[--views V] [--color] [--width W] [--height H] "
-               "[--max-tilt DEG] [--fonts dejavu|liberation|freefont|all] "
+               "[--max-tilt DEG] [--fonts dejavu|liberation|freefont|latinmodern|all] "
                "[--curl MAX] [--lens-k1 MAX] [--motion-blur PX]\n";
 }
 

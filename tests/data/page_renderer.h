@@ -27,10 +27,13 @@ enum class FontSet {
   kDejaVu,      // Debian fonts-dejavu-core + fonts-dejavu-extra
   kLiberation,  // fonts-liberation2
   kFreeFont,    // fonts-freefont-ttf
-  kAll,         // one of the three per page, chosen from the seed
+  // Latin Modern (fonts-lmodern, OpenType CFF): the Computer Modern faces of TeX-typeset
+  // papers, with hairline strokes and thin serifs that blur apart.
+  kLatinModern,
+  kAll,  // one of DejaVu, Liberation and FreeFont per page, chosen from the seed
 };
 
-// "dejavu", "liberation", "freefont", "all".
+// "dejavu", "liberation", "freefont", "latinmodern", "all".
 std::string_view FontSetName(FontSet set);
 absl::StatusOr<FontSet> ParseFontSet(std::string_view name);
 

@@ -116,7 +116,8 @@ TEST(PageRendererTest, WordBoxesAreInsideThePageHoldInkAndBarelyOverlap) {
 }
 
 TEST(PageRendererTest, FontSetNamesRoundTripAndUnknownNamesAreRejected) {
-  for (FontSet set : {FontSet::kDejaVu, FontSet::kLiberation, FontSet::kFreeFont, FontSet::kAll}) {
+  for (FontSet set : {FontSet::kDejaVu, FontSet::kLiberation, FontSet::kFreeFont,
+                      FontSet::kLatinModern, FontSet::kAll}) {
     const auto parsed = ParseFontSet(FontSetName(set));
     ASSERT_TRUE(parsed.ok()) << FontSetName(set);
     EXPECT_EQ(*parsed, set);
@@ -137,7 +138,7 @@ TEST(PageRendererTest, FontSetNamesRoundTripAndUnknownNamesAreRejected) {
 // text: the same seed gives the same kind of page (sizes) in other glyphs,
 // with ground-truth boxes as consistent as DejaVu's.
 TEST(PageRendererTest, HeldOutFontSetsRenderTextWithConsistentWordBoxes) {
-  for (FontSet set : {FontSet::kLiberation, FontSet::kFreeFont}) {
+  for (FontSet set : {FontSet::kLiberation, FontSet::kFreeFont, FontSet::kLatinModern}) {
     ASSERT_TRUE(CheckFontSet(set).ok()) << CheckFontSet(set);
     PageOptions options;
     options.fonts = set;
