@@ -746,6 +746,18 @@ absl::Status PoolBallOptions::Validate() const {
     return absl::InvalidArgumentError("dark_fraction must be in (0.05, 0.9)");
   if (!(min_area_fraction > 0 && min_area_fraction <= 1))
     return absl::InvalidArgumentError("min_area_fraction must be in (0, 1]");
+  if (!(stick_opening_radius >= 0 && stick_opening_radius < 1))
+    return absl::InvalidArgumentError(absl::StrCat(
+        "stick_opening_radius must be in [0, 1) ball radii (a stick is thinner than a ball), got ",
+        stick_opening_radius));
+  if (!(min_stick_elongation >= 1))
+    return absl::InvalidArgumentError(absl::StrCat(
+        "min_stick_elongation must be at least 1 (length over mean width), got ",
+        min_stick_elongation));
+  if (!(min_stick_length >= 2))
+    return absl::InvalidArgumentError(absl::StrCat(
+        "min_stick_length must be at least 2 ball radii (one ball's width), got ",
+        min_stick_length));
   if (!(min_fit_ballness > 0 && min_fit_ballness < 1))
     return absl::InvalidArgumentError("min_fit_ballness must be in (0, 1)");
   if (!(one_white_share > 0 && one_white_share < cue_white_share && cue_white_share < 1))
@@ -929,6 +941,107 @@ std::vector<int> AssignPoolNumbers(const std::vector<std::array<double, 10>>& sc
   return numbers;
 }
 
+namespace {
+// The cue stick's pixels in `mask` (ROI at `roi`; PoolBallOptions::stick_opening_radius):
+// long strips thinner than a ball. A ball's apparent radius changes with the image row, so
+// the opening runs in bands of rows, each with the disc of its middle row.
+cv::Mat StickPixels(const cv::Mat& mask, const cv::Rect& roi, const PlanarPose& pose,
+                    const cv::Matx33d& K, double r, double length, double width,
+                    double cushion_height, const PoolBallOptions& options) {
+  cv::Mat stick = cv::Mat::zeros(mask.size(), CV_8UC1);
+  if (options.stick_opening_radius <= 0) return stick;
+  const auto radius_at = [&](const cv::Point2d& pixel) {
+    cv::Point2d xy;
+    return BackProjectToPlane(pose, K, pixel, r, &xy) ? ApparentRadiusPx(pose, K, xy, r) : 0.0;
+  };
+  cv::Mat opened = cv::Mat::zeros(mask.size(), CV_8UC1);
+  constexpr int kBand = 24;
+  for (int y0 = 0; y0 < mask.rows; y0 += kBand) {
+    const int y1 = std::min(mask.rows, y0 + kBand);
+    const double r_px = radius_at({roi.x + roi.width / 2.0, roi.y + (y0 + y1) / 2.0});
+    if (r_px <= 0) {
+      mask.rowRange(y0, y1).copyTo(opened.rowRange(y0, y1));  // nothing removed
+      continue;
+    }
+    const int k = std::max(1, static_cast<int>(std::lround(options.stick_opening_radius * r_px)));
+    const int lo = std::max(0, y0 - 2 * k - 1), hi = std::min(mask.rows, y1 + 2 * k + 1);
+    cv::Mat band;
+    cv::morphologyEx(mask.rowRange(lo, hi), band, cv::MORPH_OPEN,
+                     cv::getStructuringElement(cv::MORPH_ELLIPSE, {2 * k + 1, 2 * k + 1}));
+    band.rowRange(y0 - lo, y1 - lo).copyTo(opened.rowRange(y0, y1));
+  }
+  // Not the cushions' faces seen beyond the cloth (between the cloth's outline and the
+  // cushion noses' at their top): in the shade of the cushions' lips they are long dark
+  // strips too, and a ball against one is thin where the strip leaves it.
+  const auto outline = [&](double z) {
+    cv::Mat inside = cv::Mat::zeros(mask.size(), CV_8UC1);
+    std::vector<cv::Point> corners;
+    for (const cv::Vec3d& p : {cv::Vec3d(0, 0, z), cv::Vec3d(length, 0, z),
+                               cv::Vec3d(length, width, z), cv::Vec3d(0, width, z)}) {
+      const cv::Point2d q = ProjectIdeal(pose, K, p);
+      corners.emplace_back(cvRound(q.x) - roi.x, cvRound(q.y) - roi.y);
+    }
+    cv::fillConvexPoly(inside, corners, cv::Scalar(255));
+    return inside;
+  };
+  const cv::Mat faces = outline(cushion_height) & ~outline(0);
+  const cv::Mat thin_anywhere = mask & ~opened;
+  const cv::Mat thin = thin_anywhere & ~faces;
+  cv::Mat labels, stats, centroids;
+  const int n = ConnectedComponentsWithStats(thin, 8, &labels, &stats, &centroids);
+  std::vector<uchar> is_stick(n, 0);
+  std::vector<std::vector<cv::Point>> points(n);
+  std::vector<int> on_faces(n, 0);
+  for (int y = 0; y < labels.rows; ++y) {
+    const int* l = labels.ptr<int>(y);
+    const uchar* f = faces.ptr<uchar>(y);
+    for (int x = 0; x < labels.cols; ++x)
+      if (l[x] > 0) {
+        points[l[x]].emplace_back(x, y);
+        on_faces[l[x]] += f[x] != 0;
+      }
+  }
+  for (int i = 1; i < n; ++i) {
+    if (points[i].size() < 5) continue;
+    const double r_px = radius_at(
+        {centroids.at<double>(i, 0) + roi.x, centroids.at<double>(i, 1) + roi.y});
+    if (r_px <= 0) continue;
+    const cv::RotatedRect box = cv::minAreaRect(points[i]);
+    const double length = std::max(box.size.width, box.size.height);
+    // Long, thin on average (a strip, not a wide patch of shadow), much longer than wide
+    // (not what the opening leaves of a ragged ball: seed 7's frame 48 left a green 6
+    // beside the 2 as a strip 3.4 radii long and 1.2 wide), and mostly off the faces (a
+    // stick crosses them; a strip mostly on them is their shade).
+    const double area = static_cast<double>(points[i].size());
+    is_stick[i] = length >= options.min_stick_length * r_px &&
+                  area <= 2 * options.stick_opening_radius * r_px * length &&
+                  area * options.min_stick_elongation <= length * length &&
+                  2 * on_faces[i] < static_cast<int>(points[i].size());
+  }
+  // A stick is straight: the thin pixels along each stick strip's line are the stick as
+  // well, where the strip was cut (over the faces, past a ball, at its tip).
+  for (int i = 1; i < n; ++i) {
+    if (!is_stick[i]) continue;
+    cv::Vec4f line;
+    cv::fitLine(points[i], line, cv::DIST_HUBER, 0, 0.01, 0.01);
+    const auto off_line = [&](const cv::Point& p) {
+      return std::abs((p.x - line[2]) * line[1] - (p.y - line[3]) * line[0]);
+    };
+    std::vector<float> offsets;
+    for (const cv::Point& p : points[i]) offsets.push_back(static_cast<float>(off_line(p)));
+    std::nth_element(offsets.begin(), offsets.begin() + offsets.size() * 9 / 10, offsets.end());
+    const double half_width = offsets[offsets.size() * 9 / 10] + 1.5;
+    for (int y = 0; y < thin_anywhere.rows; ++y) {
+      const uchar* t = thin_anywhere.ptr<uchar>(y);
+      uchar* s = stick.ptr<uchar>(y);
+      for (int x = 0; x < thin_anywhere.cols; ++x)
+        if (t[x] && off_line({x, y}) <= half_width) s[x] = 255;
+    }
+  }
+  return stick;
+}
+}  // namespace
+
 std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Matx33d& K,
                                               const PlanarPose& pose,
                                               const PoolTableProfile& profile,
@@ -981,10 +1094,12 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
   // side pocket lies partly over that mask. Those pixels say nothing about the ball (they
   // are not cloth): kMaskedOut, left out of the fits (a 7 beside a side pocket with a
   // third of its silhouette masked was rejected as half cloth, benchmark frame 53).
+  cv::Mat stick;  // the cue stick's pixels (StickPixels), found below
   const auto in_playing_volume = [&](const cv::Mat& map) {
     cv::Mat out = map.clone();
     out.setTo(0, playing_volume == 0);
     out.setTo(kMaskedOut, (region == 0) & (playing_volume != 0));
+    if (!stick.empty()) out.setTo(kMaskedOut, stick);
     return out;
   };
   cv::Mat ballness_in_region = in_playing_volume(ballness);
@@ -1032,6 +1147,11 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
         }
     }
   }
+
+  // A cue stick over the cloth gives no seeds, and the fits leave its pixels out.
+  stick = StickPixels(mask, roi, pose, K, r, L, W, profile.cushion_height_mm, options);
+  mask.setTo(0, stick);
+  ballness_in_region.setTo(kMaskedOut, stick);
 
   // Blobs -> seeds (one per expected ball; touching balls split at distance maxima).
   cv::Mat labels, stats, centroids;

@@ -5,7 +5,7 @@
 // separated balls found and identified, and analysis time per frame (mean, p95).
 // Shot search is timed separately on the found arrangements.
 //
-//   texfree-bench-pool [--frames 60] [--seed 7] [--nine-foot] [--save DIR] [--verbose]
+//   texfree-bench-pool [--frames 60] [--seed 7] [--nine-foot] [--cue-stick] [--save DIR] [--verbose]
 //                      [--clean] [--only FRAME] [--cache DIR]
 #include <CLI/CLI.hpp>
 #include <algorithm>
@@ -74,10 +74,10 @@ double Mean(const std::vector<double>& v) {
 // The options that change what is rendered, as parsed, as a file name stem (analysis
 // options left out).
 std::string CacheKey(uint64_t seed, bool nine_foot, bool clean, const std::string& cloth,
-                     double scale, int frame) {
+                     double scale, bool cue_stick, int frame) {
   std::string key = "seed" + std::to_string(seed) + (nine_foot ? "_ninefoot" : "") +
                     (clean ? "_clean" : "") + "_cloth_" + cloth + "_scale" + std::to_string(scale) +
-                    "_f" + std::to_string(frame);
+                    (cue_stick ? "_cuestick" : "") + "_f" + std::to_string(frame);
   for (char& c : key)
     if (!std::isalnum(static_cast<unsigned char>(c)) && c != '.' && c != '-') c = '_';
   return key;
@@ -187,6 +187,10 @@ int main(int argc, char** argv) {
                  "Render at this many times 640x480 (the same views, blur scaled alike): a "
                  "camera of higher resolution")
       ->check(CLI::Range(0.5, 4.0));
+  bool cue_stick = false;
+  app.add_flag("--cue-stick", cue_stick,
+               "A cue stick in every frame, aimed through the cue ball at another ball as a "
+               "player holds it (the same scenes otherwise)");
   PoolAnalyzerOptions analyzer_options;
   app.add_option("--max-working-pixels", analyzer_options.max_working_pixels,
                  "Larger images are analysed reduced to this many pixels (0: never)")
@@ -225,9 +229,15 @@ int main(int argc, char** argv) {
       scene.camera.k1 = scene.camera.k2 = 0;
     }
     ScalePoolCamera(&scene, scale);
+    if (cue_stick) {
+      // Its own generator: the scenes stay those of the set without a stick.
+      std::mt19937_64 stick_rng(seed * 7919 + static_cast<uint64_t>(f));
+      scene.cue_stick = AimedCueStick(stick_rng, spec, scene.balls);
+    }
     if (only >= 0 && f != only) continue;
-    const PoolView view = CachedPoolView(cache, CacheKey(seed, nine_foot, clean, cloth, scale, f),
-                                         scene, seed * 100003 + f);
+    const PoolView view =
+        CachedPoolView(cache, CacheKey(seed, nine_foot, clean, cloth, scale, cue_stick, f), scene,
+                       seed * 100003 + f);
     image_size = view.image.size();
     if (!save.empty()) {
       char name[64];

@@ -562,6 +562,40 @@ TEST(PoolHardBalls, ShadowMovedOutOfItsBallYieldsTheEightToTheRealOne) {
   ExpectSeparatedBallFound(8, 34, 19, 5.0);
 }
 
+// A player aiming holds a cue stick over the cloth: a long strip of non-cloth thinner than
+// a ball, with its shadow beside it. Without PoolBallOptions::stick_opening_radius it
+// broke into a row of false balls; with it the stick gives none, and the balls around it
+// are found and numbered as before.
+TEST(PoolCueStick, StickOverTheClothGivesNoFalseBalls) {
+  for (uint64_t seed : {1, 2, 3}) {
+    PoolScene scene = Scene(PoolViewSide::kLongNear, 50, 10);
+    std::mt19937_64 rng(seed);
+    scene.cue_stick = testdata::AimedCueStick(rng, scene.table, scene.balls);
+    const PoolView view = testdata::RenderPoolView(scene, 40 + seed);
+    auto scored = AnalyzeAndScore(scene, view);
+    ASSERT_TRUE(scored.ok()) << scored.status();
+    const testdata::PoolScore& score = scored->score;
+    EXPECT_EQ(score.false_balls, 0) << "seed " << seed;
+    EXPECT_EQ(score.separated_identified, score.separated) << "seed " << seed;
+    for (const auto& m : score.matches) {
+      if (!m.separated) continue;
+      EXPECT_GE(m.error_mm, 0) << "seed " << seed << ": the " << m.truth_number << " not found";
+      EXPECT_LT(m.error_mm, 10.0) << "seed " << seed << ", ball " << m.truth_number;
+    }
+    PoolAnalyzerOptions blind;
+    blind.balls.stick_opening_radius = 0;  // nothing is a stick
+    auto unaware = AnalyzeAndScore(scene, view, blind);
+    ASSERT_TRUE(unaware.ok()) << unaware.status();
+    EXPECT_GT(unaware->score.false_balls, 0) << "seed " << seed << ": the stick was no trouble";
+  }
+  PoolBallOptions bad;
+  bad.stick_opening_radius = 1.2;
+  EXPECT_FALSE(bad.Validate().ok());
+  bad = PoolBallOptions();
+  bad.min_stick_elongation = 0.5;
+  EXPECT_FALSE(bad.Validate().ok());
+}
+
 TEST(PoolHardBalls, DarkBallsAreFittedOnTheirFarRimNotTheirShadow) {
   for (int frame : {0, 18}) ExpectSeparatedBallFound(8, frame, 11, 10.0);
 }

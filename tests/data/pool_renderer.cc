@@ -48,7 +48,47 @@ struct BallModel {
 };
 
 enum class Surface { kNone, kBall, kCloth, kCushionTop, kCushionFace, kRail, kRailFace, kFloor,
-                     kPocket };
+                     kPocket, kCueShaft, kCueButt };
+
+// A finite cylinder (a cue stick's shaft or butt).
+struct Cylinder {
+  cv::Vec3d a, axis;  // start and unit axis
+  double length, radius;
+};
+
+// Ray parameter of the first hit on the cylinder's side (-1: none).
+double CylinderT(const Ray& ray, const Cylinder& c, cv::Vec3d* normal) {
+  const cv::Vec3d oa = ray.o - c.a;
+  const cv::Vec3d d_perp = ray.d - ray.d.dot(c.axis) * c.axis;
+  const cv::Vec3d o_perp = oa - oa.dot(c.axis) * c.axis;
+  const double qa = d_perp.dot(d_perp), qb = 2 * d_perp.dot(o_perp),
+               qc = o_perp.dot(o_perp) - c.radius * c.radius;
+  if (qa < 1e-12) return -1;
+  const double disc = qb * qb - 4 * qa * qc;
+  if (disc < 0) return -1;
+  for (double t : {(-qb - std::sqrt(disc)) / (2 * qa), (-qb + std::sqrt(disc)) / (2 * qa)}) {
+    if (t <= 1e-6) continue;
+    const cv::Vec3d p = ray.o + t * ray.d;
+    const double along = (p - c.a).dot(c.axis);
+    if (along < 0 || along > c.length) continue;
+    const cv::Vec3d n = p - (c.a + along * c.axis);
+    *normal = n / std::max(1e-9, cv::norm(n));
+    return t;
+  }
+  return -1;
+}
+
+// Shortest distance between segments p0-p1 and q0-q1.
+double SegmentDistance(const cv::Vec3d& p0, const cv::Vec3d& p1, const cv::Vec3d& q0,
+                       const cv::Vec3d& q1) {
+  const cv::Vec3d u = p1 - p0, v = q1 - q0, w = p0 - q0;
+  const double a = u.dot(u), b = u.dot(v), c = v.dot(v), d = u.dot(w), e = v.dot(w);
+  const double den = a * c - b * b;
+  double s = den > 1e-12 ? std::clamp((b * e - c * d) / den, 0.0, 1.0) : 0.0;
+  double t = c > 1e-12 ? std::clamp((b * s + e) / c, 0.0, 1.0) : 0.0;
+  s = a > 1e-12 ? std::clamp((b * t - d) / a, 0.0, 1.0) : 0.0;
+  return cv::norm(w + s * u - t * v);
+}
 
 struct Hit {
   Surface surface = Surface::kNone;
@@ -86,6 +126,12 @@ class Scene {
     cv::normalize(texture_, texture_, 1, 0, cv::NORM_L2);
     texture_ *= 256.0;  // unit variance
     for (int i = 0; i < 3; ++i) cloth_cast_[i] = Uniform(rng, 0.97, 1.03);
+    if (scene.cue_stick) {
+      const PoolCueStick& c = *scene.cue_stick;
+      const cv::Vec3d axis = c.toward_butt / std::max(1e-9, cv::norm(c.toward_butt));
+      cue_ = {{c.tip_mm, axis, c.shaft_length_mm, c.shaft_radius_mm},
+              {c.tip_mm + c.shaft_length_mm * axis, axis, c.butt_length_mm, c.butt_radius_mm}};
+    }
   }
 
   Hit Intersect(const Ray& ray, bool balls_only = false) const;
@@ -128,6 +174,7 @@ class Scene {
   double lamp_power_ = 1;
   cv::Mat texture_;
   cv::Vec3d cloth_cast_{1, 1, 1};
+  std::vector<Cylinder> cue_;  // shaft, butt (empty: no cue stick)
 };
 
 Hit Scene::Intersect(const Ray& ray, bool balls_only) const {
@@ -143,6 +190,17 @@ Hit Scene::Intersect(const Ray& ray, bool balls_only) const {
   if (best.surface == Surface::kBall) {
     best.p = ray.o + best.t * ray.d;
     best.n = (best.p - balls_[best.ball].centre) / t_.ball_radius_mm;
+  }
+  for (size_t k = 0; k < cue_.size(); ++k) {
+    cv::Vec3d n;
+    const double t = CylinderT(ray, cue_[k], &n);
+    if (t > 0 && t < best.t) {
+      best.t = t;
+      best.surface = k == 0 ? Surface::kCueShaft : Surface::kCueButt;
+      best.ball = -1;
+      best.p = ray.o + t * ray.d;
+      best.n = n;
+    }
   }
   if (balls_only) return best;
   const double L = t_.length_mm, W = t_.width_mm, h = t_.cushion_height_mm;
@@ -224,6 +282,13 @@ double Scene::LampVisibility(const cv::Vec3d& p, const cv::Vec3d& lamp, int self
     const double covered = 1 - SmoothStep((theta - (alpha - beta)) / (2 * beta));
     visible *= 1 - covered;
   }
+  // The cue stick's shadow: soft over the lamp's penumbra at the stick.
+  for (const Cylinder& c : cue_) {
+    const double d = SegmentDistance(p, lamp, c.a, c.a + c.length * c.axis);
+    const double to_stick = cv::norm(c.a + 0.5 * c.length * c.axis - p);
+    const double penumbra = std::max(1.0, kLampRadius * to_stick / lamp_dist);
+    visible *= SmoothStep((d - (c.radius - penumbra)) / (2 * penumbra));
+  }
   return visible;
 }
 
@@ -271,6 +336,16 @@ cv::Vec3d Scene::Shade(const Ray& ray, const Hit& hit) const {
       albedo = BallAlbedo(balls_[hit.ball], n);
       shininess = 90;
       specular = 260;
+      break;
+    case Surface::kCueShaft:
+      albedo = {214, 184, 132};  // maple
+      shininess = 40;
+      specular = 60;
+      break;
+    case Surface::kCueButt:
+      albedo = {70, 40, 28};  // stained wood
+      shininess = 40;
+      specular = 80;
       break;
     case Surface::kCloth:
     case Surface::kCushionTop:
@@ -631,6 +706,33 @@ std::vector<PoolBallPlacement> RandomPoolLayout(std::mt19937_64& rng, const Pool
     }
   }
   return balls;
+}
+
+PoolCueStick AimedCueStick(std::mt19937_64& rng, const PoolTableSpec& table,
+                           const std::vector<PoolBallPlacement>& balls) {
+  cv::Point2d cue(table.length_mm / 2, table.width_mm / 2), target;
+  std::vector<cv::Point2d> others;
+  for (const auto& b : balls) {
+    if (b.number == 0)
+      cue = {b.x_mm, b.y_mm};
+    else
+      others.emplace_back(b.x_mm, b.y_mm);
+  }
+  cv::Point2d aim;
+  if (others.empty()) {
+    const double a = Uniform(rng, 0, 2 * kPi);
+    aim = {std::cos(a), std::sin(a)};
+  } else {
+    target = others[rng() % others.size()];
+    aim = target - cue;
+    aim /= std::max(1e-9, cv::norm(aim));
+  }
+  const double rise = Uniform(rng, 4, 10) * kDeg;
+  PoolCueStick stick;
+  const double back = table.ball_radius_mm + Uniform(rng, 30, 80);
+  stick.tip_mm = {cue.x - back * aim.x, cue.y - back * aim.y, table.ball_radius_mm};
+  stick.toward_butt = {-aim.x * std::cos(rise), -aim.y * std::cos(rise), std::sin(rise)};
+  return stick;
 }
 
 void ScalePoolCamera(PoolScene* scene, double scale) {

@@ -19,6 +19,7 @@
 #include <opencv2/core.hpp>
 #include <random>
 #include <string>
+#include <optional>
 #include <vector>
 
 namespace texfree::testdata {
@@ -62,8 +63,19 @@ struct PoolCamera {
   double k1 = 0, k2 = 0;  // radial distortion (OpenCV model)
 };
 
+// A cue stick held over the table, as a player aiming holds it: a shaft of maple ending
+// in a tip behind the cue ball, and a darker butt, rising towards the player. Two
+// cylinders (the taper in two steps).
+struct PoolCueStick {
+  cv::Vec3d tip_mm{0, 0, 0};     // centre of the tip, table frame
+  cv::Vec3d toward_butt{1, 0, 0};  // unit, from the tip to the butt
+  double shaft_length_mm = 700, butt_length_mm = 750;
+  double shaft_radius_mm = 6.5, butt_radius_mm = 13;
+};
+
 struct PoolScene {
   PoolTableSpec table;
+  std::optional<PoolCueStick> cue_stick;  // none: no stick in the scene
   std::vector<PoolBallPlacement> balls;
   PoolCamera camera;
   int lamps = 2;              // lamps above the long axis, 900 mm over the cloth
@@ -120,6 +132,11 @@ std::vector<PoolBallPlacement> RandomPoolLayout(std::mt19937_64& rng, const Pool
 // lamps, exposure, blur 0.3..1.0, noise 1..4, JPEG 70..95.
 PoolScene RandomPoolScene(std::mt19937_64& rng, const PoolTableSpec& table,
                           bool allow_touching = true);
+
+// A cue stick aimed through the cue ball at a random other ball (a random direction when
+// the cue is alone), its tip 30-80 mm behind the cue ball, rising 4-10 degrees.
+PoolCueStick AimedCueStick(std::mt19937_64& rng, const PoolTableSpec& table,
+                           const std::vector<PoolBallPlacement>& balls);
 
 // The same view from a camera with `scale` times the pixels each way (the image size and
 // the blur in pixels scaled alike, as a sharper sensor behind the same optics would see).
