@@ -751,13 +751,13 @@ absl::Status PoolBallOptions::Validate() const {
         "stick_opening_radius must be in [0, 1) ball radii (a stick is thinner than a ball), got ",
         stick_opening_radius));
   if (!(min_stick_elongation >= 1))
-    return absl::InvalidArgumentError(absl::StrCat(
-        "min_stick_elongation must be at least 1 (length over mean width), got ",
-        min_stick_elongation));
+    return absl::InvalidArgumentError(
+        absl::StrCat("min_stick_elongation must be at least 1 (length over mean width), got ",
+                     min_stick_elongation));
   if (!(min_stick_length >= 2))
-    return absl::InvalidArgumentError(absl::StrCat(
-        "min_stick_length must be at least 2 ball radii (one ball's width), got ",
-        min_stick_length));
+    return absl::InvalidArgumentError(
+        absl::StrCat("min_stick_length must be at least 2 ball radii (one ball's width), got ",
+                     min_stick_length));
   if (!(min_fit_ballness > 0 && min_fit_ballness < 1))
     return absl::InvalidArgumentError("min_fit_ballness must be in (0, 1)");
   if (!(one_white_share > 0 && one_white_share < cue_white_share && cue_white_share < 1))
@@ -1003,8 +1003,8 @@ cv::Mat StickPixels(const cv::Mat& mask, const cv::Rect& roi, const PlanarPose& 
   }
   for (int i = 1; i < n; ++i) {
     if (points[i].size() < 5) continue;
-    const double r_px = radius_at(
-        {centroids.at<double>(i, 0) + roi.x, centroids.at<double>(i, 1) + roi.y});
+    const double r_px =
+        radius_at({centroids.at<double>(i, 0) + roi.x, centroids.at<double>(i, 1) + roi.y});
     if (r_px <= 0) continue;
     const cv::RotatedRect box = cv::minAreaRect(points[i]);
     const double length = std::max(box.size.width, box.size.height);

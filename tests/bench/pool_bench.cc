@@ -5,7 +5,8 @@
 // separated balls found and identified, and analysis time per frame (mean, p95).
 // Shot search is timed separately on the found arrangements.
 //
-//   texfree-bench-pool [--frames 60] [--seed 7] [--nine-foot] [--cue-stick] [--save DIR] [--verbose]
+//   texfree-bench-pool [--frames 60] [--seed 7] [--nine-foot] [--cue-stick] [--save DIR]
+//   [--verbose]
 //                      [--clean] [--only FRAME] [--cache DIR]
 #include <CLI/CLI.hpp>
 #include <algorithm>

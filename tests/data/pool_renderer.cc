@@ -47,8 +47,19 @@ struct BallModel {
   cv::Vec3d albedo;  // RGB
 };
 
-enum class Surface { kNone, kBall, kCloth, kCushionTop, kCushionFace, kRail, kRailFace, kFloor,
-                     kPocket, kCueShaft, kCueButt };
+enum class Surface {
+  kNone,
+  kBall,
+  kCloth,
+  kCushionTop,
+  kCushionFace,
+  kRail,
+  kRailFace,
+  kFloor,
+  kPocket,
+  kCueShaft,
+  kCueButt
+};
 
 // A finite cylinder (a cue stick's shaft or butt).
 struct Cylinder {

@@ -17,9 +17,9 @@
 #include <array>
 #include <cstdint>
 #include <opencv2/core.hpp>
+#include <optional>
 #include <random>
 #include <string>
-#include <optional>
 #include <vector>
 
 namespace texfree::testdata {
@@ -67,7 +67,7 @@ struct PoolCamera {
 // in a tip behind the cue ball, and a darker butt, rising towards the player. Two
 // cylinders (the taper in two steps).
 struct PoolCueStick {
-  cv::Vec3d tip_mm{0, 0, 0};     // centre of the tip, table frame
+  cv::Vec3d tip_mm{0, 0, 0};       // centre of the tip, table frame
   cv::Vec3d toward_butt{1, 0, 0};  // unit, from the tip to the butt
   double shaft_length_mm = 700, butt_length_mm = 750;
   double shaft_radius_mm = 6.5, butt_radius_mm = 13;
