@@ -193,6 +193,10 @@ int main(int argc, char** argv) {
                "A cue stick in every frame, aimed through the cue ball at another ball as a "
                "player holds it (the same scenes otherwise)");
   PoolAnalyzerOptions analyzer_options;
+  app.add_option("--stick-opening-radius", analyzer_options.balls.stick_opening_radius,
+                 "Cue-stick strips are what an opening with a disc of this many ball radii "
+                 "removes (0: nothing is a stick)")
+      ->capture_default_str();
   app.add_option("--max-working-pixels", analyzer_options.max_working_pixels,
                  "Larger images are analysed reduced to this many pixels (0: never)")
       ->capture_default_str();
