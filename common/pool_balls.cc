@@ -946,7 +946,7 @@ namespace {
 // long strips thinner than a ball. A ball's apparent radius changes with the image row, so
 // the opening runs in bands of rows, each with the disc of its middle row.
 cv::Mat StickPixels(const cv::Mat& mask, const cv::Rect& roi, const PlanarPose& pose,
-                    const cv::Matx33d& K, double r, double length, double width,
+                    const cv::Matx33d& K, double r, double table_length, double table_width,
                     double cushion_height, const PoolBallOptions& options) {
   cv::Mat stick = cv::Mat::zeros(mask.size(), CV_8UC1);
   if (options.stick_opening_radius <= 0) return stick;
@@ -976,8 +976,9 @@ cv::Mat StickPixels(const cv::Mat& mask, const cv::Rect& roi, const PlanarPose& 
   const auto outline = [&](double z) {
     cv::Mat inside = cv::Mat::zeros(mask.size(), CV_8UC1);
     std::vector<cv::Point> corners;
-    for (const cv::Vec3d& p : {cv::Vec3d(0, 0, z), cv::Vec3d(length, 0, z),
-                               cv::Vec3d(length, width, z), cv::Vec3d(0, width, z)}) {
+    for (const cv::Vec3d& p : {cv::Vec3d(0, 0, z), cv::Vec3d(table_length, 0, z),
+                               cv::Vec3d(table_length, table_width, z),
+                               cv::Vec3d(0, table_width, z)}) {
       const cv::Point2d q = ProjectIdeal(pose, K, p);
       corners.emplace_back(cvRound(q.x) - roi.x, cvRound(q.y) - roi.y);
     }
@@ -1007,15 +1008,15 @@ cv::Mat StickPixels(const cv::Mat& mask, const cv::Rect& roi, const PlanarPose& 
         radius_at({centroids.at<double>(i, 0) + roi.x, centroids.at<double>(i, 1) + roi.y});
     if (r_px <= 0) continue;
     const cv::RotatedRect box = cv::minAreaRect(points[i]);
-    const double length = std::max(box.size.width, box.size.height);
+    const double extent = std::max(box.size.width, box.size.height);
     // Long, thin on average (a strip, not a wide patch of shadow), much longer than wide
     // (not what the opening leaves of a ragged ball: seed 7's frame 48 left a green 6
     // beside the 2 as a strip 3.4 radii long and 1.2 wide), and mostly off the faces (a
     // stick crosses them; a strip mostly on them is their shade).
     const double area = static_cast<double>(points[i].size());
-    is_stick[i] = length >= options.min_stick_length * r_px &&
-                  area <= 2 * options.stick_opening_radius * r_px * length &&
-                  area * options.min_stick_elongation <= length * length &&
+    is_stick[i] = extent >= options.min_stick_length * r_px &&
+                  area <= 2 * options.stick_opening_radius * r_px * extent &&
+                  area * options.min_stick_elongation <= extent * extent &&
                   2 * on_faces[i] < static_cast<int>(points[i].size());
   }
   // A stick is straight: the thin pixels along each stick strip's line are the stick as
