@@ -236,14 +236,16 @@ TEST(PoolClothColour, ClothOfAnotherColourThanTheProfileIsFound) {
       for (const auto& ball : view.balls) {
         const bool hidden_by_hue =
             std::count(cloth.of_the_cloth_hue.begin(), cloth.of_the_cloth_hue.end(), ball.number);
-        if (!hidden_by_hue)
+        if (!hidden_by_hue) {
           EXPECT_TRUE(std::count(located.begin(), located.end(), ball.number))
               << "ball " << ball.number << " not located";
+        }
       }
       EXPECT_LT(worst, 16.0) << detail;
       EXPECT_LT(sum / std::max<size_t>(1, located.size()), 5.0) << detail;
-      if (cloth.of_the_cloth_hue.empty())
+      if (cloth.of_the_cloth_hue.empty()) {
         EXPECT_GE(score.separated_identified, score.separated - 1);
+      }
     }
   // Told to look for the profile's colour only, it finds no table.
   PoolScene scene = Scene(PoolViewSide::kLongNear, 50, 8);
@@ -785,8 +787,9 @@ TEST(PoolTouchingBalls, BallsNotDarkerThanTheClothAreFittedOnTheirEdgePoints) {
       if (m.error_mm < 0) continue;  // frames 26 and 30 each have a touching ball not found
       EXPECT_LT(m.error_mm, 10.0) << "frame " << frame << ", ball " << m.truth_number;
     }
-    if (frame == 46 || frame == 55)
+    if (frame == 46 || frame == 55) {
       EXPECT_EQ(score.position_errors_mm.size(), view.balls.size()) << "frame " << frame;
+    }
     EXPECT_EQ(score.separated_identified, score.separated) << "frame " << frame;
   }
 }

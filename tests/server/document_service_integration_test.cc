@@ -257,7 +257,9 @@ TEST_F(DocumentServiceIntegrationTest, RegisterRetrieveDeleteRestart) {
     } else {
       ASSERT_GE(res.matches_size(), 1) << "page " << i << " after restart";
       EXPECT_EQ(res.matches(0).document_id(), pages[i].id);
-      if (i == 0) EXPECT_EQ(res.matches(0).annotations_size(), 2);
+      if (i == 0) {
+        EXPECT_EQ(res.matches(0).annotations_size(), 2);
+      }
     }
   }
   // The deleted page can be registered again.
