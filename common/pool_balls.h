@@ -42,7 +42,7 @@ struct PoolBallOptions {
   // out. At 0 nothing is a stick. A ball under the stick keeps its own disc (the opening
   // keeps it whole); the necks between touching balls are removed too, but are short.
   // With a stick aimed through the cue ball in every frame (texfree-bench-pool --cue-stick,
-  // 30 frames of each of the ten seeds): 532 false balls without this, 78 with it. On the
+  // 30 frames of each of the ten seeds): 587 false balls without this, 98 with it. On the
   // ten sets without a stick only seed 11's frame 25 changed (a low camera, 12 mm a pixel
   // along the line of sight): its far 6 from 9.2 to 13.7 mm, its 8 from 13.4 to 11.5 mm.
   double stick_opening_radius = 0.7;

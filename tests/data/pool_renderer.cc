@@ -172,8 +172,10 @@ class Scene {
     const int y = static_cast<int>(std::floor(v / texel_mm)) & 255;
     return texture_.at<float>(y, x);
   }
-  // Fraction of lamp `l` seen from p (soft shadows of the balls), excluding ball `self`.
-  double LampVisibility(const cv::Vec3d& p, const cv::Vec3d& lamp, int self) const;
+  // Fraction of lamp `l` seen from p (soft shadows of the balls and of the cue stick),
+  // excluding ball `self`, and the stick when p is on it.
+  double LampVisibility(const cv::Vec3d& p, const cv::Vec3d& lamp, int self,
+                        bool on_stick) const;
   double AmbientOcclusion(const cv::Vec3d& p, const cv::Vec3d& n, int self) const;
   cv::Vec3d BallAlbedo(const BallModel& ball, const cv::Vec3d& n) const;
 
@@ -202,6 +204,7 @@ Hit Scene::Intersect(const Ray& ray, bool balls_only) const {
     best.p = ray.o + best.t * ray.d;
     best.n = (best.p - balls_[best.ball].centre) / t_.ball_radius_mm;
   }
+  if (balls_only) return best;
   for (size_t k = 0; k < cue_.size(); ++k) {
     cv::Vec3d n;
     const double t = CylinderT(ray, cue_[k], &n);
@@ -213,7 +216,6 @@ Hit Scene::Intersect(const Ray& ray, bool balls_only) const {
       best.n = n;
     }
   }
-  if (balls_only) return best;
   const double L = t_.length_mm, W = t_.width_mm, h = t_.cushion_height_mm;
   const double cw = t_.cushion_width_mm, rw = t_.rail_width_mm;
   auto consider = [&](double t, Surface s, const cv::Vec3d& n) {
@@ -276,7 +278,8 @@ Hit Scene::Intersect(const Ray& ray, bool balls_only) const {
   return best;
 }
 
-double Scene::LampVisibility(const cv::Vec3d& p, const cv::Vec3d& lamp, int self) const {
+double Scene::LampVisibility(const cv::Vec3d& p, const cv::Vec3d& lamp, int self,
+                             bool on_stick) const {
   const cv::Vec3d to_lamp = lamp - p;
   const double lamp_dist = cv::norm(to_lamp);
   const cv::Vec3d l = to_lamp / lamp_dist;
@@ -293,8 +296,10 @@ double Scene::LampVisibility(const cv::Vec3d& p, const cv::Vec3d& lamp, int self
     const double covered = 1 - SmoothStep((theta - (alpha - beta)) / (2 * beta));
     visible *= 1 - covered;
   }
-  // The cue stick's shadow: soft over the lamp's penumbra at the stick.
+  // The cue stick's shadow: soft over the lamp's penumbra at the stick. (Its own lit side
+  // faces the lamp: the stick's shading is its normal's.)
   for (const Cylinder& c : cue_) {
+    if (on_stick) break;
     const double d = SegmentDistance(p, lamp, c.a, c.a + c.length * c.axis);
     const double to_stick = cv::norm(c.a + 0.5 * c.length * c.axis - p);
     const double penumbra = std::max(1.0, kLampRadius * to_stick / lamp_dist);
@@ -408,7 +413,9 @@ cv::Vec3d Scene::Shade(const Ray& ray, const Hit& hit) const {
     const double nl = n.dot(l);
     if (nl <= 0) continue;
     const double falloff = kLampHeight * kLampHeight / (dist * dist);
-    const double vis = hit.surface == Surface::kFloor ? 0.5 : LampVisibility(p, lamp, self);
+    const bool on_stick = hit.surface == Surface::kCueShaft || hit.surface == Surface::kCueButt;
+    const double vis =
+        hit.surface == Surface::kFloor ? 0.5 : LampVisibility(p, lamp, self, on_stick);
     diffuse += lamp_power_ * falloff * nl * vis;
     if (specular > 0) {
       cv::Vec3d half = l + view;
