@@ -174,8 +174,7 @@ class Scene {
   }
   // Fraction of lamp `l` seen from p (soft shadows of the balls and of the cue stick),
   // excluding ball `self`, and the stick when p is on it.
-  double LampVisibility(const cv::Vec3d& p, const cv::Vec3d& lamp, int self,
-                        bool on_stick) const;
+  double LampVisibility(const cv::Vec3d& p, const cv::Vec3d& lamp, int self, bool on_stick) const;
   double AmbientOcclusion(const cv::Vec3d& p, const cv::Vec3d& n, int self) const;
   cv::Vec3d BallAlbedo(const BallModel& ball, const cv::Vec3d& n) const;
 
