@@ -44,6 +44,19 @@ double HueGapDeg(double a, double b) {
   return gap > 180 ? 360 - gap : gap;
 }
 
+// The playing surface's outline (cushion noses, table frame (0,0)-(L,W)) at height z,
+// projected to whole pixels less `offset`.
+std::vector<cv::Point> TableOutlinePx(const PlanarPose& pose, const cv::Matx33d& K, double L,
+                                      double W, double z, const cv::Point& offset = {0, 0}) {
+  std::vector<cv::Point> corners;
+  for (const cv::Vec3d& p :
+       {cv::Vec3d(0, 0, z), cv::Vec3d(L, 0, z), cv::Vec3d(L, W, z), cv::Vec3d(0, W, z)}) {
+    const cv::Point2d q = ProjectIdeal(pose, K, p);
+    corners.emplace_back(cvRound(q.x) - offset.x, cvRound(q.y) - offset.y);
+  }
+  return corners;
+}
+
 // The ball-ness of every pixel in `roi` (0 = cloth, 1 = ball), soft around the
 // thresholds so that sub-pixel fitting sees a continuous image.
 // `dark_counts` false: by colour alone (a shadow on the cloth is dark, never coloured).
@@ -975,14 +988,8 @@ cv::Mat StickPixels(const cv::Mat& mask, const cv::Rect& roi, const PlanarPose& 
   // strips too, and a ball against one is thin where the strip leaves it.
   const auto outline = [&](double z) {
     cv::Mat inside = cv::Mat::zeros(mask.size(), CV_8UC1);
-    std::vector<cv::Point> corners;
-    for (const cv::Vec3d& p : {cv::Vec3d(0, 0, z), cv::Vec3d(table_length, 0, z),
-                               cv::Vec3d(table_length, table_width, z),
-                               cv::Vec3d(0, table_width, z)}) {
-      const cv::Point2d q = ProjectIdeal(pose, K, p);
-      corners.emplace_back(cvRound(q.x) - roi.x, cvRound(q.y) - roi.y);
-    }
-    cv::fillConvexPoly(inside, corners, cv::Scalar(255));
+    cv::fillConvexPoly(inside, TableOutlinePx(pose, K, table_length, table_width, z, roi.tl()),
+                       cv::Scalar(255));
     return inside;
   };
   const cv::Mat faces = outline(cushion_height) & ~outline(0);
@@ -1057,13 +1064,8 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
   const double cloth_intensity = (cloth[0] + cloth[1] + cloth[2]) / 3;
   // Where balls can be seen: the playing surface from the cloth up to a ball's height,
   // without the pockets.
-  std::vector<cv::Point> hull_points;
-  for (double z : {0.0, 2 * r})
-    for (const cv::Vec3d& p :
-         {cv::Vec3d(0, 0, z), cv::Vec3d(L, 0, z), cv::Vec3d(L, W, z), cv::Vec3d(0, W, z)}) {
-      const cv::Point2d q = ProjectIdeal(pose, K, p);
-      hull_points.emplace_back(cvRound(q.x), cvRound(q.y));
-    }
+  std::vector<cv::Point> hull_points = TableOutlinePx(pose, K, L, W, 0);
+  for (const cv::Point& p : TableOutlinePx(pose, K, L, W, 2 * r)) hull_points.push_back(p);
   std::vector<cv::Point> hull;
   cv::convexHull(hull_points, hull);
   const cv::Rect image_rect(0, 0, bgr.cols, bgr.rows);

@@ -727,7 +727,7 @@ std::vector<PoolBallPlacement> RandomPoolLayout(std::mt19937_64& rng, const Pool
 
 PoolCueStick AimedCueStick(std::mt19937_64& rng, const PoolTableSpec& table,
                            const std::vector<PoolBallPlacement>& balls) {
-  cv::Point2d cue(table.length_mm / 2, table.width_mm / 2), target;
+  cv::Point2d cue(table.length_mm / 2, table.width_mm / 2);
   std::vector<cv::Point2d> others;
   for (const auto& b : balls) {
     if (b.number == 0)
@@ -740,8 +740,7 @@ PoolCueStick AimedCueStick(std::mt19937_64& rng, const PoolTableSpec& table,
     const double a = Uniform(rng, 0, 2 * kPi);
     aim = {std::cos(a), std::sin(a)};
   } else {
-    target = others[rng() % others.size()];
-    aim = target - cue;
+    aim = others[rng() % others.size()] - cue;
     aim /= std::max(1e-9, cv::norm(aim));
   }
   const double rise = Uniform(rng, 4, 10) * kDeg;

@@ -30,7 +30,9 @@ cv::Mat Gray(const cv::Mat& bgr) {
 
 class DocumentRegistryTest : public ::testing::Test {
  protected:
-  void SetUp() override {
+  void SetUp() override { EmptyDatabase(); }
+  // A new, empty database at path_ (the registry on the old one must be closed).
+  void EmptyDatabase() {
     dir_ = fs::temp_directory_path() / ("texfree-registry-" + std::to_string(::getpid()));
     fs::remove_all(dir_);
     fs::create_directories(dir_);
@@ -191,8 +193,7 @@ TEST_F(DocumentRegistryTest, HeldOutFontPageIsRetrievedFromATiltedView) {
     }
     ExpectRetrieved(*registry, first_page, id, 3);
     registry.reset();
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
+    EmptyDatabase();
   }
 }
 
