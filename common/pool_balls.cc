@@ -783,6 +783,11 @@ absl::Status PoolBallOptions::Validate() const {
         absl::StrCat("white_outward_of_one must be in [-1, 1], got ", white_outward_of_one));
   if (!(five_orange_share > 0 && five_orange_share < 0.5))
     return absl::InvalidArgumentError("five_orange_share must be in (0, 0.5)");
+  if (!(line_of_sight_pair_deg >= 0 && line_of_sight_pair_deg < 90))
+    return absl::InvalidArgumentError(absl::StrCat(
+        "line_of_sight_pair_deg must be in [0, 90) (degrees between a touching pair's line "
+        "and the line of sight; 0 turns the rule off), got ",
+        line_of_sight_pair_deg));
   if (!(moved_number_weight > 0 && moved_number_weight <= 1))
     return absl::InvalidArgumentError(absl::StrCat(
         "moved_number_weight must be in (0, 1] (a factor on a moved ball's number scores), got ",
@@ -1792,9 +1797,22 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
           seeds[better] = seeds[worse] + out * (2 * r / std::max(1e-6, gap));
           moved[better] = 1;
         } else if (other_colour) {
-          const cv::Point2d out = worse == j ? apart : -apart;
-          seeds[worse] = seeds[better] + out * (2 * r / std::max(1e-6, gap));
-          moved[worse] = 1;
+          // The worse fit is moved out, or the nearer of a pair seen one behind the other
+          // (options.line_of_sight_pair_deg).
+          size_t mover = worse;
+          if (options.line_of_sight_pair_deg > 0 && gap > r) {
+            const bool i_nearer = cv::norm(cv::Vec3d(seeds[i].x, seeds[i].y, r) - camera) <
+                                  cv::norm(cv::Vec3d(seeds[j].x, seeds[j].y, r) - camera);
+            const size_t nearer = i_nearer ? i : j, farther = i_nearer ? j : i;
+            const cv::Point2d sight(seeds[farther].x - camera[0], seeds[farther].y - camera[1]);
+            const cv::Point2d behind = seeds[farther] - seeds[nearer];
+            if (behind.dot(sight) >= std::cos(options.line_of_sight_pair_deg * kPi / 180) *
+                                         cv::norm(behind) * cv::norm(sight))
+              mover = nearer;
+          }
+          const size_t keep = mover == i ? j : i;
+          seeds[mover] = seeds[keep] + (seeds[mover] - seeds[keep]) * (2 * r / std::max(1e-6, gap));
+          moved[mover] = 1;
         } else {
           seeds.erase(seeds.begin() + static_cast<std::ptrdiff_t>(worse));
           moved.erase(moved.begin() + static_cast<std::ptrdiff_t>(worse));

@@ -327,13 +327,23 @@ int main(int argc, char** argv) {
               ProjectTablePoint(view, {truth->x_mm + 10 * away.x, truth->y_mm + 10 * away.y, r});
           const cv::Point2d found =
               ProjectTablePoint(view, {truth->x_mm + m.dx_mm, truth->y_mm + m.dy_mm, r});
+          // The nearest other ball: the gap between the two (0: touching).
+          int nearest = -1;
+          double gap_mm = 1e9;
+          for (const auto& b : view.balls)
+            if (&b != truth &&
+                std::hypot(b.x_mm - truth->x_mm, b.y_mm - truth->y_mm) - 2 * r < gap_mm) {
+              gap_mm = std::hypot(b.x_mm - truth->x_mm, b.y_mm - truth->y_mm) - 2 * r;
+              nearest = b.number;
+            }
           std::printf(
               "    ball %d%s at px (%.1f, %.1f) mm (%.1f, %.1f): found as %d at px (%.1f, %.1f), "
               "error %.1f mm (%.1f, %.1f), %.1f mm away from the camera; 1 px = %.1f mm along "
-              "it\n",
+              "it; nearest ball %d, %.1f mm apart\n",
               m.truth_number, m.separated ? " (separated)" : "", p0.x, p0.y, truth->x_mm,
               truth->y_mm, m.estimated_number, found.x, found.y, m.error_mm, m.dx_mm, m.dy_mm,
-              m.dx_mm * away.x + m.dy_mm * away.y, 10 / std::max(1e-9, cv::norm(p1 - p0)));
+              m.dx_mm * away.x + m.dy_mm * away.y, 10 / std::max(1e-9, cv::norm(p1 - p0)),
+              nearest, gap_mm);
         }
       for (const auto& m : score.matches) {
         if (m.estimated_index < 0) continue;
