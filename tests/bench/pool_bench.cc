@@ -342,8 +342,8 @@ int main(int argc, char** argv) {
               "it; nearest ball %d, %.1f mm apart\n",
               m.truth_number, m.separated ? " (separated)" : "", p0.x, p0.y, truth->x_mm,
               truth->y_mm, m.estimated_number, found.x, found.y, m.error_mm, m.dx_mm, m.dy_mm,
-              m.dx_mm * away.x + m.dy_mm * away.y, 10 / std::max(1e-9, cv::norm(p1 - p0)),
-              nearest, gap_mm);
+              m.dx_mm * away.x + m.dy_mm * away.y, 10 / std::max(1e-9, cv::norm(p1 - p0)), nearest,
+              gap_mm);
         }
       for (const auto& m : score.matches) {
         if (m.estimated_index < 0) continue;
