@@ -763,6 +763,11 @@ absl::Status PoolBallOptions::Validate() const {
     return absl::InvalidArgumentError(absl::StrCat(
         "stick_opening_radius must be in [0, 1) ball radii (a stick is thinner than a ball), got ",
         stick_opening_radius));
+  if (!(stick_bridge_length > 0))
+    return absl::InvalidArgumentError(absl::StrCat(
+        "stick_bridge_length must be positive (ball radii the stick's line is followed past "
+        "each strip over the cloth), got ",
+        stick_bridge_length));
   if (!(min_stick_elongation >= 1))
     return absl::InvalidArgumentError(
         absl::StrCat("min_stick_elongation must be at least 1 (length over mean width), got ",
@@ -997,12 +1002,14 @@ cv::Mat StickPixels(const cv::Mat& mask, const cv::Rect& roi, const PlanarPose& 
                        cv::Scalar(255));
     return inside;
   };
-  const cv::Mat faces = outline(cushion_height) & ~outline(0);
+  const cv::Mat cloth_outline = outline(0);
+  const cv::Mat faces = outline(cushion_height) & ~cloth_outline;
   const cv::Mat thin_anywhere = mask & ~opened;
   const cv::Mat thin = thin_anywhere & ~faces;
   cv::Mat labels, stats, centroids;
   const int n = ConnectedComponentsWithStats(thin, 8, &labels, &stats, &centroids);
   std::vector<uchar> is_stick(n, 0);
+  std::vector<double> strip_radius(n, 0);
   std::vector<std::vector<cv::Point>> points(n);
   std::vector<int> on_faces(n, 0);
   for (int y = 0; y < labels.rows; ++y) {
@@ -1019,6 +1026,7 @@ cv::Mat StickPixels(const cv::Mat& mask, const cv::Rect& roi, const PlanarPose& 
     const double r_px =
         radius_at({centroids.at<double>(i, 0) + roi.x, centroids.at<double>(i, 1) + roi.y});
     if (r_px <= 0) continue;
+    strip_radius[i] = r_px;
     const cv::RotatedRect box = cv::minAreaRect(points[i]);
     const double extent = std::max(box.size.width, box.size.height);
     // Long, thin on average (a strip, not a wide patch of shadow), much longer than wide
@@ -1032,7 +1040,9 @@ cv::Mat StickPixels(const cv::Mat& mask, const cv::Rect& roi, const PlanarPose& 
                   2 * on_faces[i] < static_cast<int>(points[i].size());
   }
   // A stick is straight: the thin pixels along each stick strip's line are the stick as
-  // well, where the strip was cut (over the faces, past a ball, at its tip).
+  // well, where the strip was cut (over the faces, past a ball, at its tip): beyond the
+  // cloth all of them, over the cloth those within options.stick_bridge_length of the
+  // strip's ends (the object ball lies on the line beyond the cue ball).
   for (int i = 1; i < n; ++i) {
     if (!is_stick[i]) continue;
     cv::Vec4f line;
@@ -1044,11 +1054,23 @@ cv::Mat StickPixels(const cv::Mat& mask, const cv::Rect& roi, const PlanarPose& 
     for (const cv::Point& p : points[i]) offsets.push_back(static_cast<float>(off_line(p)));
     std::nth_element(offsets.begin(), offsets.begin() + offsets.size() * 9 / 10, offsets.end());
     const double half_width = offsets[offsets.size() * 9 / 10] + 1.5;
+    const auto along = [&](const cv::Point& p) {
+      return (p.x - line[2]) * line[0] + (p.y - line[3]) * line[1];
+    };
+    double first = 1e18, last = -1e18;
+    for (const cv::Point& p : points[i]) {
+      first = std::min(first, static_cast<double>(along(p)));
+      last = std::max(last, static_cast<double>(along(p)));
+    }
+    const double bridge = options.stick_bridge_length * strip_radius[i];
     for (int y = 0; y < thin_anywhere.rows; ++y) {
       const uchar* t = thin_anywhere.ptr<uchar>(y);
       uchar* s = stick.ptr<uchar>(y);
+      const uchar* c = cloth_outline.ptr<uchar>(y);
       for (int x = 0; x < thin_anywhere.cols; ++x)
-        if (t[x] && off_line({x, y}) <= half_width) s[x] = 255;
+        if (t[x] && off_line({x, y}) <= half_width &&
+            (!c[x] || (along({x, y}) >= first - bridge && along({x, y}) <= last + bridge)))
+          s[x] = 255;
     }
   }
   return stick;

@@ -197,6 +197,14 @@ int main(int argc, char** argv) {
                  "Cue-stick strips are what an opening with a disc of this many ball radii "
                  "removes (0: nothing is a stick)")
       ->capture_default_str();
+  app.add_option("--stick-bridge-length", analyzer_options.balls.stick_bridge_length,
+                 "Over the cloth the stick's line is followed this many ball radii past each "
+                 "strip found")
+      ->capture_default_str();
+  app.add_option("--line-of-sight-pair-deg", analyzer_options.balls.line_of_sight_pair_deg,
+                 "Of two overlapping fits within this many degrees of the line of sight, the "
+                 "nearer is moved out (0: the worse fit is)")
+      ->capture_default_str();
   app.add_option("--max-working-pixels", analyzer_options.max_working_pixels,
                  "Larger images are analysed reduced to this many pixels (0: never)")
       ->capture_default_str();
