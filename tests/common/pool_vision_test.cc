@@ -70,8 +70,8 @@ struct BenchFrame {
   PoolScene scene;
   PoolView view;
 };
-BenchFrame RenderBenchFrame(int frame, uint64_t seed = 7, double scale = 1,
-                            bool nine_foot = false, bool cue_stick = false) {
+BenchFrame RenderBenchFrame(int frame, uint64_t seed = 7, double scale = 1, bool nine_foot = false,
+                            bool cue_stick = false) {
   const testdata::PoolTableSpec spec =
       nine_foot ? testdata::PoolTableSpec::NineFoot() : testdata::PoolTableSpec::Bench();
   std::mt19937_64 rng(seed);
