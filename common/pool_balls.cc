@@ -763,6 +763,11 @@ absl::Status PoolBallOptions::Validate() const {
     return absl::InvalidArgumentError(absl::StrCat(
         "stick_opening_radius must be in [0, 1) ball radii (a stick is thinner than a ball), got ",
         stick_opening_radius));
+  if (!(seed_merge_distance > 0 && seed_merge_distance <= 2))
+    return absl::InvalidArgumentError(absl::StrCat(
+        "seed_merge_distance must be in (0, 2] ball radii (two balls are at least 2 apart), "
+        "got ",
+        seed_merge_distance));
   if (!(stick_bridge_length > 0))
     return absl::InvalidArgumentError(absl::StrCat(
         "stick_bridge_length must be positive (ball radii the stick's line is followed past "
@@ -1290,13 +1295,13 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
     if (pass == 1) {
       // A blob lengthened by a ball's dark underside and its shadow can be split into two
       // seeds that both go to the same ball; balls are at least 2r apart, so of two seeds
-      // closer than 1.5r only the one that fits better is a ball. Left in, the other would
-      // hide half of the real ball from its fit.
+      // closer than options.seed_merge_distance only the one that fits better is a ball.
+      // Left in, the other would hide half of the real ball from its fit.
       for (bool merged = true; merged;) {
         merged = false;
         for (size_t i = 0; i < seeds.size() && !merged; ++i)
           for (size_t j = i + 1; j < seeds.size() && !merged; ++j) {
-            if (cv::norm(seeds[i] - seeds[j]) >= 1.5 * r) continue;
+            if (cv::norm(seeds[i] - seeds[j]) >= options.seed_merge_distance * r) continue;
             std::vector<cv::Point2d> others;
             for (size_t k = 0; k < seeds.size(); ++k)
               if (k != i && k != j) others.push_back(seeds[k]);
@@ -1321,7 +1326,8 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
         // seed of the same blob than to this one are left to it, so that a touching ball's
         // pixels do not count against this ball's silhouette (which would pull it
         // towards the pair's middle). Seeds closer than 1.5r may be one ball lengthened
-        // by its shadow (they are merged below): those share their pixels.
+        // by its shadow (merged below when closer than options.seed_merge_distance): those
+        // share their pixels.
         const cv::Point2d own = ProjectIdeal(pose, K, {seeds[i].x, seeds[i].y, r});
         const auto blob_at = [&](const cv::Point2d& pixel) {
           const cv::Point at(cvRound(pixel.x) - roi.x, cvRound(pixel.y) - roi.y);

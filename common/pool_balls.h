@@ -111,6 +111,15 @@ struct PoolBallOptions {
   // the camera. With the nearer one moved out (45), balls over 10 mm on the ten green
   // sets went 74 -> 58 and none got worse. 0 turns this off.
   double line_of_sight_pair_deg = 45;
+  // Two seeds closer than this many ball radii after the first fits are one ball (its dark
+  // underside and shadow lengthen its blob into two seeds): only the better fit is kept.
+  // Touching balls fitted each within a few millimetres stay 2 radii apart; a touching
+  // pair seen one behind the other, its nearer ball fitted 1.4-1.5 radii from the far one,
+  // was merged at 1.5 (seed 23's frame 23: the 8 and the 1 became one ball that took the
+  // 9's number). At 1.4, on the ten green sets 6 more balls are located and that 9 is
+  // named; one pair that was one ball (seed 29's frame 33, the 7 in front of the 4) is
+  // two, 23 mm off.
+  double seed_merge_distance = 1.4;
   // A ball darker than the cloth (the 8, a shaded 6) has its shadow, as dark as itself,
   // joined to the near side of its outline; the far side, where the cloth seen beyond the
   // ball lies behind it, is its one clean edge. When set, its rim fit takes rim points on

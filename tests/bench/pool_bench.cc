@@ -201,6 +201,9 @@ int main(int argc, char** argv) {
                  "Over the cloth the stick's line is followed this many ball radii past each "
                  "strip found")
       ->capture_default_str();
+  app.add_option("--seed-merge-distance", analyzer_options.balls.seed_merge_distance,
+                 "Seeds closer than this many ball radii after the first fits are one ball")
+      ->capture_default_str();
   app.add_option("--line-of-sight-pair-deg", analyzer_options.balls.line_of_sight_pair_deg,
                  "Of two overlapping fits within this many degrees of the line of sight, the "
                  "nearer is moved out (0: the worse fit is)")

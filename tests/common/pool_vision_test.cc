@@ -778,6 +778,23 @@ TEST(PoolHardBalls, TouchingPairAlongTheLineOfSightKeepsTheFarBallOnItsOutline) 
   EXPECT_FALSE(bad.Validate().ok());
 }
 
+// Benchmark seed 23's frame 23: the 8 touching the 1 in front of it. Fitted 1.4-1.5 radii
+// apart, the two were merged as one ball that took the separated 9's number, and the 9
+// was read as the 1. Merged only closer than PoolBallOptions::seed_merge_distance (1.4),
+// every ball of the frame is within 10 mm and named.
+TEST(PoolHardBalls, TouchingPairSeenOneBehindTheOtherIsTwoBalls) {
+  ExpectEveryBallWithin10Mm(23, 23);
+  const auto [scene, view] = RenderBenchFrame(23, 23);
+  PoolAnalyzerOptions wider;
+  wider.balls.seed_merge_distance = 1.5;
+  auto scored = AnalyzeAndScore(scene, view, wider);
+  ASSERT_TRUE(scored.ok()) << scored.status();
+  EXPECT_LT(scored->score.separated_identified, scored->score.separated);
+  PoolBallOptions bad;
+  bad.seed_merge_distance = 2.5;
+  EXPECT_FALSE(bad.Validate().ok());
+}
+
 // A camera of higher resolution: benchmark frame 31 (seed 7) at 1920x1440, blur scaled
 // alike. Analysed at that size its black 8 was fitted 21 mm off (frame 30's, 19): the ball
 // fits sample the rim and the cloth beside it a pixel or two apart, which the wider blur
