@@ -301,6 +301,11 @@ class SilhouetteScorer {
 
 // Fewest of the 48 outline points a rim fit needs.
 constexpr int kMinRimPoints = 10;
+// Fewest rim points, seen again from where a rim fit ended, for that fit to be kept. The
+// fit itself moves only on kMinRimPoints or more; from its new position a touching ball
+// can cover more of the outline's scans (seed 37's frame 22: a 6 in front of the 9, moved
+// from 4.9 px off to 2.5 px, then had 8 rim points and was thrown away at 10).
+constexpr int kMinRimPointsToKeep = 8;
 
 // Fits a ball's outline to the steepest fall of its colour distance from the cloth.
 class EdgeFitter {
@@ -1702,7 +1707,7 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
         // the edge pass's was not: the ball would then be dropped as not a ball at all
         // (on the 9-ft set two separated balls were lost that way).
         double rim_ballness = 0, edge_ballness = 0;
-        if (used >= kMinRimPoints) {
+        if (used >= kMinRimPointsToKeep) {
           scorer.Score(on_rim, &rim_ballness);
           scorer.Score(seeds[i], &edge_ballness);
           if (rim_ballness >= 0.5 || edge_ballness < 0.5) seeds[i] = on_rim;
