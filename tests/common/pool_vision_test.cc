@@ -142,6 +142,30 @@ TEST_P(PoolViewsTest, CornersNumbersAndPositionsMatchTheTruth) {
   EXPECT_EQ(score.false_balls, 0) << c.name;
 }
 
+// Phone video is 16:9 (1280x720 here): the table fills a wider frame than the 4:3 views'.
+// The spread layout from a long and a short side: the table, every ball within 12 mm, no
+// false ball, the separated balls named.
+TEST(PoolWideFrames, SixteenByNineVideoFramesAreAnalysed) {
+  const ViewCase cases[] = {{PoolViewSide::kLongNear, 45, "long near"},
+                            {PoolViewSide::kShortRight, 55, "short right"}};
+  for (const ViewCase& c : cases) {
+    SCOPED_TRACE(c.name);
+    PoolScene scene = Scene(c.side, c.elevation, 8);
+    scene.camera = testdata::FramedPoolCamera(scene.table, c.side, c.elevation, 65, 8, 3, 0.04,
+                                              {1280, 720});
+    scene.camera.k1 = -0.04;
+    const PoolView view = testdata::RenderPoolView(scene, 4321);
+    auto scored = AnalyzeAndScore(scene, view);
+    ASSERT_TRUE(scored.ok()) << scored.status();
+    const testdata::PoolScore& score = scored->score;
+    EXPECT_LT(score.max_corner_error_px, 2.0);
+    EXPECT_EQ(score.position_errors_mm.size(), view.balls.size());
+    for (const auto& m : score.matches) EXPECT_LT(m.error_mm, 12.0) << "ball " << m.truth_number;
+    EXPECT_GE(score.separated_identified, score.separated - 1);
+    EXPECT_EQ(score.false_balls, 0);
+  }
+}
+
 std::string ViewName(const ::testing::TestParamInfo<ViewCase>& info) {
   static const char* kNames[] = {"LongNear", "LongFar", "ShortLeft", "ShortRight"};
   return kNames[static_cast<int>(info.param.side)];
