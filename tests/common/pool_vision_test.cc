@@ -151,8 +151,8 @@ TEST(PoolWideFrames, SixteenByNineVideoFramesAreAnalysed) {
   for (const ViewCase& c : cases) {
     SCOPED_TRACE(c.name);
     PoolScene scene = Scene(c.side, c.elevation, 8);
-    scene.camera = testdata::FramedPoolCamera(scene.table, c.side, c.elevation, 65, 8, 3, 0.04,
-                                              {1280, 720});
+    scene.camera =
+        testdata::FramedPoolCamera(scene.table, c.side, c.elevation, 65, 8, 3, 0.04, {1280, 720});
     scene.camera.k1 = -0.04;
     const PoolView view = testdata::RenderPoolView(scene, 4321);
     auto scored = AnalyzeAndScore(scene, view);
