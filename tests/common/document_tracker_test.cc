@@ -46,11 +46,12 @@ class DocumentTrackerTest : public ::testing::Test {
     auto quantizer = InvariantQuantizer::Learn(samples, llah.k);
     ASSERT_TRUE(quantizer.ok());
     auto retriever = std::make_shared<LlahRetriever>(llah, *quantizer, 18);
-    ASSERT_TRUE(retriever->AddDocument({kPageId, reference.points, page_->size()}).ok());
+    ASSERT_TRUE(retriever->AddDocument({kPageId, reference.points, page_->size(), {}, {}}).ok());
     for (uint32_t i = 0; i < 3; ++i) {
       const cv::Mat other = Gray(testdata::RenderTextPage(500 + i).image);
       ASSERT_TRUE(
-          retriever->AddDocument({10 + i, extractor.Extract(other).points, other.size()}).ok());
+          retriever->AddDocument({10 + i, extractor.Extract(other).points, other.size(), {}, {}})
+              .ok());
     }
     shared_ = new std::shared_ptr<const LlahRetriever>(retriever);
   }

@@ -190,7 +190,8 @@ class LlahRetrieverTest : public ::testing::TestWithParam<Layout> {
     db->quantizer = *q;
     db->retriever = std::make_unique<LlahRetriever>(db->options, db->quantizer, 20);
     for (int d = 0; d < kDocuments; ++d) {
-      EXPECT_TRUE(db->retriever->AddDocument({DocumentId(d), db->documents[d], kPageSize}).ok());
+      EXPECT_TRUE(
+          db->retriever->AddDocument({DocumentId(d), db->documents[d], kPageSize, {}, {}}).ok());
     }
     return db;
   }
@@ -638,7 +639,7 @@ TEST_P(LlahRetrieverTest, RemoveDocumentMakesItUnfindable) {
   const Database& shared = db();
   LlahRetriever r(shared.options, shared.quantizer, 18);
   for (int d = 0; d < 10; ++d)
-    ASSERT_TRUE(r.AddDocument({DocumentId(d), shared.documents[d], kPageSize}).ok());
+    ASSERT_TRUE(r.AddDocument({DocumentId(d), shared.documents[d], kPageSize, {}, {}}).ok());
   const size_t entries = r.entries();
   const size_t per_doc = kPointsPerDocument * r.describer().descriptors_per_point();
 
@@ -666,7 +667,7 @@ TEST_P(LlahRetrieverTest, RemoveDocumentMakesItUnfindable) {
   EXPECT_LT(MaxHomographyError(hits[0].homography, q2), 1.0);
 
   // Re-adding restores it.
-  ASSERT_TRUE(r.AddDocument({DocumentId(6), shared.documents[6], kPageSize}).ok());
+  ASSERT_TRUE(r.AddDocument({DocumentId(6), shared.documents[6], kPageSize, {}, {}}).ok());
   EXPECT_EQ(r.entries(), entries);
   hits = r.Retrieve(q6.points, kQueryCharHeight, RetrievalOptions());
   ASSERT_FALSE(hits.empty());
@@ -698,9 +699,9 @@ class LlahRetrieverRegistrationTest : public ::testing::Test {
 
 TEST_F(LlahRetrieverRegistrationTest, AddExistingIdIsAlreadyExists) {
   LlahRetriever r(options_, quantizer_, 16);
-  ASSERT_TRUE(r.AddDocument({5, docs_[0], kPageSize}).ok());
+  ASSERT_TRUE(r.AddDocument({5, docs_[0], kPageSize, {}, {}}).ok());
   const size_t entries = r.entries();
-  const absl::Status s = r.AddDocument({5, docs_[1], kPageSize});
+  const absl::Status s = r.AddDocument({5, docs_[1], kPageSize, {}, {}});
   EXPECT_EQ(s.code(), absl::StatusCode::kAlreadyExists) << s;
   EXPECT_EQ(r.entries(), entries);
   EXPECT_EQ(r.documents(), 1u);
@@ -711,7 +712,7 @@ TEST_F(LlahRetrieverRegistrationTest, TooManyKeypointsIsInvalidArgument) {
   LlahRetriever r(options_, quantizer_, 16);
   std::vector<cv::Point2f> huge(65536);
   for (size_t i = 0; i < huge.size(); ++i) huge[i] = cv::Point2f(i % 256 * 4.f, i / 256 * 4.f);
-  const absl::Status s = r.AddDocument({1, huge, cv::Size(1024, 1024)});
+  const absl::Status s = r.AddDocument({1, huge, cv::Size(1024, 1024), {}, {}});
   EXPECT_EQ(s.code(), absl::StatusCode::kInvalidArgument) << s;
   EXPECT_EQ(r.documents(), 0u);
   EXPECT_EQ(r.entries(), 0u);
@@ -721,8 +722,9 @@ TEST_F(LlahRetrieverRegistrationTest, BulkAddEqualsSequentialAdd) {
   LlahRetriever sequential(options_, quantizer_, 16), bulk(options_, quantizer_, 16);
   std::vector<DocumentKeypoints> batch;
   for (size_t d = 0; d < docs_.size(); ++d) {
-    ASSERT_TRUE(sequential.AddDocument({static_cast<uint32_t>(d + 1), docs_[d], kPageSize}).ok());
-    batch.push_back({static_cast<uint32_t>(d + 1), docs_[d], kPageSize});
+    ASSERT_TRUE(
+        sequential.AddDocument({static_cast<uint32_t>(d + 1), docs_[d], kPageSize, {}, {}}).ok());
+    batch.push_back({static_cast<uint32_t>(d + 1), docs_[d], kPageSize, {}, {}});
   }
   size_t last_done = 0, last_total = 0;
   ASSERT_TRUE(bulk.AddDocuments(batch, 2,
@@ -739,7 +741,8 @@ TEST_F(LlahRetrieverRegistrationTest, BulkAddEqualsSequentialAdd) {
     EXPECT_EQ(bulk.Keypoints(static_cast<uint32_t>(d + 1)), docs_[d]);
 
   // A known id in a batch is reported; the other documents are still added.
-  std::vector<DocumentKeypoints> again = {{2, docs_[0], kPageSize}, {9, docs_[1], kPageSize}};
+  std::vector<DocumentKeypoints> again = {{2, docs_[0], kPageSize, {}, {}},
+                                          {9, docs_[1], kPageSize, {}, {}}};
   const absl::Status s = bulk.AddDocuments(again, 1);
   EXPECT_EQ(s.code(), absl::StatusCode::kAlreadyExists) << s;
   EXPECT_TRUE(bulk.Contains(9));
@@ -756,8 +759,8 @@ TEST_F(LlahRetrieverRegistrationTest, ExtraLayerIsFoundAsTheSameDocument) {
   std::vector<cv::Point2f> all = base;
   all.insert(all.end(), layer.begin(), layer.end());
   const std::vector<uint32_t> extra = {static_cast<uint32_t>(layer.size())};
-  ASSERT_TRUE(r.AddDocument({7, all, kPageSize, extra}).ok());
-  ASSERT_TRUE(r.AddDocument({8, docs_[2], kPageSize}).ok());
+  ASSERT_TRUE(r.AddDocument({7, all, kPageSize, extra, {}}).ok());
+  ASSERT_TRUE(r.AddDocument({8, docs_[2], kPageSize, {}, {}}).ok());
   EXPECT_EQ(r.Keypoints(7), base);
 
   // Each layer is described within itself: the layer's hashes are those it has alone, but
@@ -791,11 +794,11 @@ TEST_F(LlahRetrieverRegistrationTest, ExtraLayerIsFoundAsTheSameDocument) {
 
   // A layer identical to the base duplicates every descriptor: no entry is added for it.
   LlahRetriever single(options_, quantizer_, 16), doubled(options_, quantizer_, 16);
-  ASSERT_TRUE(single.AddDocument({1, base, kPageSize}).ok());
+  ASSERT_TRUE(single.AddDocument({1, base, kPageSize, {}, {}}).ok());
   std::vector<cv::Point2f> twice = base;
   twice.insert(twice.end(), base.begin(), base.end());
   ASSERT_TRUE(
-      doubled.AddDocument({1, twice, kPageSize, {static_cast<uint32_t>(base.size())}}).ok());
+      doubled.AddDocument({1, twice, kPageSize, {static_cast<uint32_t>(base.size())}, {}}).ok());
   EXPECT_EQ(doubled.entries(), single.entries());
 
   const size_t entries_of_8 = r.entries() - single.entries() - [&] {
@@ -805,8 +808,9 @@ TEST_F(LlahRetrieverRegistrationTest, ExtraLayerIsFoundAsTheSameDocument) {
   }();
   EXPECT_TRUE(r.RemoveDocument(7));
   EXPECT_EQ(r.entries(), entries_of_8);
-  EXPECT_EQ(r.AddDocument({9, base, kPageSize, {static_cast<uint32_t>(base.size() + 1)}}).code(),
-            absl::StatusCode::kInvalidArgument);
+  EXPECT_EQ(
+      r.AddDocument({9, base, kPageSize, {static_cast<uint32_t>(base.size() + 1)}, {}}).code(),
+      absl::StatusCode::kInvalidArgument);
 }
 
 // ---------------------------------------------------------------- RetrievalOptions
