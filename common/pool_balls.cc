@@ -1069,8 +1069,9 @@ cv::Mat StickPixels(const cv::Mat& mask, const cv::Rect& roi, const PlanarPose& 
     };
     double first = 1e18, last = -1e18;
     for (const cv::Point& p : points[i]) {
-      first = std::min(first, static_cast<double>(along(p)));
-      last = std::max(last, static_cast<double>(along(p)));
+      const double t = along(p);
+      first = std::min(first, t);
+      last = std::max(last, t);
     }
     const double bridge = options.stick_bridge_length * strip_radius[i];
     for (int y = 0; y < thin_anywhere.rows; ++y) {
@@ -1078,9 +1079,10 @@ cv::Mat StickPixels(const cv::Mat& mask, const cv::Rect& roi, const PlanarPose& 
       uchar* s = stick.ptr<uchar>(y);
       const uchar* c = cloth_outline.ptr<uchar>(y);
       for (int x = 0; x < thin_anywhere.cols; ++x)
-        if (t[x] && off_line({x, y}) <= half_width &&
-            (!c[x] || (along({x, y}) >= first - bridge && along({x, y}) <= last + bridge)))
-          s[x] = 255;
+        if (t[x] && off_line({x, y}) <= half_width) {
+          const double a = along({x, y});
+          if (!c[x] || (a >= first - bridge && a <= last + bridge)) s[x] = 255;
+        }
     }
   }
   return stick;
@@ -1271,8 +1273,12 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
   // Fit each ball's silhouette, nearest balls first; a farther ball ignores pixels that a
   // nearer ball covers.
   const cv::Vec3d camera = CameraCentre(pose);
+  // Distance from the camera to the centre of a ball at table position `xy`.
+  const auto from_camera = [&](const cv::Point2d& xy) {
+    return cv::norm(cv::Vec3d(xy.x, xy.y, r) - camera);
+  };
   std::sort(seeds.begin(), seeds.end(), [&](const cv::Point2d& a, const cv::Point2d& b) {
-    return cv::norm(cv::Vec3d(a.x, a.y, r) - camera) < cv::norm(cv::Vec3d(b.x, b.y, r) - camera);
+    return from_camera(a) < from_camera(b);
   });
   cv::Mat claimed = cv::Mat::zeros(roi.size(), CV_32FC1);
   std::vector<PoolDetectedBall> balls;
@@ -1496,8 +1502,7 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
         own_area[k] = pixels / (kPi * r_self * r_self);
         if (k == 1) second_lit = ball > 0 ? lit / ball : 0;
       }
-      const bool farther = cv::norm(cv::Vec3d(pair[b].x, pair[b].y, r) - camera) >
-                           cv::norm(cv::Vec3d(pair[a].x, pair[a].y, r) - camera);
+      const bool farther = from_camera(pair[b]) > from_camera(pair[a]);
       const bool shadow = !farther && second_lit < 0.3;
       if (shadow || std::min(own_area[0], own_area[1]) < options.split_hidden_min_visible ||
           first_ballness < 0.5)
@@ -1825,18 +1830,16 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
         const bool other_colour =
             coloured[w] && (!coloured[1 - w] ||
                             cv::norm(chroma[w] - chroma[1 - w]) > options.ball_chroma_distance);
-        if (other_colour && !coloured[1 - w] && dark[1 - w]) {
-          const cv::Point2d out = better == j ? apart : -apart;
-          seeds[better] = seeds[worse] + out * (2 * r / std::max(1e-6, gap));
-          moved[better] = 1;
-        } else if (other_colour) {
-          // The worse fit is moved out, or the nearer of a pair seen one behind the other
-          // (options.line_of_sight_pair_deg).
+        if (other_colour) {
+          // One of the two is moved straight out to touch the other: the dark one without
+          // colour of its own, else the worse fit, or the nearer of a pair seen one behind
+          // the other (options.line_of_sight_pair_deg).
           size_t mover = worse;
-          if (options.line_of_sight_pair_deg > 0 && gap > r) {
-            const bool i_nearer = cv::norm(cv::Vec3d(seeds[i].x, seeds[i].y, r) - camera) <
-                                  cv::norm(cv::Vec3d(seeds[j].x, seeds[j].y, r) - camera);
-            const size_t nearer = i_nearer ? i : j, farther = i_nearer ? j : i;
+          if (!coloured[1 - w] && dark[1 - w]) {
+            mover = better;
+          } else if (options.line_of_sight_pair_deg > 0 && gap > r) {
+            const size_t nearer = from_camera(seeds[i]) < from_camera(seeds[j]) ? i : j;
+            const size_t farther = nearer == i ? j : i;
             const cv::Point2d sight(seeds[farther].x - camera[0], seeds[farther].y - camera[1]);
             const cv::Point2d behind = seeds[farther] - seeds[nearer];
             if (behind.dot(sight) >= std::cos(options.line_of_sight_pair_deg * kPi / 180) *
@@ -1903,11 +1906,10 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
     // Votes: pixels not covered by a nearer ball (by distance now: a ball split off a
     // blob behind another one was added after the others).
     {
-      const double own = cv::norm(cv::Vec3d(xy.x, xy.y, r) - camera);
+      const double own = from_camera(xy);
       std::vector<cv::Point2d> nearer;
       for (size_t j = 0; j < seeds.size(); ++j)
-        if (j != i && cv::norm(cv::Vec3d(seeds[j].x, seeds[j].y, r) - camera) < own)
-          nearer.push_back(seeds[j]);
+        if (j != i && from_camera(seeds[j]) < own) nearer.push_back(seeds[j]);
       claim(nearer, nearer.size(), nearer.size());
     }
     kept.push_back(xy);

@@ -341,12 +341,13 @@ int main(int argc, char** argv) {
           // The nearest other ball: the gap between the two (0: touching).
           int nearest = -1;
           double gap_mm = 1e9;
-          for (const auto& b : view.balls)
-            if (&b != truth &&
-                std::hypot(b.x_mm - truth->x_mm, b.y_mm - truth->y_mm) - 2 * r < gap_mm) {
-              gap_mm = std::hypot(b.x_mm - truth->x_mm, b.y_mm - truth->y_mm) - 2 * r;
+          for (const auto& b : view.balls) {
+            const double gap = std::hypot(b.x_mm - truth->x_mm, b.y_mm - truth->y_mm) - 2 * r;
+            if (&b != truth && gap < gap_mm) {
+              gap_mm = gap;
               nearest = b.number;
             }
+          }
           std::printf(
               "    ball %d%s at px (%.1f, %.1f) mm (%.1f, %.1f): found as %d at px (%.1f, %.1f), "
               "error %.1f mm (%.1f, %.1f), %.1f mm away from the camera; 1 px = %.1f mm along "

@@ -63,6 +63,30 @@ absl::StatusOr<ScoredAnalysis> AnalyzeAndScore(const PoolScene& scene, const Poo
   return ScoredAnalysis{std::move(*analysis), std::move(score)};
 }
 
+// Every ball of the view located, each within `max_error_mm`.
+void ExpectEveryBallLocatedWithin(const testdata::PoolScore& score, const PoolView& view,
+                                  double max_error_mm) {
+  EXPECT_EQ(score.position_errors_mm.size(), view.balls.size());
+  for (const auto& m : score.matches) {
+    EXPECT_GE(m.error_mm, 0) << "ball " << m.truth_number;
+    EXPECT_LT(m.error_mm, max_error_mm) << "ball " << m.truth_number;
+  }
+}
+
+// Ball `number` is in view, separated, found within `max_error_mm` and named.
+void ExpectSeparatedBallNamed(const testdata::PoolScore& score, int number, double max_error_mm) {
+  bool seen = false;
+  for (const auto& m : score.matches) {
+    if (m.truth_number != number) continue;
+    seen = true;
+    EXPECT_TRUE(m.separated);
+    EXPECT_GE(m.error_mm, 0) << "the " << number << " not found";
+    EXPECT_LT(m.error_mm, max_error_mm);
+    EXPECT_EQ(m.estimated_number, number);
+  }
+  EXPECT_TRUE(seen) << "no " << number << " in view";
+}
+
 // Frame `frame` of the benchmark's seed-7 set (texfree-bench-pool --frames 60), rendered
 // as the benchmark does; at `scale` times 640x480 as its --scale does, with a cue stick as
 // its --cue-stick puts in.
@@ -567,20 +591,12 @@ TEST(PoolHardBalls, DarkBallsAreFittedOnTheirRimNotTheirHighlight) {
 // frame's false balls.
 int ExpectSeparatedBallFound(int number, int frame, uint64_t seed, double max_error_mm,
                              bool nine_foot = false) {
+  SCOPED_TRACE("frame " + std::to_string(frame));
   const auto [scene, view] = RenderBenchFrame(frame, seed, 1, nine_foot);
   auto scored = AnalyzeAndScore(scene, view);
   EXPECT_TRUE(scored.ok()) << scored.status();
   if (!scored.ok()) return -1;
-  bool seen = false;
-  for (const auto& m : scored->score.matches) {
-    if (m.truth_number != number) continue;
-    seen = true;
-    EXPECT_TRUE(m.separated) << "frame " << frame;
-    EXPECT_GE(m.error_mm, 0) << "frame " << frame << ": the " << number << " not found";
-    EXPECT_LT(m.error_mm, max_error_mm) << "frame " << frame;
-    EXPECT_EQ(m.estimated_number, number) << "frame " << frame;
-  }
-  EXPECT_TRUE(seen) << "frame " << frame << " has no " << number;
+  ExpectSeparatedBallNamed(scored->score, number, max_error_mm);
   return scored->score.false_balls;
 }
 
@@ -638,27 +654,21 @@ TEST(PoolCueStick, ObjectBallInTheLineOfAimIsFound) {
   for (const auto& [seed, frame, number] : cases) {
     SCOPED_TRACE("seed " + std::to_string(seed) + " frame " + std::to_string(frame));
     const auto [scene, view] = RenderBenchFrame(frame, seed, 1, false, /*cue_stick=*/true);
+    auto scored = AnalyzeAndScore(scene, view);
+    ASSERT_TRUE(scored.ok()) << scored.status();
+    ExpectSeparatedBallNamed(scored->score, number, 10.0);
     PoolAnalyzerOptions unlimited;
     unlimited.balls.stick_bridge_length = 1000;
-    for (const PoolAnalyzerOptions& options : {PoolAnalyzerOptions(), unlimited}) {
-      const bool bridged = options.balls.stick_bridge_length < 1000;
-      auto scored = AnalyzeAndScore(scene, view, options);
-      ASSERT_TRUE(scored.ok()) << scored.status();
-      bool seen = false;
-      for (const auto& m : scored->score.matches) {
-        if (m.truth_number != number) continue;
-        seen = true;
-        EXPECT_TRUE(m.separated);
-        if (bridged) {
-          EXPECT_GE(m.error_mm, 0) << "the " << number << " not found";
-          EXPECT_LT(m.error_mm, 10.0);
-          EXPECT_EQ(m.estimated_number, number);
-        } else {
-          EXPECT_LT(m.error_mm, 0) << "the " << number << " found with the line unlimited";
-        }
-      }
-      EXPECT_TRUE(seen);
+    auto eaten = AnalyzeAndScore(scene, view, unlimited);
+    ASSERT_TRUE(eaten.ok()) << eaten.status();
+    bool seen = false;
+    for (const auto& m : eaten->score.matches) {
+      if (m.truth_number != number) continue;
+      seen = true;
+      EXPECT_TRUE(m.separated);
+      EXPECT_LT(m.error_mm, 0) << "the " << number << " found with the line unlimited";
     }
+    EXPECT_TRUE(seen);
   }
   PoolBallOptions bad;
   bad.stick_bridge_length = 0;
@@ -756,19 +766,18 @@ TEST(PoolTouchingBalls, EachBallOfABlobIsFittedOnItsOwnPixels) {
 
 // Benchmark frame `frame` of the rendered set `seed`: no false ball, every ball located
 // within 10 mm, every separated ball identified.
-void ExpectEveryBallWithin10Mm(int frame, uint64_t seed) {
-  SCOPED_TRACE("seed " + std::to_string(seed) + " frame " + std::to_string(frame));
-  const auto [scene, view] = RenderBenchFrame(frame, seed);
+void ExpectEveryBallWithin10Mm(const PoolScene& scene, const PoolView& view) {
   auto scored = AnalyzeAndScore(scene, view);
   ASSERT_TRUE(scored.ok()) << scored.status();
   const testdata::PoolScore& score = scored->score;
   EXPECT_EQ(score.false_balls, 0);
-  EXPECT_EQ(score.position_errors_mm.size(), view.balls.size());
-  for (const auto& m : score.matches) {
-    EXPECT_GE(m.error_mm, 0) << "ball " << m.truth_number;
-    EXPECT_LT(m.error_mm, 10.0) << "ball " << m.truth_number;
-  }
+  ExpectEveryBallLocatedWithin(score, view, 10.0);
   EXPECT_EQ(score.separated_identified, score.separated);
+}
+void ExpectEveryBallWithin10Mm(int frame, uint64_t seed) {
+  SCOPED_TRACE("seed " + std::to_string(seed) + " frame " + std::to_string(frame));
+  const auto [scene, view] = RenderBenchFrame(frame, seed);
+  ExpectEveryBallWithin10Mm(scene, view);
 }
 
 // Touching pairs seen one behind the other (benchmark seed 23's frame 1: the 9 in front of
@@ -784,11 +793,7 @@ TEST(PoolHardBalls, TouchingPairAlongTheLineOfSightKeepsTheFarBallOnItsOutline) 
     const auto [scene, view] = RenderBenchFrame(frame, seed);
     auto scored = AnalyzeAndScore(scene, view);
     ASSERT_TRUE(scored.ok()) << scored.status();
-    EXPECT_EQ(scored->score.position_errors_mm.size(), view.balls.size());
-    for (const auto& m : scored->score.matches) {
-      EXPECT_GE(m.error_mm, 0) << "ball " << m.truth_number;
-      EXPECT_LT(m.error_mm, 10.0) << "ball " << m.truth_number;
-    }
+    ExpectEveryBallLocatedWithin(scored->score, view, 10.0);
     PoolAnalyzerOptions off;
     off.balls.line_of_sight_pair_deg = 0;
     auto unaware = AnalyzeAndScore(scene, view, off);
@@ -807,8 +812,8 @@ TEST(PoolHardBalls, TouchingPairAlongTheLineOfSightKeepsTheFarBallOnItsOutline) 
 // was read as the 1. Merged only closer than PoolBallOptions::seed_merge_distance (1.4),
 // every ball of the frame is within 10 mm and named.
 TEST(PoolHardBalls, TouchingPairSeenOneBehindTheOtherIsTwoBalls) {
-  ExpectEveryBallWithin10Mm(23, 23);
   const auto [scene, view] = RenderBenchFrame(23, 23);
+  ExpectEveryBallWithin10Mm(scene, view);
   PoolAnalyzerOptions wider;
   wider.balls.seed_merge_distance = 1.5;
   auto scored = AnalyzeAndScore(scene, view, wider);
