@@ -100,7 +100,8 @@ absl::StatusOr<PoolAnalysis> PoolAnalyzer::Analyze(const cv::Mat& bgr,
   analysis.timings_ms.emplace_back("table", MillisecondsSince(t0));
   t0 = SteadyClock::now();
   std::vector<PoolDetectedBall> detected =
-      DetectPoolBalls(last_ideal_, K, table.pose, profile_, table.cloth_bgr, options_.balls);
+      DetectPoolBalls(last_ideal_, K, table.pose, profile_, table.cloth_bgr, options_.balls,
+                      &light_gains_);
   analysis.timings_ms.emplace_back("balls", MillisecondsSince(t0));
   PlanarPose pose = table.pose;
   const double L = profile_.length_mm, W = profile_.width_mm;
@@ -143,6 +144,7 @@ absl::StatusOr<PoolAnalysis> PoolAnalyzer::Analyze(const cv::Mat& bgr,
   analysis.long_side_view = table.long_side_view;
   analysis.cloth_bgr = table.cloth_bgr;
   analysis.cloth_not_profile_colour = table.cloth_not_profile_colour;
+  analysis.light_gains = light_gains_;
   for (auto& b : analysis.balls) b.pixel = Project(pose, {b.x_mm, b.y_mm, profile_.ball_radius_mm});
   const cv::Vec3d corners[4] = {{0, 0, 0}, {L, 0, 0}, {L, W, 0}, {0, W, 0}};
   for (int i = 0; i < 4; ++i) analysis.cloth_corners[i] = Project(pose, corners[i]);

@@ -50,6 +50,10 @@ struct PoolAnalysis {
   bool origin_from_arrangement = false;
   cv::Vec3b cloth_bgr;
   bool cloth_not_profile_colour = false;  // PoolTableDetection's
+  // The white balance (BGR gains) the balls were read with: (1, 1, 1) under a light of
+  // the profile's colours; under warm lamps about (1.2, 0.96, 0.88). Kept by the analyzer
+  // for the next picture (PoolBallOptions::white_balance_min_cast).
+  cv::Vec3f light_gains{1, 1, 1};
   std::vector<PoolBall> balls;
   std::vector<std::pair<std::string, double>> timings_ms;
 };
@@ -100,6 +104,7 @@ class PoolAnalyzer {
   cv::Mat last_ideal_;
   PlanarPose last_pose_;
   std::vector<PoolDetectedBall> last_balls_;
+  cv::Vec3f light_gains_{1, 1, 1};  // the white balance found on an earlier picture
 };
 
 // Sum over `balls` of the distance to the nearest reference ball with the same number

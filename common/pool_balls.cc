@@ -803,6 +803,11 @@ absl::Status PoolBallOptions::Validate() const {
         "line_of_sight_pair_deg must be in [0, 90) (degrees between a touching pair's line "
         "and the line of sight; 0 turns the rule off), got ",
         line_of_sight_pair_deg));
+  if (!(white_balance_min_cast >= 0 && white_balance_min_cast < 1))
+    return absl::InvalidArgumentError(absl::StrCat(
+        "white_balance_min_cast must be in [0, 1) (a share of a channel's gain; 0 turns the "
+        "white balance off), got ",
+        white_balance_min_cast));
   if (!(moved_number_weight > 0 && moved_number_weight <= 1))
     return absl::InvalidArgumentError(absl::StrCat(
         "moved_number_weight must be in (0, 1] (a factor on a moved ball's number scores), got ",
@@ -1087,13 +1092,59 @@ cv::Mat StickPixels(const cv::Mat& mask, const cv::Rect& roi, const PlanarPose& 
   }
   return stick;
 }
-}  // namespace
 
-std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Matx33d& K,
-                                              const PlanarPose& pose,
-                                              const PoolTableProfile& profile,
-                                              const cv::Vec3b& cloth_bgr,
-                                              const PoolBallOptions& options) {
+// Per-channel gains that give `seen` the chromaticity of `reference` (BGR), keeping the
+// sum of its channels.
+cv::Vec3f ChromaticityGains(const cv::Vec3f& seen, const cv::Vec3f& reference) {
+  const double seen_sum = std::max(1e-6f, seen[0] + seen[1] + seen[2]);
+  const double reference_sum = std::max(1e-6f, reference[0] + reference[1] + reference[2]);
+  cv::Vec3f gains;
+  for (int c = 0; c < 3; ++c)
+    gains[c] = static_cast<float>((reference[c] / reference_sum) /
+                                  std::max(1e-3, seen[c] / seen_sum));
+  return gains;
+}
+
+// True when the gains read from the balls' white and from the cloth both say the light is
+// coloured (a channel's gain off 1 by more than `min_cast` on the white, and by more than
+// 1.33 times that on the cloth, whose colour is known less well) and say the same colour:
+// their logarithms within 37 degrees (cosine 0.8). Gains outside [0.5, 2] are no light's
+// colour but a misreading (another cloth than the profile's, no white ball in view).
+bool LightCastsAgree(const cv::Vec3f& white_gains, const cv::Vec3f& cloth_gains,
+                     double min_cast) {
+  cv::Vec3d a, b;
+  double cast_a = 0, cast_b = 0;
+  for (int c = 0; c < 3; ++c) {
+    if (!(white_gains[c] > 0.5f && white_gains[c] < 2.0f)) return false;
+    if (!(cloth_gains[c] > 0.5f && cloth_gains[c] < 2.0f)) return false;
+    a[c] = std::log(white_gains[c]);
+    b[c] = std::log(cloth_gains[c]);
+    cast_a = std::max(cast_a, std::abs(white_gains[c] - 1.0));
+    cast_b = std::max(cast_b, std::abs(cloth_gains[c] - 1.0));
+  }
+  if (cast_a <= min_cast || cast_b <= 1.33 * min_cast) return false;
+  return a.dot(b) > 0.8 * cv::norm(a) * cv::norm(b);
+}
+
+// A ball's white pixels are its light's colour when they are at least this share of its
+// pixels (the cue's are 25-100%: its lower part is shaded, its highlight clipped; the 9's
+// 20-50%; a coloured ball's highlight fringe 0-25%), at least this many, and their median
+// saturation is under kMaxWhiteSaturation (the cue's: 0.05 under a neutral light, 0.3
+// under warm lamps half corrected; the 9's white, mixed with its yellow at the stripe's
+// edges, up to 0.5). Of those balls, the one with the most white, and the purest, gives
+// the light's colour (white share times 1 - saturation): a 9 showing as much white as the
+// cue has it mixed with yellow, and a blue ball's highlight under warm light is as
+// neutral as the cue but small.
+constexpr double kMinWhiteShare = 0.2;
+constexpr size_t kMinWhitePixels = 10;
+constexpr double kMaxWhiteSaturation = 0.4;
+
+// One pass of DetectPoolBalls on the picture as given.
+std::vector<PoolDetectedBall> DetectPoolBallsOnce(const cv::Mat& image, const cv::Matx33d& K,
+                                                  const PlanarPose& pose,
+                                                  const PoolTableProfile& profile,
+                                                  const cv::Vec3b& cloth_bgr,
+                                                  const PoolBallOptions& options) {
   const double L = profile.length_mm, W = profile.width_mm, r = profile.ball_radius_mm;
   const cv::Vec3f cloth(cloth_bgr[0], cloth_bgr[1], cloth_bgr[2]);
   // JPEG rings around sharp colour edges (and halves the colour resolution); a light
@@ -2084,6 +2135,103 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
     balls[i].confidence = numbers[i] >= 0 ? scores[i][numbers[i]] : 0;
   }
   return balls;
+}
+
+// Per-channel gains (BGR) that bring the white seen on `balls` to the profile's cue colour
+// (in chromaticity; the gains keep a white pixel's sum). The white pixels are those well
+// inside a ball's outline, unclipped, of saturation under 0.6 (the cue's is about 0.05,
+// under a warm cast 0.3-0.4; the yellow of the 1 and the 9 and every other ball colour
+// 1 or more) and over 1.5 times the cloth's brightness (shaded white, greys and the 8 are
+// darker). A ball counts only when most of its pixels are white: the cue, a 9 showing its
+// caps; not the highlight fringe of a coloured ball. (1, 1, 1) when fewer than 12 white
+// pixels are seen.
+cv::Vec3f BallWhiteGains(const cv::Mat& image, const std::vector<PoolDetectedBall>& balls,
+                         const cv::Vec3b& cloth_bgr, const PoolTableProfile& profile) {
+  const double cloth_intensity = (cloth_bgr[0] + cloth_bgr[1] + cloth_bgr[2]) / 3.0;
+  std::array<std::vector<float>, 3> chroma;  // the whitest ball's white pixels: channel / sum
+  double whitest = 0;  // the chosen ball's white share times (1 - their median saturation)
+  for (const PoolDetectedBall& ball : balls) {
+    const double reach = 0.7 * ball.radius_px;
+    std::array<std::vector<float>, 3> own;
+    std::vector<float> saturations;
+    int pixels = 0;
+    for (int v = cvFloor(ball.ideal_pixel.y - reach); v <= cvCeil(ball.ideal_pixel.y + reach); ++v)
+      for (int u = cvFloor(ball.ideal_pixel.x - reach); u <= cvCeil(ball.ideal_pixel.x + reach);
+           ++u) {
+        if (u < 0 || v < 0 || u >= image.cols || v >= image.rows) continue;
+        if (std::hypot(u - ball.ideal_pixel.x, v - ball.ideal_pixel.y) > reach) continue;
+        ++pixels;
+        const cv::Vec3b& p = image.at<cv::Vec3b>(v, u);
+        if (std::max({p[0], p[1], p[2]}) >= 250) continue;
+        double hue, saturation, intensity;
+        HueSaturation(cv::Vec3f(p[0], p[1], p[2]), &hue, &saturation, &intensity);
+        if (saturation >= 0.6 || intensity < 1.5 * cloth_intensity) continue;
+        const float sum = static_cast<float>(p[0] + p[1] + p[2]);
+        for (int c = 0; c < 3; ++c) own[c].push_back(p[c] / sum);
+        saturations.push_back(static_cast<float>(saturation));
+      }
+    if (saturations.size() < kMinWhitePixels ||
+        saturations.size() < kMinWhiteShare * pixels)
+      continue;
+    std::nth_element(saturations.begin(), saturations.begin() + saturations.size() / 2,
+                     saturations.end());
+    const double median_saturation = saturations[saturations.size() / 2];
+    const double whiteness =
+        saturations.size() * (1 - median_saturation) / std::max(1, pixels);
+    if (median_saturation >= kMaxWhiteSaturation || whiteness <= whitest) continue;
+    whitest = whiteness;
+    chroma = std::move(own);
+  }
+  if (chroma[0].empty()) return {1, 1, 1};
+  cv::Vec3f seen;
+  for (int c = 0; c < 3; ++c) {
+    std::vector<float>& x = chroma[c];
+    std::nth_element(x.begin(), x.begin() + x.size() / 2, x.end());
+    seen[c] = x[x.size() / 2];
+  }
+  return ChromaticityGains(seen, profile.ball_bgr[0]);
+}
+
+}  // namespace
+
+std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Matx33d& K,
+                                              const PlanarPose& pose,
+                                              const PoolTableProfile& profile,
+                                              const cv::Vec3b& cloth_bgr,
+                                              const PoolBallOptions& options,
+                                              cv::Vec3f* light_gains) {
+  const bool balance = options.white_balance_min_cast > 0;
+  const cv::Vec3f prior = balance && light_gains ? *light_gains : cv::Vec3f(1, 1, 1);
+  const auto balanced_cloth = [&](const cv::Vec3f& gains) {
+    return cv::Vec3b(cv::saturate_cast<uchar>(cloth_bgr[0] * gains[0]),
+                     cv::saturate_cast<uchar>(cloth_bgr[1] * gains[1]),
+                     cv::saturate_cast<uchar>(cloth_bgr[2] * gains[2]));
+  };
+  const auto balanced_image = [&](const cv::Vec3f& gains) {
+    if (gains == cv::Vec3f(1, 1, 1)) return image;
+    cv::Mat balanced;
+    cv::multiply(image, cv::Scalar(gains[0], gains[1], gains[2]), balanced);
+    return balanced;
+  };
+  const cv::Mat seen = balanced_image(prior);
+  const cv::Vec3b seen_cloth = balanced_cloth(prior);
+  std::vector<PoolDetectedBall> balls =
+      DetectPoolBallsOnce(seen, K, pose, profile, seen_cloth, options);
+  if (!balance) return balls;
+  // Two witnesses of the light's colour must agree: the white of the balls, and the cloth
+  // measured on the picture against the profile's cloth colour. The white of one small
+  // ball alone is often off by 10-25% (a 9's white mixed with its yellow, a cue ball
+  // shaded or by the cushion), and a cloth of another shade than the profile's would be
+  // taken for a cast were the cloth alone asked. With the gains of an earlier frame the
+  // picture is read balanced at once, and only what is left of the cast is measured.
+  const cv::Vec3f residual = BallWhiteGains(seen, balls, seen_cloth, profile);
+  if (!LightCastsAgree(residual, ChromaticityGains(seen_cloth, profile.cloth_bgr),
+                       options.white_balance_min_cast))
+    return balls;
+  const cv::Vec3f gains = prior.mul(residual);
+  if (light_gains) *light_gains = gains;
+  return DetectPoolBallsOnce(balanced_image(gains), K, pose, profile, balanced_cloth(gains),
+                             options);
 }
 
 cv::Mat EmptyTableBackground(const cv::Mat& bgr, const cv::Matx33d& K, const PlanarPose& pose,

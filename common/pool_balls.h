@@ -121,6 +121,15 @@ struct PoolBallOptions {
   // named; one pair that was one ball (seed 29's frame 33, the 7 in front of the 4) is
   // two, 23 mm off.
   double seed_merge_distance = 1.4;
+  // The light's colour. Bar lamps are warm (2700-3000 K) and a camera's white balance
+  // corrects only part of it: the white cue ball then reads as yellow (the 1 or the 9), the
+  // maroon 7 as the red 3, and the 6 nears the cloth's colour. The white of the balls in
+  // view (the cue, the 9's caps: bright pixels of low saturation on balls that are mostly
+  // such pixels) is compared with the profile's cue colour; when a channel's gain to bring
+  // it back is off 1 by more than this share, the balls are found again on the picture
+  // with those gains applied (and the cloth colour with it). A profile whose colours were
+  // learned under the table's own light (CalibrateColors) sees no cast. 0 turns this off.
+  double white_balance_min_cast = 0.06;
   // A ball darker than the cloth (the 8, a shaded 6) has its shadow, as dark as itself,
   // joined to the near side of its outline; the far side, where the cloth seen beyond the
   // ball lies behind it, is its one clean edge. When set, its rim fit takes rim points on
@@ -220,12 +229,16 @@ struct PoolDetectedBall {
 };
 
 // Finds and identifies the balls. `ideal_bgr` is the undistorted image, `pose` the table
-// pose (table frame, Z = 0 cloth), `cloth_bgr`/`cloth_brightness` measured on the image.
+// pose (table frame, Z = 0 cloth), `cloth_bgr` measured on the image. `light_gains`
+// (optional, BGR): the light's white balance (options.white_balance_min_cast) found on an
+// earlier picture of the same table, applied at once; on return, the gains this picture
+// was read with when its balls and cloth showed a cast, else left as passed.
 std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& ideal_bgr, const cv::Matx33d& K,
                                               const PlanarPose& pose,
                                               const PoolTableProfile& profile,
                                               const cv::Vec3b& cloth_bgr,
-                                              const PoolBallOptions& options = {});
+                                              const PoolBallOptions& options = {},
+                                              cv::Vec3f* light_gains = nullptr);
 
 // Seed eq. 4.3 and the nearest-colour votes: a score for each number 0..9.
 // `white_outward` as PoolDetectedBall's (0: no information on where the white lies).

@@ -334,6 +334,13 @@ grpc::Status PoolServiceImpl::AnalyzeTable(grpc::ServerContext*,
         "it was found among the image's own colours: set the profile's cloth_color to skip "
         "that search",
         seen[0], seen[1], seen[2], told[0], told[1], told[2]);
+  const cv::Vec3f& gains = analysis->light_gains;
+  if (gains != cv::Vec3f(1, 1, 1))
+    spdlog::info(
+        "AnalyzeTable: the light is coloured (the cue's white and the cloth agree); the balls "
+        "were read white-balanced, BGR gains {:.2f},{:.2f},{:.2f} (CalibrateColors under this "
+        "light makes the profile's colours the light's own)",
+        gains[0], gains[1], gains[2]);
   std::vector<PoolShot> shots;
   std::string note;
   double shots_ms = 0;

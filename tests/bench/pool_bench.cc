@@ -52,6 +52,26 @@ bool ParseCloth(const std::string& name, std::optional<cv::Vec3d>* rgb) {
   return true;
 }
 
+// The lamps' colour named by --light into `rgb` (gains): neutral, warm (bar lamps of about
+// 3000 K under a camera whose white balance corrected half of it), cool (daylight from a
+// window through the same balance), or R,G,B gains. False for any other name.
+bool ParseLight(const std::string& name, cv::Vec3d* rgb) {
+  double r = 0, g = 0, b = 0;
+  if (name == "neutral") {
+    *rgb = {1, 1, 1};
+  } else if (name == "warm") {
+    *rgb = {1.0, 0.9, 0.72};
+  } else if (name == "cool") {
+    *rgb = {0.88, 0.96, 1.08};
+  } else if (std::sscanf(name.c_str(), "%lf,%lf,%lf", &r, &g, &b) == 3 && r > 0 && g > 0 &&
+             b > 0) {
+    *rgb = {r, g, b};
+  } else {
+    return false;
+  }
+  return true;
+}
+
 double Percentile(std::vector<double> v, double q) {
   if (v.empty()) return 0;
   std::sort(v.begin(), v.end());
@@ -75,10 +95,12 @@ double Mean(const std::vector<double>& v) {
 // The options that change what is rendered, as parsed, as a file name stem (analysis
 // options left out).
 std::string CacheKey(uint64_t seed, bool nine_foot, bool clean, const std::string& cloth,
-                     double scale, bool cue_stick, int frame) {
+                     const std::string& light, double scale, bool cue_stick, int frame) {
   std::string key = "seed" + std::to_string(seed) + (nine_foot ? "_ninefoot" : "") +
-                    (clean ? "_clean" : "") + "_cloth_" + cloth + "_scale" + std::to_string(scale) +
-                    (cue_stick ? "_cuestick" : "") + "_f" + std::to_string(frame);
+                    (clean ? "_clean" : "") + "_cloth_" + cloth +
+                    (light == "neutral" ? "" : "_light_" + light) + "_scale" +
+                    std::to_string(scale) + (cue_stick ? "_cuestick" : "") + "_f" +
+                    std::to_string(frame);
   for (char& c : key)
     if (!std::isalnum(static_cast<unsigned char>(c)) && c != '.' && c != '-') c = '_';
   return key;
@@ -91,8 +113,8 @@ PoolView CachedPoolView(const std::string& dir, const std::string& key, const Po
   std::filesystem::create_directories(dir);
   const std::string stem = dir + "/" + key;
   PoolView v;
-  cv::FileStorage in(stem + ".yml", cv::FileStorage::READ);
-  if (in.isOpened()) {
+  cv::FileStorage in;
+  if (std::filesystem::exists(stem + ".yml") && in.open(stem + ".yml", cv::FileStorage::READ)) {
     v.image = cv::imread(stem + ".png", cv::IMREAD_COLOR);
     if (!v.image.empty()) {
       cv::Mat K, R, t, corners, cushion, balls;
@@ -179,6 +201,14 @@ int main(int argc, char** argv) {
         std::optional<cv::Vec3d> rgb;
         return ParseCloth(v, &rgb) ? std::string() : "expected green, blue, red or R,G,B";
       });
+  std::string light = "neutral";
+  app.add_option("--light", light,
+                 "Colour of the lamps as the camera records it: neutral, warm (bar lamps, half "
+                 "corrected by white balance), cool (daylight) or R,G,B gains")
+      ->check([](const std::string& v) {
+        cv::Vec3d rgb;
+        return ParseLight(v, &rgb) ? std::string() : "expected neutral, warm, cool or R,G,B";
+      });
   bool cloth_unknown = false;
   app.add_flag("--cloth-unknown", cloth_unknown,
                "Keep the profile's default cloth colour whatever the cloth (a user who did not "
@@ -203,6 +233,10 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--seed-merge-distance", analyzer_options.balls.seed_merge_distance,
                  "Seeds closer than this many ball radii after the first fits are one ball")
+      ->capture_default_str();
+  app.add_option("--white-balance-min-cast", analyzer_options.balls.white_balance_min_cast,
+                 "The balls are read again white-balanced when their white and the cloth show a "
+                 "light cast over this share (0: never)")
       ->capture_default_str();
   app.add_option("--line-of-sight-pair-deg", analyzer_options.balls.line_of_sight_pair_deg,
                  "Of two overlapping fits within this many degrees of the line of sight, the "
@@ -245,6 +279,7 @@ int main(int argc, char** argv) {
       scene.camera.k1 = scene.camera.k2 = 0;
     }
     ScalePoolCamera(&scene, scale);
+    ParseLight(light, &scene.light_rgb);  // checked by --light's validator
     if (cue_stick) {
       // Its own generator: the scenes stay those of the set without a stick.
       std::mt19937_64 stick_rng(seed * 7919 + static_cast<uint64_t>(f));
@@ -252,7 +287,7 @@ int main(int argc, char** argv) {
     }
     if (only >= 0 && f != only) continue;
     const PoolView view =
-        CachedPoolView(cache, CacheKey(seed, nine_foot, clean, cloth, scale, cue_stick, f), scene,
+        CachedPoolView(cache, CacheKey(seed, nine_foot, clean, cloth, light, scale, cue_stick, f), scene,
                        seed * 100003 + f);
     image_size = view.image.size();
     if (!save.empty()) {

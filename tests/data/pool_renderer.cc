@@ -422,7 +422,8 @@ cv::Vec3d Scene::Shade(const Ray& ray, const Hit& hit) const {
       spec += lamp_power_ * vis * specular * std::pow(std::max(0.0, n.dot(half)), shininess);
     }
   }
-  return (albedo * diffuse + cv::Vec3d(spec, spec, spec)) * s_.light_gain;
+  const cv::Vec3d lit = albedo * diffuse + cv::Vec3d(spec, spec, spec);
+  return lit.mul(s_.light_rgb) * s_.light_gain;
 }
 
 cv::Matx33d CameraRotation(const PoolCamera& cam) {

@@ -80,6 +80,9 @@ struct PoolScene {
   PoolCamera camera;
   int lamps = 2;              // lamps above the long axis, 900 mm over the cloth
   double light_gain = 1.0;    // overall exposure
+  // Colour the camera records the lamps' white as (RGB gains): what the camera's white
+  // balance leaves of warm bar lamps or cool daylight. (1, 1, 1): neutral.
+  cv::Vec3d light_rgb{1, 1, 1};
   double vignetting = 0.25;   // brightness lost in the image corners
   double blur_sigma = 0.5;    // px
   double noise_sigma = 2.0;   // gray levels
