@@ -99,9 +99,8 @@ absl::StatusOr<PoolAnalysis> PoolAnalyzer::Analyze(const cv::Mat& bgr,
                    DetectPoolTable(last_ideal_, K, profile_, options_.table));
   analysis.timings_ms.emplace_back("table", MillisecondsSince(t0));
   t0 = SteadyClock::now();
-  std::vector<PoolDetectedBall> detected =
-      DetectPoolBalls(last_ideal_, K, table.pose, profile_, table.cloth_bgr, options_.balls,
-                      &light_gains_);
+  std::vector<PoolDetectedBall> detected = DetectPoolBalls(
+      last_ideal_, K, table.pose, profile_, table.cloth_bgr, options_.balls, &light_gains_);
   analysis.timings_ms.emplace_back("balls", MillisecondsSince(t0));
   PlanarPose pose = table.pose;
   const double L = profile_.length_mm, W = profile_.width_mm;

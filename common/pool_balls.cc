@@ -1100,8 +1100,8 @@ cv::Vec3f ChromaticityGains(const cv::Vec3f& seen, const cv::Vec3f& reference) {
   const double reference_sum = std::max(1e-6f, reference[0] + reference[1] + reference[2]);
   cv::Vec3f gains;
   for (int c = 0; c < 3; ++c)
-    gains[c] = static_cast<float>((reference[c] / reference_sum) /
-                                  std::max(1e-3, seen[c] / seen_sum));
+    gains[c] =
+        static_cast<float>((reference[c] / reference_sum) / std::max(1e-3, seen[c] / seen_sum));
   return gains;
 }
 
@@ -1110,8 +1110,7 @@ cv::Vec3f ChromaticityGains(const cv::Vec3f& seen, const cv::Vec3f& reference) {
 // 1.33 times that on the cloth, whose colour is known less well) and say the same colour:
 // their logarithms within 37 degrees (cosine 0.8). Gains outside [0.5, 2] are no light's
 // colour but a misreading (another cloth than the profile's, no white ball in view).
-bool LightCastsAgree(const cv::Vec3f& white_gains, const cv::Vec3f& cloth_gains,
-                     double min_cast) {
+bool LightCastsAgree(const cv::Vec3f& white_gains, const cv::Vec3f& cloth_gains, double min_cast) {
   cv::Vec3d a, b;
   double cast_a = 0, cast_b = 0;
   for (int c = 0; c < 3; ++c) {
@@ -2170,14 +2169,12 @@ cv::Vec3f BallWhiteGains(const cv::Mat& image, const std::vector<PoolDetectedBal
         for (int c = 0; c < 3; ++c) own[c].push_back(p[c] / sum);
         saturations.push_back(static_cast<float>(saturation));
       }
-    if (saturations.size() < kMinWhitePixels ||
-        saturations.size() < kMinWhiteShare * pixels)
+    if (saturations.size() < kMinWhitePixels || saturations.size() < kMinWhiteShare * pixels)
       continue;
     std::nth_element(saturations.begin(), saturations.begin() + saturations.size() / 2,
                      saturations.end());
     const double median_saturation = saturations[saturations.size() / 2];
-    const double whiteness =
-        saturations.size() * (1 - median_saturation) / std::max(1, pixels);
+    const double whiteness = saturations.size() * (1 - median_saturation) / std::max(1, pixels);
     if (median_saturation >= kMaxWhiteSaturation || whiteness <= whitest) continue;
     whitest = whiteness;
     chroma = std::move(own);

@@ -63,8 +63,7 @@ bool ParseLight(const std::string& name, cv::Vec3d* rgb) {
     *rgb = {1.0, 0.9, 0.72};
   } else if (name == "cool") {
     *rgb = {0.88, 0.96, 1.08};
-  } else if (std::sscanf(name.c_str(), "%lf,%lf,%lf", &r, &g, &b) == 3 && r > 0 && g > 0 &&
-             b > 0) {
+  } else if (std::sscanf(name.c_str(), "%lf,%lf,%lf", &r, &g, &b) == 3 && r > 0 && g > 0 && b > 0) {
     *rgb = {r, g, b};
   } else {
     return false;
@@ -96,11 +95,10 @@ double Mean(const std::vector<double>& v) {
 // options left out).
 std::string CacheKey(uint64_t seed, bool nine_foot, bool clean, const std::string& cloth,
                      const std::string& light, double scale, bool cue_stick, int frame) {
-  std::string key = "seed" + std::to_string(seed) + (nine_foot ? "_ninefoot" : "") +
-                    (clean ? "_clean" : "") + "_cloth_" + cloth +
-                    (light == "neutral" ? "" : "_light_" + light) + "_scale" +
-                    std::to_string(scale) + (cue_stick ? "_cuestick" : "") + "_f" +
-                    std::to_string(frame);
+  std::string key =
+      "seed" + std::to_string(seed) + (nine_foot ? "_ninefoot" : "") + (clean ? "_clean" : "") +
+      "_cloth_" + cloth + (light == "neutral" ? "" : "_light_" + light) + "_scale" +
+      std::to_string(scale) + (cue_stick ? "_cuestick" : "") + "_f" + std::to_string(frame);
   for (char& c : key)
     if (!std::isalnum(static_cast<unsigned char>(c)) && c != '.' && c != '-') c = '_';
   return key;
@@ -287,8 +285,8 @@ int main(int argc, char** argv) {
     }
     if (only >= 0 && f != only) continue;
     const PoolView view =
-        CachedPoolView(cache, CacheKey(seed, nine_foot, clean, cloth, light, scale, cue_stick, f), scene,
-                       seed * 100003 + f);
+        CachedPoolView(cache, CacheKey(seed, nine_foot, clean, cloth, light, scale, cue_stick, f),
+                       scene, seed * 100003 + f);
     image_size = view.image.size();
     if (!save.empty()) {
       char name[64];
