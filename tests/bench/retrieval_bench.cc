@@ -84,6 +84,9 @@ struct ViewRange {
   // Handheld shake: a motion blur of up to this many pixels (of a 640x480 view) in a random
   // direction, from the same separate stream.
   double max_motion_px = 0;
+  // Glare of glossy paper: a veil of up to this share of white over a soft spot, from a
+  // stream of its own (CameraViewOptions::glare).
+  double max_glare = 0;
   // Each view is undistorted with its own lens before it is queried (as `texfree doc
   // retrieve --undistort` does with a calibration), and scored through the ideal pinhole.
   bool undistort = false;
@@ -135,6 +138,9 @@ std::vector<Query> MakeQueries(int count, int registered, uint64_t seed, bool un
                                    range.max_curl, range.max_k1, range.max_motion_px * resolution,
                                    &options);
     }
+    if (range.max_glare > 0)
+      texfree::testdata::DrawGlare(seed * 1'000'003 + static_cast<uint64_t>(i) + 0x61a5e,
+                                   range.max_glare, &options);
     auto view = texfree::testdata::RenderCameraView(rendered.image, options, seed + i);
     if (range.undistort) view.image = texfree::testdata::UndistortView(view.image, view, &options);
     std::vector<uchar> bytes;
@@ -249,11 +255,11 @@ void PrintMiss(const DocumentRegistry &registry, const Query &q, const cv::Mat &
   std::fprintf(
       stderr,
       "miss page %d: tilt %.0f scale %.2f blur %.1f noise %.1f light %.2f (roll %.1f azimuth %.1f "
-      "fov %.1f look-at %.0f,%.0f curl %.3f k1 %+.3f motion %.1f)%s | %s\n",
+      "fov %.1f look-at %.0f,%.0f curl %.3f k1 %+.3f motion %.1f glare %.2f)%s | %s\n",
       q.page, q.view.tilt_deg, q.view.scale, q.view.blur_sigma, q.view.noise_sigma,
       q.view.illumination_gradient, q.view.roll_deg, q.view.tilt_azimuth_deg,
       q.view.horizontal_fov_deg, q.view.look_at.x, q.view.look_at.y, q.view.page_curl,
-      q.view.radial_k1, q.view.motion_blur_px, stats.c_str(),
+      q.view.radial_k1, q.view.motion_blur_px, q.view.glare, stats.c_str(),
       result == nullptr || result->documents.empty() ? "nothing"
                                                      : result->documents[0].document.title.c_str());
 }
@@ -482,6 +488,10 @@ int main(int argc, char **argv) {
   app.add_flag("--undistort", view_range.undistort,
                "undistort each view with its own lens before querying it (texfree doc retrieve "
                "--undistort)");
+  app.add_option("--glare", view_range.max_glare,
+                 "glossy paper: each view has a veil of light of up to this share of white over "
+                 "a soft spot (from 0.3 the paper's white clips at its centre; 0: none)")
+      ->check(CLI::Range(0.0, 2.0));
   app.add_option("--motion-blur", view_range.max_motion_px,
                  "the views are smeared by camera shake of up to this many pixels (0: none)")
       ->check(CLI::Range(0.0, 30.0));

@@ -480,6 +480,25 @@ CameraView RenderCameraView(const cv::Mat &page_in, const CameraViewOptions &opt
                             light_rng),
                  image);
   }
+  // Glare: the veil is light the paper reflects, added before the sensor's
+  // noise and clipped with it where it passes white.
+  if (options.glare > 0) {
+    cv::Mat veil(size, CV_32FC3);
+    const double sigma =
+        std::max(1.0, options.glare_radius * std::hypot(size.width, size.height));
+    const double cx = options.glare_centre.x * size.width;
+    const double cy = options.glare_centre.y * size.height;
+    for (int y = 0; y < size.height; ++y) {
+      cv::Vec3f *row = veil.ptr<cv::Vec3f>(y);
+      for (int x = 0; x < size.width; ++x) {
+        const double d2 = (x - cx) * (x - cx) + (y - cy) * (y - cy);
+        const float v = static_cast<float>(255 * options.glare *
+                                           std::exp(-d2 / (2 * sigma * sigma)));
+        row[x] = cv::Vec3f(v, v, v);
+      }
+    }
+    image += veil;
+  }
   // Sensor noise.
   const uint64_t noise_seed = rng();
   if (options.noise_sigma > 0) {
@@ -580,6 +599,12 @@ std::string CameraViewGroundTruthJson(const CameraView &view,
   os << ", \"motion_blur_px\": " << buf;
   std::snprintf(buf, sizeof(buf), "%.17g", o.motion_blur_angle_deg);
   os << ", \"motion_blur_angle_deg\": " << buf;
+  std::snprintf(buf, sizeof(buf), "%.17g", o.glare);
+  os << ", \"glare\": " << buf;
+  std::snprintf(buf, sizeof(buf), "%.17g", o.glare_radius);
+  os << ", \"glare_radius\": " << buf << ", \"glare_centre\": ";
+  const double centre[2] = {o.glare_centre.x, o.glare_centre.y};
+  AppendMatrix(os, centre, 2);
   os << "}\n}\n";
   return os.str();
 }
@@ -644,6 +669,13 @@ void DrawBends(uint64_t stream_seed, double max_curl, double max_k1, double max_
   options->radial_k1 = max_k1 * (1.5 * Unit(bend) - 1.0);
   options->motion_blur_px = max_motion_px * Unit(bend);
   options->motion_blur_angle_deg = 180 * Unit(bend);
+}
+
+void DrawGlare(uint64_t stream_seed, double max_glare, CameraViewOptions *options) {
+  std::mt19937_64 glare(stream_seed);
+  options->glare = max_glare * Unit(glare);
+  options->glare_radius = Uniform(glare, 0.06, 0.18);
+  options->glare_centre = {Uniform(glare, 0.15, 0.85), Uniform(glare, 0.15, 0.85)};
 }
 
 cv::Mat UndistortView(const cv::Mat &image, const CameraView &view, CameraViewOptions *options) {

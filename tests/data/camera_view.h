@@ -50,6 +50,14 @@ struct CameraViewOptions {
   // lens blur. 0 = none.
   double motion_blur_px = 0;
   double motion_blur_angle_deg = 0;
+  // Glare: a lamp reflected by glossy paper, a veil of light added over a soft
+  // (Gaussian) spot of `glare_radius` image diagonals centred at `glare_centre`
+  // (fractions of the image width and height). `glare` is the veil's peak as a
+  // share of white: from about 0.3 on, the page's white clips at the centre and
+  // the text there fades out. 0 = none.
+  double glare = 0;
+  double glare_radius = 0.12;
+  cv::Point2d glare_centre{0.5, 0.5};
 };
 
 struct CameraView {
@@ -88,6 +96,10 @@ CameraViewOptions RandomViewOptions(std::mt19937_64& rng,
 // any direction. Portable: uses no std distributions.
 void DrawBends(uint64_t stream_seed, double max_curl, double max_k1, double max_motion_px,
                CameraViewOptions* options);
+
+// Glare of one view, from its own stream: a veil of up to max_glare (CameraViewOptions::glare)
+// over a spot of 0.06-0.18 image diagonals centred anywhere in the middle 70% of the image.
+void DrawGlare(uint64_t stream_seed, double max_glare, CameraViewOptions* options);
 
 // Mean distance in image pixels between where `estimated` and `truth` (both page ->
 // image) put an 11 x 11 grid of page points, over the points `truth` places inside the

@@ -227,6 +227,26 @@ TEST_F(DocumentRegistryTest, CurledPageSeenThroughABarrelLensIsRetrieved) {
   }
 }
 
+// Glossy paper reflects the lamp: a glare spot over a fifth of the view clips the page's
+// white and fades the words around it out, and the page is still retrieved among others
+// from the words beside it, with the right homography.
+TEST_F(DocumentRegistryTest, GlossyPageUnderGlareIsRetrieved) {
+  auto registry = Open(DocumentRegistryOptions());
+  ASSERT_NE(registry, nullptr);
+  cv::Mat page;
+  const std::string id = RegisterPages(*registry, {40, 41, 42, 43}, 42, &page);
+  ASSERT_FALSE(id.empty());
+  testdata::CameraViewOptions view = TiltedView();
+  view.glare = 0.9;
+  view.glare_radius = 0.12;
+  view.glare_centre = {0.45, 0.45};
+  const auto photo = testdata::RenderCameraView(page, view, 8);
+  // The glare is real: a sixth of the picture or more is clipped white.
+  cv::Mat gray = Gray(photo.image);
+  EXPECT_GT(cv::countNonZero(gray >= 250), static_cast<int>(gray.total() / 6));
+  ExpectFinds(*registry, photo, page, id, 2.0);
+}
+
 // A phone's picture (here 2,560 x 1,920, the page seen whole at 0.8 of its pixels) is
 // retrieved reduced to max_query_pixels, with the homography in the picture's own pixels and
 // the same pose as from the picture at full size; intrinsics calibrated at another resolution
