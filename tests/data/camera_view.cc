@@ -484,16 +484,15 @@ CameraView RenderCameraView(const cv::Mat &page_in, const CameraViewOptions &opt
   // noise and clipped with it where it passes white.
   if (options.glare > 0) {
     cv::Mat veil(size, CV_32FC3);
-    const double sigma =
-        std::max(1.0, options.glare_radius * std::hypot(size.width, size.height));
+    const double sigma = std::max(1.0, options.glare_radius * std::hypot(size.width, size.height));
     const double cx = options.glare_centre.x * size.width;
     const double cy = options.glare_centre.y * size.height;
     for (int y = 0; y < size.height; ++y) {
       cv::Vec3f *row = veil.ptr<cv::Vec3f>(y);
       for (int x = 0; x < size.width; ++x) {
         const double d2 = (x - cx) * (x - cx) + (y - cy) * (y - cy);
-        const float v = static_cast<float>(255 * options.glare *
-                                           std::exp(-d2 / (2 * sigma * sigma)));
+        const float v =
+            static_cast<float>(255 * options.glare * std::exp(-d2 / (2 * sigma * sigma)));
         row[x] = cv::Vec3f(v, v, v);
       }
     }
