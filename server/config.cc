@@ -52,6 +52,8 @@ const std::vector<Setting>& Settings() {
        Kind::kInt},
       {"max_query_pixels", "TEXFREE_MAX_QUERY_PIXELS", "--max-query-pixels",
        Kind::kInt},
+      {"live_pool_pixels", "TEXFREE_LIVE_POOL_PIXELS", "--live-pool-pixels",
+       Kind::kInt},
       {"log_level", "TEXFREE_LOG_LEVEL", "--log-level", Kind::kString},
       {"idle_stream_timeout_s", "TEXFREE_IDLE_STREAM_TIMEOUT_S",
        "--idle-stream-timeout-s", Kind::kInt},
@@ -110,6 +112,10 @@ absl::Status Assign(const Setting& setting, const std::string& value,
     }
     if (key == "max_query_pixels") {
       config->max_query_pixels = n;
+      return absl::OkStatus();
+    }
+    if (key == "live_pool_pixels") {
+      config->live_pool_pixels = n;
       return absl::OkStatus();
     }
     if (n < INT32_MIN || n > INT32_MAX) {
@@ -259,6 +265,13 @@ absl::Status ServerConfig::Validate() const {
         " must be 0 (never reduce) or at least ",
         DocumentRegistryOptions::kMinMaxQueryPixels, " (default ",
         DocumentRegistryOptions::kDefaultMaxQueryPixels, ")"));
+  }
+  if (live_pool_pixels != 0 && live_pool_pixels < kMinLivePoolPixels) {
+    return absl::InvalidArgumentError(absl::StrCat(
+        "live_pool_pixels = ", live_pool_pixels,
+        " must be 0 (live frames as large as AnalyzeTable's) or at least ",
+        kMinLivePoolPixels, " (320x240; default ", kDefaultLivePoolPixels,
+        ", 640x480)"));
   }
   if (idle_stream_timeout_s <= 0) {
     return absl::InvalidArgumentError(

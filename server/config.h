@@ -26,6 +26,12 @@ struct ServerConfig {
   // Document retrieval reduces larger pictures by a whole factor to at most
   // this many pixels (0: never); results stay in the picture's pixels.
   int64_t max_query_pixels = DocumentRegistryOptions::kDefaultMaxQueryPixels;
+  // TrackTable analyses each live frame reduced to at most this many pixels, to
+  // keep up with a camera's frame rate (0: as AnalyzeTable, up to 1280x960). At
+  // 640x480 an analysis takes 17-19 ms on one core, at 1280x960 about 49 ms.
+  int64_t live_pool_pixels = kDefaultLivePoolPixels;
+  static constexpr int64_t kDefaultLivePoolPixels = 640 * 480;
+  static constexpr int64_t kMinLivePoolPixels = 320 * 240;
   // spdlog level: trace, debug, info, warn, error, critical, off.
   std::string log_level = "info";
   // A streaming call with no message for this many seconds is ended.
@@ -37,12 +43,13 @@ struct ServerConfig {
 
 // Names of the settings, as written in the config file and as keys of the
 // `flags` map below: listen, data_dir, max_message_mb, max_image_pixels,
-// max_query_pixels, log_level, idle_stream_timeout_s. The flags map may also hold "config" (the
+// max_query_pixels, live_pool_pixels, log_level, idle_stream_timeout_s. The flags map may also
+// hold "config" (the
 // config file path), which ResolveServerConfig ignores.
 //
 // Environment variables (keys of `env`): TEXFREE_LISTEN, TEXFREE_DATA_DIR,
 // TEXFREE_MAX_MESSAGE_MB, TEXFREE_MAX_IMAGE_PIXELS, TEXFREE_MAX_QUERY_PIXELS,
-// TEXFREE_LOG_LEVEL,
+// TEXFREE_LIVE_POOL_PIXELS, TEXFREE_LOG_LEVEL,
 // TEXFREE_IDLE_STREAM_TIMEOUT_S (and TEXFREE_CONFIG, the config file path,
 // used by LoadServerConfig). Other keys of `env` are ignored.
 //

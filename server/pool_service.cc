@@ -375,11 +375,13 @@ grpc::Status PoolServiceImpl::TrackTable(
   if (!camera.ok()) return Fail("TrackTable", camera.status());
   auto profile = ResolveProfile(store_, config);
   if (!profile.ok()) return Fail("TrackTable", profile.status());
-  auto analyzer = PoolAnalyzer::Create(*profile, *camera);
+  PoolAnalyzerOptions live;
+  if (live_pixels_ > 0) live.max_working_pixels = live_pixels_;
+  auto analyzer = PoolAnalyzer::Create(*profile, *camera, live);
   if (!analyzer.ok()) return Fail("TrackTable", analyzer.status());
   const int max_shots = config.max_shots() == 0 ? 3 : static_cast<int>(std::min(20u, config.max_shots()));
-  spdlog::info("TrackTable: stream started, table {} x {} mm", profile->length_mm,
-               profile->width_mm);
+  spdlog::info("TrackTable: stream started, table {} x {} mm, frames analysed at most {} pixels",
+               profile->length_mm, profile->width_mm, live.max_working_pixels);
   // The arrangement found by the last full analysis and the shots computed for it.
   std::vector<PoolBall> reference;
   std::vector<PoolShot> shots;

@@ -3,6 +3,8 @@
 // overlays) and live tracking that keeps the chosen shot glued to the table.
 #pragma once
 
+#include <cstdint>
+
 #include "common/image_io.h"
 #include "server/pool_profile_store.h"
 #include "texfree/v1/pool.grpc.pb.h"
@@ -12,7 +14,10 @@ namespace texfree::server {
 // Thread-safe: the store is; every call and every stream has its own analyzer.
 class PoolServiceImpl final : public v1::PoolService::Service {
  public:
-  PoolServiceImpl(PoolProfileStore* store, ImageLimits limits) : store_(store), limits_(limits) {}
+  // `live_pixels`: TrackTable analyses each frame reduced to at most this many pixels (0:
+  // the analyzer's default, as AnalyzeTable).
+  PoolServiceImpl(PoolProfileStore* store, ImageLimits limits, int64_t live_pixels = 0)
+      : store_(store), limits_(limits), live_pixels_(live_pixels) {}
 
   grpc::Status SetTableProfile(grpc::ServerContext*, const v1::SetTableProfileRequest*,
                                v1::TableProfile*) override;
@@ -27,6 +32,7 @@ class PoolServiceImpl final : public v1::PoolService::Service {
  private:
   PoolProfileStore* store_;
   ImageLimits limits_;
+  int64_t live_pixels_;
 };
 
 }  // namespace texfree::server

@@ -24,6 +24,7 @@ TEST(ServerConfigTest, DefaultsAreValid) {
   EXPECT_EQ(config.max_message_mb, 64);
   EXPECT_EQ(config.max_image_pixels, 50'000'000);
   EXPECT_EQ(config.max_query_pixels, 1920 * 1440);
+  EXPECT_EQ(config.live_pool_pixels, 640 * 480);
   EXPECT_EQ(config.log_level, "info");
   EXPECT_EQ(config.idle_stream_timeout_s, 60);
   EXPECT_TRUE(config.Validate().ok()) << config.Validate();
@@ -88,6 +89,13 @@ TEST(ServerConfigTest, ValidateExplainsEachBadField) {
               HasSubstr("max_query_pixels = 1000 must be 0 (never reduce)"));
   config.max_query_pixels = 0;
   EXPECT_TRUE(config.Validate().ok()) << "0: never reduce";
+
+  config = ServerConfig();
+  config.live_pool_pixels = 1000;
+  EXPECT_THAT(std::string(config.Validate().message()),
+              HasSubstr("live_pool_pixels = 1000 must be 0"));
+  config.live_pool_pixels = 0;
+  EXPECT_TRUE(config.Validate().ok()) << "0: live frames as AnalyzeTable's";
 
   config = ServerConfig();
   config.idle_stream_timeout_s = 0;
@@ -173,6 +181,7 @@ TEST(ServerConfigTest, EnvironmentOverridesConfigFile) {
   const StringMap env = {{"TEXFREE_LISTEN", "127.0.0.1:2000"},
                          {"TEXFREE_MAX_IMAGE_PIXELS", "1234"},
                          {"TEXFREE_MAX_QUERY_PIXELS", "0"},
+                         {"TEXFREE_LIVE_POOL_PIXELS", "1228800"},
                          {"TEXFREE_LOG_LEVEL", "warn"},
                          {"HOME", "/root"}};
   absl::StatusOr<ServerConfig> config = ResolveServerConfig({}, env, text);
@@ -182,6 +191,7 @@ TEST(ServerConfigTest, EnvironmentOverridesConfigFile) {
   EXPECT_EQ(config->max_message_mb, 10);
   EXPECT_EQ(config->max_image_pixels, 1234);
   EXPECT_EQ(config->max_query_pixels, 0);
+  EXPECT_EQ(config->live_pool_pixels, 1280 * 960);
   EXPECT_EQ(config->log_level, "warn");
 }
 

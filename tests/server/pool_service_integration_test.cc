@@ -316,5 +316,60 @@ TEST_F(PoolServiceIntegrationTest, TrackTableKeepsTheOriginFromTheOtherEnd) {
   EXPECT_GT(std::hypot(p0.x() - p1.x(), p0.y() - p1.y()), 20);
 }
 
+// A phone streams HD frames; TrackTable analyses each reduced to live_pool_pixels (640x480 by
+// default: 17-19 ms a frame, where 1280x960 takes about 49) and answers in the frame's own
+// pixels. AnalyzeTable analyses the same picture at full size.
+TEST_F(PoolServiceIntegrationTest, TrackTableAnalysesHdFramesAtTheLiveSize) {
+  PoolScene scene = Scene(PoolViewSide::kLongNear, 45);
+  testdata::ScalePoolCamera(&scene, 2);
+  const PoolView hd = testdata::RenderPoolView(scene, 13);
+  ASSERT_EQ(hd.image.size(), cv::Size(1280, 960));
+  const auto has_stage = [](const v1::AnalyzeTableResponse& r, const std::string& stage) {
+    for (const auto& t : r.timings())
+      if (t.stage() == stage) return true;
+    return false;
+  };
+  const auto expect_truth = [&](const v1::AnalyzeTableResponse& r) {
+    ASSERT_EQ(r.corners_size(), 4);
+    for (int k = 0; k < 4; ++k)
+      EXPECT_LT(std::hypot(r.corners(k).x() - hd.cloth_corners[k].x,
+                           r.corners(k).y() - hd.cloth_corners[k].y),
+                3.0)
+          << "corner " << k << " in the HD frame's pixels";
+    EXPECT_EQ(r.balls_size(), static_cast<int>(hd.balls.size()));
+    for (const auto& b : r.balls()) {
+      for (const auto& t : hd.balls) {
+        if (t.number != b.number()) continue;
+        EXPECT_LT(std::hypot(b.x_mm() - t.x_mm, b.y_mm() - t.y_mm), 12.0) << "ball " << t.number;
+      }
+    }
+  };
+
+  grpc::ClientContext ctx;
+  auto stream = stub_->TrackTable(&ctx);
+  v1::TrackTableRequest config;
+  *config.mutable_config()->mutable_intrinsics() = Intrinsics(hd);
+  *config.mutable_config()->mutable_profile() = BenchTable();
+  config.mutable_config()->set_skip_shots(true);
+  ASSERT_TRUE(stream->Write(config));
+  v1::TrackTableRequest frame;
+  frame.mutable_frame()->set_encoded(Encode(hd.image));
+  ASSERT_TRUE(stream->Write(frame));
+  v1::AnalyzeTableResponse live;
+  ASSERT_TRUE(stream->Read(&live)) << server_->Log();
+  stream->WritesDone();
+  ASSERT_TRUE(stream->Finish().ok());
+  EXPECT_EQ(live.state(), "analysed") << live.message();
+  EXPECT_TRUE(has_stage(live, "reduce")) << "a live HD frame is analysed reduced";
+  expect_truth(live);
+
+  v1::AnalyzeTableRequest request = Request(hd);
+  request.set_skip_shots(true);
+  v1::AnalyzeTableResponse still;
+  ASSERT_TRUE(Analyze(request, &still).ok());
+  EXPECT_FALSE(has_stage(still, "reduce")) << "AnalyzeTable takes 1280x960 as it is";
+  expect_truth(still);
+}
+
 }  // namespace
 }  // namespace texfree
