@@ -46,17 +46,13 @@ const std::vector<Setting>& Settings() {
   static const auto* settings = new std::vector<Setting>{
       {"listen", "TEXFREE_LISTEN", "--listen", Kind::kString},
       {"data_dir", "TEXFREE_DATA_DIR", "--data-dir", Kind::kString},
-      {"max_message_mb", "TEXFREE_MAX_MESSAGE_MB", "--max-message-mb",
-       Kind::kInt},
-      {"max_image_pixels", "TEXFREE_MAX_IMAGE_PIXELS", "--max-image-pixels",
-       Kind::kInt},
-      {"max_query_pixels", "TEXFREE_MAX_QUERY_PIXELS", "--max-query-pixels",
-       Kind::kInt},
-      {"live_pool_pixels", "TEXFREE_LIVE_POOL_PIXELS", "--live-pool-pixels",
-       Kind::kInt},
+      {"max_message_mb", "TEXFREE_MAX_MESSAGE_MB", "--max-message-mb", Kind::kInt},
+      {"max_image_pixels", "TEXFREE_MAX_IMAGE_PIXELS", "--max-image-pixels", Kind::kInt},
+      {"max_query_pixels", "TEXFREE_MAX_QUERY_PIXELS", "--max-query-pixels", Kind::kInt},
+      {"live_pool_pixels", "TEXFREE_LIVE_POOL_PIXELS", "--live-pool-pixels", Kind::kInt},
       {"log_level", "TEXFREE_LOG_LEVEL", "--log-level", Kind::kString},
-      {"idle_stream_timeout_s", "TEXFREE_IDLE_STREAM_TIMEOUT_S",
-       "--idle-stream-timeout-s", Kind::kInt},
+      {"idle_stream_timeout_s", "TEXFREE_IDLE_STREAM_TIMEOUT_S", "--idle-stream-timeout-s",
+       Kind::kInt},
   };
   return *settings;
 }
@@ -269,9 +265,8 @@ absl::Status ServerConfig::Validate() const {
   if (live_pool_pixels != 0 && live_pool_pixels < kMinLivePoolPixels) {
     return absl::InvalidArgumentError(absl::StrCat(
         "live_pool_pixels = ", live_pool_pixels,
-        " must be 0 (live frames as large as AnalyzeTable's) or at least ",
-        kMinLivePoolPixels, " (320x240; default ", kDefaultLivePoolPixels,
-        ", 640x480)"));
+        " must be 0 (live frames as large as AnalyzeTable's) or at least ", kMinLivePoolPixels,
+        " (320x240; default ", kDefaultLivePoolPixels, ", 640x480)"));
   }
   if (idle_stream_timeout_s <= 0) {
     return absl::InvalidArgumentError(

@@ -54,8 +54,8 @@ int main(int argc, char** argv) {
   // Only flags given on the command line go into `flags`, so that the
   // environment and the config file can fill the others.
   std::map<std::string, std::string> flags;
-  std::string listen, data_dir, config_path, max_message_mb, max_image_pixels,
-      max_query_pixels, live_pool_pixels, log_level, idle_timeout;
+  std::string listen, data_dir, config_path, max_message_mb, max_image_pixels, max_query_pixels,
+      live_pool_pixels, log_level, idle_timeout;
   const ServerConfig defaults;
   auto* listen_opt =
       app.add_option("--listen", listen,
@@ -82,11 +82,11 @@ int main(int argc, char** argv) {
       "document retrieval reduces larger pictures to this many pixels, 0 = "
       "never (env TEXFREE_MAX_QUERY_PIXELS, default " +
           std::to_string(defaults.max_query_pixels) + ")");
-  auto* live_pixels_opt = app.add_option(
-      "--live-pool-pixels", live_pool_pixels,
-      "TrackTable analyses live frames reduced to this many pixels, 0 = as "
-      "AnalyzeTable (env TEXFREE_LIVE_POOL_PIXELS, default " +
-          std::to_string(defaults.live_pool_pixels) + ")");
+  auto* live_pixels_opt =
+      app.add_option("--live-pool-pixels", live_pool_pixels,
+                     "TrackTable analyses live frames reduced to this many pixels, 0 = as "
+                     "AnalyzeTable (env TEXFREE_LIVE_POOL_PIXELS, default " +
+                         std::to_string(defaults.live_pool_pixels) + ")");
   auto* level_opt = app.add_option(
       "--log-level", log_level,
       "trace|debug|info|warn|error|critical|off (env TEXFREE_LOG_LEVEL, "
@@ -108,16 +108,16 @@ int main(int argc, char** argv) {
   idle_opt->type_name("SECONDS");
   CLI11_PARSE(app, argc, argv);
 
-  const std::pair<CLI::Option*, std::pair<const char*, std::string*>> given[] =
-      {{listen_opt, {"listen", &listen}},
-       {data_dir_opt, {"data_dir", &data_dir}},
-       {config_opt, {"config", &config_path}},
-       {mb_opt, {"max_message_mb", &max_message_mb}},
-       {pixels_opt, {"max_image_pixels", &max_image_pixels}},
-       {query_pixels_opt, {"max_query_pixels", &max_query_pixels}},
-       {live_pixels_opt, {"live_pool_pixels", &live_pool_pixels}},
-       {level_opt, {"log_level", &log_level}},
-       {idle_opt, {"idle_stream_timeout_s", &idle_timeout}}};
+  const std::pair<CLI::Option*, std::pair<const char*, std::string*>> given[] = {
+      {listen_opt, {"listen", &listen}},
+      {data_dir_opt, {"data_dir", &data_dir}},
+      {config_opt, {"config", &config_path}},
+      {mb_opt, {"max_message_mb", &max_message_mb}},
+      {pixels_opt, {"max_image_pixels", &max_image_pixels}},
+      {query_pixels_opt, {"max_query_pixels", &max_query_pixels}},
+      {live_pixels_opt, {"live_pool_pixels", &live_pool_pixels}},
+      {level_opt, {"log_level", &log_level}},
+      {idle_opt, {"idle_stream_timeout_s", &idle_timeout}}};
   for (const auto& [option, key_value] : given) {
     if (option->count() > 0) flags[key_value.first] = *key_value.second;
   }
@@ -192,8 +192,8 @@ int main(int argc, char** argv) {
   spdlog::info(
       "data dir {}, max message {} MiB, max image {} pixels, documents "
       "retrieved at most {} pixels, live pool frames at most {} pixels",
-      config.data_dir, config.max_message_mb, config.max_image_pixels,
-      config.max_query_pixels, config.live_pool_pixels);
+      config.data_dir, config.max_message_mb, config.max_image_pixels, config.max_query_pixels,
+      config.live_pool_pixels);
 
   std::thread signal_thread([&server, &stop_signals] {
     int signal_number = 0;

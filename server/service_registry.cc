@@ -74,9 +74,8 @@ absl::StatusOr<std::unique_ptr<ServiceRegistry>> ServiceRegistry::Create(
   const std::string pool_db_path = (std::filesystem::path(config.data_dir) / "pool.db").string();
   ASSIGN_OR_RETURN(registry->impl_->pool_profiles, PoolProfileStore::Open(pool_db_path));
   spdlog::info("pool table profiles {}", pool_db_path);
-  registry->impl_->pool_service =
-      std::make_unique<PoolServiceImpl>(registry->impl_->pool_profiles.get(), limits,
-                                        config.live_pool_pixels);
+  registry->impl_->pool_service = std::make_unique<PoolServiceImpl>(
+      registry->impl_->pool_profiles.get(), limits, config.live_pool_pixels);
   registry->impl_->pending = MakeNotYetImplementedServices();
   return registry;
 }

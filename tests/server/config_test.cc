@@ -178,12 +178,10 @@ TEST(ServerConfigTest, EnvironmentOverridesConfigFile) {
   const std::string text =
       "listen = \"127.0.0.1:1000\"\ndata_dir = \"/from/file\"\n"
       "max_message_mb = 10\n";
-  const StringMap env = {{"TEXFREE_LISTEN", "127.0.0.1:2000"},
-                         {"TEXFREE_MAX_IMAGE_PIXELS", "1234"},
-                         {"TEXFREE_MAX_QUERY_PIXELS", "0"},
-                         {"TEXFREE_LIVE_POOL_PIXELS", "1228800"},
-                         {"TEXFREE_LOG_LEVEL", "warn"},
-                         {"HOME", "/root"}};
+  const StringMap env = {
+      {"TEXFREE_LISTEN", "127.0.0.1:2000"}, {"TEXFREE_MAX_IMAGE_PIXELS", "1234"},
+      {"TEXFREE_MAX_QUERY_PIXELS", "0"},    {"TEXFREE_LIVE_POOL_PIXELS", "1228800"},
+      {"TEXFREE_LOG_LEVEL", "warn"},        {"HOME", "/root"}};
   absl::StatusOr<ServerConfig> config = ResolveServerConfig({}, env, text);
   ASSERT_TRUE(config.ok()) << config.status();
   EXPECT_EQ(config->listen, "127.0.0.1:2000");
