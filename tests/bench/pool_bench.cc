@@ -94,11 +94,14 @@ double Mean(const std::vector<double>& v) {
 // The options that change what is rendered, as parsed, as a file name stem (analysis
 // options left out).
 std::string CacheKey(uint64_t seed, bool nine_foot, bool clean, const std::string& cloth,
-                     const std::string& light, double scale, bool cue_stick, int frame) {
+                     const std::string& light, double scale, bool cue_stick, double motion_blur,
+                     int frame) {
   std::string key =
       "seed" + std::to_string(seed) + (nine_foot ? "_ninefoot" : "") + (clean ? "_clean" : "") +
       "_cloth_" + cloth + (light == "neutral" ? "" : "_light_" + light) + "_scale" +
-      std::to_string(scale) + (cue_stick ? "_cuestick" : "") + "_f" + std::to_string(frame);
+      std::to_string(scale) + (cue_stick ? "_cuestick" : "") +
+      (motion_blur > 0 ? "_motion" + std::to_string(motion_blur) : "") + "_f" +
+      std::to_string(frame);
   for (char& c : key)
     if (!std::isalnum(static_cast<unsigned char>(c)) && c != '.' && c != '-') c = '_';
   return key;
@@ -216,6 +219,11 @@ int main(int argc, char** argv) {
                  "Render at this many times 640x480 (the same views, blur scaled alike): a "
                  "camera of higher resolution")
       ->check(CLI::Range(0.5, 4.0));
+  double motion_blur = 0;
+  app.add_option("--motion-blur", motion_blur,
+                 "A handheld camera's shake in every frame (live video): a smear of up to this "
+                 "many pixels in a random direction, each frame's drawn from a stream of its own")
+      ->check(CLI::Range(0.0, 20.0));
   bool cue_stick = false;
   app.add_flag("--cue-stick", cue_stick,
                "A cue stick in every frame, aimed through the cue ball at another ball as a "
@@ -278,6 +286,12 @@ int main(int argc, char** argv) {
     }
     ScalePoolCamera(&scene, scale);
     ParseLight(light, &scene.light_rgb);  // checked by --light's validator
+    if (motion_blur > 0) {
+      // Its own generator (raw bits: portable), so the scenes stay those of the set.
+      std::mt19937_64 shake(seed * 7907 + static_cast<uint64_t>(f) + 0x5ba4e);
+      scene.motion_blur_px = motion_blur * static_cast<double>(shake() >> 11) * 0x1.0p-53;
+      scene.motion_blur_angle_deg = 180 * static_cast<double>(shake() >> 11) * 0x1.0p-53;
+    }
     if (cue_stick) {
       // Its own generator: the scenes stay those of the set without a stick.
       std::mt19937_64 stick_rng(seed * 7919 + static_cast<uint64_t>(f));
@@ -285,7 +299,7 @@ int main(int argc, char** argv) {
     }
     if (only >= 0 && f != only) continue;
     const PoolView view =
-        CachedPoolView(cache, CacheKey(seed, nine_foot, clean, cloth, light, scale, cue_stick, f),
+        CachedPoolView(cache, CacheKey(seed, nine_foot, clean, cloth, light, scale, cue_stick, motion_blur, f),
                        scene, seed * 100003 + f);
     image_size = view.image.size();
     if (!save.empty()) {

@@ -111,25 +111,6 @@ cv::Mat DiskKernel(double radius) {
 // Normalised kernel of a straight smear `length` pixels long along
 // `angle_deg`, supersampled along the line so that any length and angle
 // integrates smoothly.
-cv::Mat LineKernel(double length, double angle_deg) {
-  const int r = static_cast<int>(std::ceil(length / 2)) + 1;
-  cv::Mat k(2 * r + 1, 2 * r + 1, CV_32FC1, cv::Scalar(0));
-  const double dx = std::cos(angle_deg * kDeg), dy = std::sin(angle_deg * kDeg);
-  const int samples = static_cast<int>(std::ceil(length * 8)) + 1;
-  for (int i = 0; i < samples; ++i) {
-    const double s = length * (static_cast<double>(i) / (samples - 1) - 0.5);
-    const double x = r + s * dx, y = r + s * dy;
-    const int x0 = static_cast<int>(std::floor(x)), y0 = static_cast<int>(std::floor(y));
-    const double fx = x - x0, fy = y - y0;
-    k.at<float>(y0, x0) += static_cast<float>((1 - fx) * (1 - fy));
-    k.at<float>(y0, x0 + 1) += static_cast<float>(fx * (1 - fy));
-    k.at<float>(y0 + 1, x0) += static_cast<float>((1 - fx) * fy);
-    k.at<float>(y0 + 1, x0 + 1) += static_cast<float>(fx * fy);
-  }
-  k /= cv::sum(k)[0];
-  return k;
-}
-
 // Multiplicative light field: linear ramp + vignette + a soft shadow (hand
 // or phone between lamp and page) + a slight colour cast, all scaled by
 // strength. strength = 0 gives exactly 1.
@@ -468,7 +449,7 @@ CameraView RenderCameraView(const cv::Mat &page_in, const CameraViewOptions &opt
   // Camera shake during the exposure: a line kernel (anti-aliased ends).
   if (options.motion_blur_px > 0.5) {
     cv::filter2D(image, image, -1,
-                 LineKernel(options.motion_blur_px, options.motion_blur_angle_deg),
+                 MotionBlurKernel(options.motion_blur_px, options.motion_blur_angle_deg),
                  cv::Point(-1, -1), 0, cv::BORDER_REFLECT);
   }
   // Uneven light.
@@ -675,6 +656,25 @@ void DrawGlare(uint64_t stream_seed, double max_glare, CameraViewOptions *option
   options->glare = max_glare * Unit(glare);
   options->glare_radius = Uniform(glare, 0.06, 0.18);
   options->glare_centre = {Uniform(glare, 0.15, 0.85), Uniform(glare, 0.15, 0.85)};
+}
+
+cv::Mat MotionBlurKernel(double length, double angle_deg) {
+  const int r = static_cast<int>(std::ceil(length / 2)) + 1;
+  cv::Mat k(2 * r + 1, 2 * r + 1, CV_32FC1, cv::Scalar(0));
+  const double dx = std::cos(angle_deg * kDeg), dy = std::sin(angle_deg * kDeg);
+  const int samples = static_cast<int>(std::ceil(length * 8)) + 1;
+  for (int i = 0; i < samples; ++i) {
+    const double s = length * (static_cast<double>(i) / (samples - 1) - 0.5);
+    const double x = r + s * dx, y = r + s * dy;
+    const int x0 = static_cast<int>(std::floor(x)), y0 = static_cast<int>(std::floor(y));
+    const double fx = x - x0, fy = y - y0;
+    k.at<float>(y0, x0) += static_cast<float>((1 - fx) * (1 - fy));
+    k.at<float>(y0, x0 + 1) += static_cast<float>(fx * (1 - fy));
+    k.at<float>(y0 + 1, x0) += static_cast<float>((1 - fx) * fy);
+    k.at<float>(y0 + 1, x0 + 1) += static_cast<float>(fx * fy);
+  }
+  k /= cv::sum(k)[0];
+  return k;
 }
 
 cv::Mat UndistortView(const cv::Mat &image, const CameraView &view, CameraViewOptions *options) {

@@ -97,6 +97,10 @@ CameraViewOptions RandomViewOptions(std::mt19937_64& rng,
 void DrawBends(uint64_t stream_seed, double max_curl, double max_k1, double max_motion_px,
                CameraViewOptions* options);
 
+// A camera's shake during the exposure: a straight smear of `length` pixels along
+// `angle_deg` (0 = image x), anti-aliased at its ends, normalised to sum 1.
+cv::Mat MotionBlurKernel(double length, double angle_deg);
+
 // Glare of one view, from its own stream: a veil of up to max_glare (CameraViewOptions::glare)
 // over a spot of 0.06-0.18 image diagonals centred anywhere in the middle 70% of the image.
 void DrawGlare(uint64_t stream_seed, double max_glare, CameraViewOptions* options);

@@ -1,6 +1,8 @@
 // Ray-cast pool table photographs with exact ground truth (see pool_renderer.h).
 #include "tests/data/pool_renderer.h"
 
+#include "tests/data/camera_view.h"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -565,6 +567,10 @@ PoolView RenderPoolView(const PoolScene& scene, uint64_t seed) {
   }
   if (scene.blur_sigma > 0.05)
     cv::GaussianBlur(image, image, cv::Size(0, 0), scene.blur_sigma, 0, cv::BORDER_REFLECT);
+  if (scene.motion_blur_px > 0.5)
+    cv::filter2D(image, image, -1,
+                 MotionBlurKernel(scene.motion_blur_px, scene.motion_blur_angle_deg),
+                 cv::Point(-1, -1), 0, cv::BORDER_REFLECT);
   if (scene.noise_sigma > 0) {
     cv::Mat noise(size, CV_32FC3);
     cv::RNG cvrng(rng());

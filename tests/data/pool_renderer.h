@@ -85,6 +85,10 @@ struct PoolScene {
   cv::Vec3d light_rgb{1, 1, 1};
   double vignetting = 0.25;   // brightness lost in the image corners
   double blur_sigma = 0.5;    // px
+  // A handheld camera's shake during the exposure (live video): a smear of this many
+  // pixels along motion_blur_angle_deg, after the lens blur. 0 = none.
+  double motion_blur_px = 0;
+  double motion_blur_angle_deg = 0;
   double noise_sigma = 2.0;   // gray levels
   int jpeg_quality = 90;      // 0 = no JPEG round trip
 };
