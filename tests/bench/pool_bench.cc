@@ -96,12 +96,12 @@ double Mean(const std::vector<double>& v) {
 std::string CacheKey(uint64_t seed, bool nine_foot, bool clean, const std::string& cloth,
                      const std::string& light, double scale, bool cue_stick, double motion_blur,
                      int frame) {
-  std::string key =
-      "seed" + std::to_string(seed) + (nine_foot ? "_ninefoot" : "") + (clean ? "_clean" : "") +
-      "_cloth_" + cloth + (light == "neutral" ? "" : "_light_" + light) + "_scale" +
-      std::to_string(scale) + (cue_stick ? "_cuestick" : "") +
-      (motion_blur > 0 ? "_motion" + std::to_string(motion_blur) : "") + "_f" +
-      std::to_string(frame);
+  std::string key = "seed" + std::to_string(seed) + (nine_foot ? "_ninefoot" : "") +
+                    (clean ? "_clean" : "") + "_cloth_" + cloth +
+                    (light == "neutral" ? "" : "_light_" + light) + "_scale" +
+                    std::to_string(scale) + (cue_stick ? "_cuestick" : "") +
+                    (motion_blur > 0 ? "_motion" + std::to_string(motion_blur) : "") + "_f" +
+                    std::to_string(frame);
   for (char& c : key)
     if (!std::isalnum(static_cast<unsigned char>(c)) && c != '.' && c != '-') c = '_';
   return key;
@@ -298,9 +298,9 @@ int main(int argc, char** argv) {
       scene.cue_stick = AimedCueStick(stick_rng, spec, scene.balls);
     }
     if (only >= 0 && f != only) continue;
-    const PoolView view =
-        CachedPoolView(cache, CacheKey(seed, nine_foot, clean, cloth, light, scale, cue_stick, motion_blur, f),
-                       scene, seed * 100003 + f);
+    const PoolView view = CachedPoolView(
+        cache, CacheKey(seed, nine_foot, clean, cloth, light, scale, cue_stick, motion_blur, f),
+        scene, seed * 100003 + f);
     image_size = view.image.size();
     if (!save.empty()) {
       char name[64];

@@ -1,8 +1,6 @@
 // Ray-cast pool table photographs with exact ground truth (see pool_renderer.h).
 #include "tests/data/pool_renderer.h"
 
-#include "tests/data/camera_view.h"
-
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -11,6 +9,8 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <sstream>
+
+#include "tests/data/camera_view.h"
 
 namespace texfree::testdata {
 namespace {
