@@ -167,6 +167,29 @@ TEST_P(PoolViewsTest, CornersNumbersAndPositionsMatchTheTruth) {
   EXPECT_EQ(score.false_balls, 0) << c.name;
 }
 
+// A phone held upright takes 480x640 pictures: the table, seen from a long or a short
+// side, fills the frame's width and leaves floor above and below. The table within 2 px,
+// every ball within 12 mm, no false ball, the separated balls named.
+TEST(PoolWideFrames, UprightPhonePicturesAreAnalysed) {
+  const ViewCase cases[] = {{PoolViewSide::kLongNear, 45, "long near"},
+                            {PoolViewSide::kShortRight, 55, "short right"}};
+  for (const ViewCase& c : cases) {
+    SCOPED_TRACE(c.name);
+    PoolScene scene = Scene(c.side, c.elevation, 8);
+    scene.camera =
+        testdata::FramedPoolCamera(scene.table, c.side, c.elevation, 50, 8, 3, 0.04, {480, 640});
+    scene.camera.k1 = -0.04;
+    const PoolView view = testdata::RenderPoolView(scene, 4322);
+    auto scored = AnalyzeAndScore(scene, view);
+    ASSERT_TRUE(scored.ok()) << scored.status();
+    const testdata::PoolScore& score = scored->score;
+    EXPECT_LT(score.max_corner_error_px, 2.0);
+    ExpectEveryBallLocatedWithin(score, view, 12.0);
+    EXPECT_GE(score.separated_identified, score.separated - 1);
+    EXPECT_EQ(score.false_balls, 0);
+  }
+}
+
 // Live video from a handheld phone is smeared by its shake. A smear of 4 px along and
 // across the table: the spread layout's balls are all still found, each within 12 mm, with
 // no false ball, and named (the benchmark with --motion-blur 6: mean error 2.64 -> 3.05 mm
