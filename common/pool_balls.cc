@@ -2218,8 +2218,9 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
   // measured on the picture against the profile's cloth colour. The white of one small
   // ball alone is off by 7-26% on 21 of the benchmark's 600 neutral frames (a 9's white
   // mixed with its yellow, a cue ball in shade), and a cloth of another shade than the
-  // profile's would be taken for a cast were the cloth alone asked. With the gains of an earlier frame the
-  // picture is read balanced at once, and only what is left of the cast is measured.
+  // profile's would be taken for a cast were the cloth alone asked. With the gains of an
+  // earlier frame the picture is read balanced at once, and only what is left of the cast
+  // is measured.
   const cv::Vec3f residual = BallWhiteGains(seen, balls, seen_cloth, profile);
   if (!LightCastsAgree(residual, ChromaticityGains(seen_cloth, profile.cloth_bgr),
                        options.white_balance_min_cast))

@@ -286,12 +286,8 @@ int main(int argc, char** argv) {
     }
     ScalePoolCamera(&scene, scale);
     ParseLight(light, &scene.light_rgb);  // checked by --light's validator
-    if (motion_blur > 0) {
-      // Its own generator (raw bits: portable), so the scenes stay those of the set.
-      std::mt19937_64 shake(seed * 7907 + static_cast<uint64_t>(f) + 0x5ba4e);
-      scene.motion_blur_px = motion_blur * static_cast<double>(shake() >> 11) * 0x1.0p-53;
-      scene.motion_blur_angle_deg = 180 * static_cast<double>(shake() >> 11) * 0x1.0p-53;
-    }
+    if (motion_blur > 0)
+      DrawPoolShake(seed * 7907 + static_cast<uint64_t>(f) + 0x5ba4e, motion_blur, &scene);
     if (cue_stick) {
       // Its own generator: the scenes stay those of the set without a stick.
       std::mt19937_64 stick_rng(seed * 7919 + static_cast<uint64_t>(f));

@@ -108,9 +108,6 @@ cv::Mat DiskKernel(double radius) {
   return k;
 }
 
-// Normalised kernel of a straight smear `length` pixels long along
-// `angle_deg`, supersampled along the line so that any length and angle
-// integrates smoothly.
 // Multiplicative light field: linear ramp + vignette + a soft shadow (hand
 // or phone between lamp and page) + a slight colour cast, all scaled by
 // strength. strength = 0 gives exactly 1.
@@ -658,6 +655,7 @@ void DrawGlare(uint64_t stream_seed, double max_glare, CameraViewOptions *option
   options->glare_centre = {Uniform(glare, 0.15, 0.85), Uniform(glare, 0.15, 0.85)};
 }
 
+// Supersampled along the line so that any length and angle integrates smoothly.
 cv::Mat MotionBlurKernel(double length, double angle_deg) {
   const int r = static_cast<int>(std::ceil(length / 2)) + 1;
   cv::Mat k(2 * r + 1, 2 * r + 1, CV_32FC1, cv::Scalar(0));

@@ -758,6 +758,12 @@ PoolCueStick AimedCueStick(std::mt19937_64& rng, const PoolTableSpec& table,
   return stick;
 }
 
+void DrawPoolShake(uint64_t stream_seed, double max_px, PoolScene* scene) {
+  std::mt19937_64 shake(stream_seed);
+  scene->motion_blur_px = max_px * Unit(shake);
+  scene->motion_blur_angle_deg = 180 * Unit(shake);
+}
+
 void ScalePoolCamera(PoolScene* scene, double scale) {
   if (scale == 1) return;
   const cv::Size& size = scene->camera.image_size;

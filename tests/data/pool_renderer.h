@@ -142,6 +142,10 @@ PoolScene RandomPoolScene(std::mt19937_64& rng, const PoolTableSpec& table,
 
 // A cue stick aimed through the cue ball at a random other ball (a random direction when
 // the cue is alone), its tip 30-80 mm behind the cue ball, rising 4-10 degrees.
+// A handheld camera's shake for one frame, from its own stream `stream_seed` (so the scene
+// is otherwise what it was): a smear of up to `max_px` pixels in any direction.
+void DrawPoolShake(uint64_t stream_seed, double max_px, PoolScene* scene);
+
 PoolCueStick AimedCueStick(std::mt19937_64& rng, const PoolTableSpec& table,
                            const std::vector<PoolBallPlacement>& balls);
 
