@@ -98,6 +98,9 @@ struct ViewRange {
   std::vector<int> only_pages;
 };
 
+// Seeds of the view sets lie this far apart: a set draws one seed per view from its own.
+constexpr uint64_t kViewSetStride = 7'919'000'003;
+
 std::vector<Query> MakeQueries(int count, int registered, uint64_t seed, bool unregistered,
                                const texfree::testdata::PageOptions &page_options,
                                const ViewRange &range) {
@@ -374,6 +377,10 @@ int main(int argc, char **argv) {
   app.add_option("--pages", checkpoints, "registered page counts to measure at")->delimiter(',');
   app.add_option("--queries", queries, "camera views of registered pages per checkpoint");
   int query_pages = 0;
+  uint64_t view_set = 0;
+  app.add_option("--view-set", view_set,
+                 "another set of camera views (0: the issue's set); the pages and the views' "
+                 "ranges stay, their draws change");
   app.add_option("--query-pages", query_pages,
                  "draw the views from the first N pages only, with one seed for every checkpoint "
                  "(the same views at each size; 0: from all registered pages)");
@@ -634,7 +641,7 @@ int main(int argc, char **argv) {
     return queries;
   };
   const auto unregistered_queries =
-      MakeQueries(unregistered, 1, 99, true, page_options, view_range);
+      MakeQueries(unregistered, 1, 99 + kViewSetStride * view_set, true, page_options, view_range);
   for (int target : checkpoints) {
     const auto t_reg = Clock::now();
     const int before = registered;
@@ -679,9 +686,11 @@ int main(int argc, char **argv) {
 
     const auto queries_now =
         registered_frame(query_pages > 0 ? MakeQueries(queries, std::min(query_pages, registered),
-                                                       1234, false, page_options, view_range)
-                                         : MakeQueries(queries, registered, 1234 + target, false,
-                                                       page_options, view_range));
+                                                       1234 + kViewSetStride * view_set, false,
+                                                       page_options, view_range)
+                                         : MakeQueries(queries, registered,
+                                                       1234 + target + kViewSetStride * view_set,
+                                                       false, page_options, view_range));
     std::vector<double> times, cpu_times, errors;
     const auto report_slow = [&](const Query &q,
                                  const absl::StatusOr<texfree::server::RetrievalResult> &result,
