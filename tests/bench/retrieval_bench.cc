@@ -684,13 +684,12 @@ int main(int argc, char **argv) {
       }
     }
 
-    const auto queries_now =
-        registered_frame(query_pages > 0 ? MakeQueries(queries, std::min(query_pages, registered),
-                                                       1234 + kViewSetStride * view_set, false,
-                                                       page_options, view_range)
-                                         : MakeQueries(queries, registered,
-                                                       1234 + target + kViewSetStride * view_set,
-                                                       false, page_options, view_range));
+    const auto queries_now = registered_frame(
+        query_pages > 0
+            ? MakeQueries(queries, std::min(query_pages, registered),
+                          1234 + kViewSetStride * view_set, false, page_options, view_range)
+            : MakeQueries(queries, registered, 1234 + target + kViewSetStride * view_set, false,
+                          page_options, view_range));
     std::vector<double> times, cpu_times, errors;
     const auto report_slow = [&](const Query &q,
                                  const absl::StatusOr<texfree::server::RetrievalResult> &result,
