@@ -44,8 +44,7 @@ struct ServerConfig {
 // Names of the settings, as written in the config file and as keys of the
 // `flags` map below: listen, data_dir, max_message_mb, max_image_pixels,
 // max_query_pixels, live_pool_pixels, log_level, idle_stream_timeout_s. The flags map may also
-// hold "config" (the
-// config file path), which ResolveServerConfig ignores.
+// hold "config" (the config file path), which ResolveServerConfig ignores.
 //
 // Environment variables (keys of `env`): TEXFREE_LISTEN, TEXFREE_DATA_DIR,
 // TEXFREE_MAX_MESSAGE_MB, TEXFREE_MAX_IMAGE_PIXELS, TEXFREE_MAX_QUERY_PIXELS,

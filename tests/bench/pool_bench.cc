@@ -60,9 +60,9 @@ bool ParseLight(const std::string& name, cv::Vec3d* rgb) {
   if (name == "neutral") {
     *rgb = {1, 1, 1};
   } else if (name == "warm") {
-    *rgb = {1.0, 0.9, 0.72};
+    *rgb = texfree::testdata::kWarmBarLamps;
   } else if (name == "cool") {
-    *rgb = {0.88, 0.96, 1.08};
+    *rgb = texfree::testdata::kDaylight;
   } else if (std::sscanf(name.c_str(), "%lf,%lf,%lf", &r, &g, &b) == 3 && r > 0 && g > 0 && b > 0) {
     *rgb = {r, g, b};
   } else {

@@ -640,8 +640,9 @@ int main(int argc, char **argv) {
     }
     return queries;
   };
+  const uint64_t view_set_offset = kViewSetStride * view_set;
   const auto unregistered_queries =
-      MakeQueries(unregistered, 1, 99 + kViewSetStride * view_set, true, page_options, view_range);
+      MakeQueries(unregistered, 1, 99 + view_set_offset, true, page_options, view_range);
   for (int target : checkpoints) {
     const auto t_reg = Clock::now();
     const int before = registered;
@@ -685,11 +686,10 @@ int main(int argc, char **argv) {
     }
 
     const auto queries_now = registered_frame(
-        query_pages > 0
-            ? MakeQueries(queries, std::min(query_pages, registered),
-                          1234 + kViewSetStride * view_set, false, page_options, view_range)
-            : MakeQueries(queries, registered, 1234 + target + kViewSetStride * view_set, false,
-                          page_options, view_range));
+        query_pages > 0 ? MakeQueries(queries, std::min(query_pages, registered),
+                                      1234 + view_set_offset, false, page_options, view_range)
+                        : MakeQueries(queries, registered, 1234 + target + view_set_offset, false,
+                                      page_options, view_range));
     std::vector<double> times, cpu_times, errors;
     const auto report_slow = [&](const Query &q,
                                  const absl::StatusOr<texfree::server::RetrievalResult> &result,

@@ -1121,11 +1121,6 @@ TEST(PoolDarkBalls, GreyOrBlackBallsAreFittedOnTheirRimInFullColour) {
   }
 }
 
-// Benchmark frame 24 (seed 7): the far cushion is seen at a grazing angle, its top only
-// 2 px wide beyond a shaded cushion face as dark as the rail. Taken on brightness, the
-// far side's edge fell on the face and the corners were 3.9 px off, which moved three
-// separated balls 14-20 mm and lost the 3. On the hue (the face is cloth in shade) the
-// side is the top's outer edge.
 // Bar lamps are warm, and a camera's white balance corrects only part of it: the
 // benchmark's --light warm (RGB gains 1, 0.9, 0.72). Without a white balance the cue reads
 // as the 9 or the 4, the 9 as the 1 and the maroon 7 as the red 3 (seed 7: 304 of 317
@@ -1133,7 +1128,7 @@ TEST(PoolDarkBalls, GreyOrBlackBallsAreFittedOnTheirRimInFullColour) {
 // balls are read again balanced: on these three frames every separated ball is named,
 // against 5 misnamed without.
 TEST(PoolLight, WarmLampsLeaveEveryBallItsNumber) {
-  const cv::Vec3d warm(1.0, 0.9, 0.72);
+  const cv::Vec3d& warm = testdata::kWarmBarLamps;
   int misnamed_unbalanced = 0;
   for (int frame : {16, 28, 41}) {
     SCOPED_TRACE("frame " + std::to_string(frame));
@@ -1169,7 +1164,7 @@ TEST(PoolLight, NeutralLightIsNotBalanced) {
 // In a live view the analyzer keeps the light's gains: the next picture is read balanced
 // at once, and its balls keep their numbers.
 TEST(PoolLight, LiveViewKeepsTheWhiteBalance) {
-  const cv::Vec3d warm(1.0, 0.9, 0.72);
+  const cv::Vec3d& warm = testdata::kWarmBarLamps;
   const auto first = RenderBenchFrame(16, 7, 1, false, false, warm);
   auto analyzer = PoolAnalyzer::Create(ProfileFor(first.scene.table), CameraOf(first.view));
   ASSERT_TRUE(analyzer.ok()) << analyzer.status();
@@ -1183,6 +1178,11 @@ TEST(PoolLight, LiveViewKeepsTheWhiteBalance) {
   for (size_t i = 0; i < a->balls.size(); ++i) EXPECT_EQ(a->balls[i].number, b->balls[i].number);
 }
 
+// Benchmark frame 24 (seed 7): the far cushion is seen at a grazing angle, its top only
+// 2 px wide beyond a shaded cushion face as dark as the rail. Taken on brightness, the
+// far side's edge fell on the face and the corners were 3.9 px off, which moved three
+// separated balls 14-20 mm and lost the 3. On the hue (the face is cloth in shade) the
+// side is the top's outer edge.
 TEST(PoolTablePose, FarCushionSeenAtAGrazingAngleIsTakenAtItsTop) {
   const auto [scene, view] = RenderBenchFrame(24);
   auto scored = AnalyzeAndScore(scene, view);

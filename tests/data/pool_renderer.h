@@ -81,7 +81,8 @@ struct PoolScene {
   int lamps = 2;              // lamps above the long axis, 900 mm over the cloth
   double light_gain = 1.0;    // overall exposure
   // Colour the camera records the lamps' white as (RGB gains): what the camera's white
-  // balance leaves of warm bar lamps or cool daylight. (1, 1, 1): neutral.
+  // balance leaves of warm bar lamps or cool daylight (kWarmBarLamps, kDaylight).
+  // (1, 1, 1): neutral.
   cv::Vec3d light_rgb{1, 1, 1};
   double vignetting = 0.25;   // brightness lost in the image corners
   double blur_sigma = 0.5;    // px
@@ -92,6 +93,11 @@ struct PoolScene {
   double noise_sigma = 2.0;   // gray levels
   int jpeg_quality = 90;      // 0 = no JPEG round trip
 };
+
+// PoolScene::light_rgb of bar lamps of about 3000 K under a camera whose white balance
+// corrected half of it, and of daylight from a window through the same balance.
+inline const cv::Vec3d kWarmBarLamps{1.0, 0.9, 0.72};
+inline const cv::Vec3d kDaylight{0.88, 0.96, 1.08};
 
 struct PoolBallTruth {
   int number = 0;
@@ -140,12 +146,12 @@ std::vector<PoolBallPlacement> RandomPoolLayout(std::mt19937_64& rng, const Pool
 PoolScene RandomPoolScene(std::mt19937_64& rng, const PoolTableSpec& table,
                           bool allow_touching = true);
 
-// A cue stick aimed through the cue ball at a random other ball (a random direction when
-// the cue is alone), its tip 30-80 mm behind the cue ball, rising 4-10 degrees.
 // A handheld camera's shake for one frame, from its own stream `stream_seed` (so the scene
 // is otherwise what it was): a smear of up to `max_px` pixels in any direction.
 void DrawPoolShake(uint64_t stream_seed, double max_px, PoolScene* scene);
 
+// A cue stick aimed through the cue ball at a random other ball (a random direction when
+// the cue is alone), its tip 30-80 mm behind the cue ball, rising 4-10 degrees.
 PoolCueStick AimedCueStick(std::mt19937_64& rng, const PoolTableSpec& table,
                            const std::vector<PoolBallPlacement>& balls);
 

@@ -69,6 +69,21 @@ v1::TableProfile BenchTable(const std::string& name = "") {
   return t;
 }
 
+// A TrackTable stream's first message: the camera that took `view`, the bench table.
+v1::TrackTableRequest TrackConfig(const PoolView& view) {
+  v1::TrackTableRequest config;
+  *config.mutable_config()->mutable_intrinsics() = Intrinsics(view);
+  *config.mutable_config()->mutable_profile() = BenchTable();
+  return config;
+}
+
+// A TrackTable stream's frame message holding `encoded` (normally Encode(image)).
+v1::TrackTableRequest TrackFrame(std::string encoded) {
+  v1::TrackTableRequest frame;
+  frame.mutable_frame()->set_encoded(std::move(encoded));
+  return frame;
+}
+
 class PoolServiceIntegrationTest : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
@@ -270,17 +285,12 @@ TEST_F(PoolServiceIntegrationTest, StoredProfileSurvivesARestartAndTakesCalibrat
 TEST_F(PoolServiceIntegrationTest, TrackTableKeepsTheOriginFromTheOtherEnd) {
   grpc::ClientContext ctx;
   auto stream = stub_->TrackTable(&ctx);
-  v1::TrackTableRequest config;
-  *config.mutable_config()->mutable_intrinsics() = Intrinsics(*long_view_);
-  *config.mutable_config()->mutable_profile() = BenchTable();
-  ASSERT_TRUE(stream->Write(config));
+  ASSERT_TRUE(stream->Write(TrackConfig(*long_view_)));
   // Same camera intrinsics for both renders (same image size and field of view).
   std::vector<const PoolView*> frames = {long_view_, short_view_};
   std::vector<v1::AnalyzeTableResponse> out;
   for (const PoolView* view : frames) {
-    v1::TrackTableRequest frame;
-    frame.mutable_frame()->set_encoded(Encode(view->image));
-    ASSERT_TRUE(stream->Write(frame));
+    ASSERT_TRUE(stream->Write(TrackFrame(Encode(view->image))));
     v1::AnalyzeTableResponse response;
     if (!stream->Read(&response)) {
       const grpc::Status status = stream->Finish();
@@ -288,9 +298,7 @@ TEST_F(PoolServiceIntegrationTest, TrackTableKeepsTheOriginFromTheOtherEnd) {
     }
     out.push_back(response);
   }
-  v1::TrackTableRequest junk;
-  junk.mutable_frame()->set_encoded("not an image");
-  ASSERT_TRUE(stream->Write(junk));
+  ASSERT_TRUE(stream->Write(TrackFrame("not an image")));
   v1::AnalyzeTableResponse lost;
   ASSERT_TRUE(stream->Read(&lost));
   stream->WritesDone();
@@ -347,14 +355,10 @@ TEST_F(PoolServiceIntegrationTest, TrackTableAnalysesHdFramesAtTheLiveSize) {
 
   grpc::ClientContext ctx;
   auto stream = stub_->TrackTable(&ctx);
-  v1::TrackTableRequest config;
-  *config.mutable_config()->mutable_intrinsics() = Intrinsics(hd);
-  *config.mutable_config()->mutable_profile() = BenchTable();
+  v1::TrackTableRequest config = TrackConfig(hd);
   config.mutable_config()->set_skip_shots(true);
   ASSERT_TRUE(stream->Write(config));
-  v1::TrackTableRequest frame;
-  frame.mutable_frame()->set_encoded(Encode(hd.image));
-  ASSERT_TRUE(stream->Write(frame));
+  ASSERT_TRUE(stream->Write(TrackFrame(Encode(hd.image))));
   v1::AnalyzeTableResponse live;
   ASSERT_TRUE(stream->Read(&live)) << server_->Log();
   stream->WritesDone();
