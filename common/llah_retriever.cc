@@ -24,6 +24,9 @@ absl::Status RetrievalOptions::Validate() const {
     return absl::InvalidArgumentError("max_hits_per_descriptor must be >= 1");
   if (guided_growth_rounds < 0 || guided_growth_rounds > 20)
     return absl::InvalidArgumentError("guided_growth_rounds must be in [0, 20]");
+  if (!(polish_gate > 0 && polish_gate <= 1))
+    return absl::InvalidArgumentError(
+        "polish_gate must be in (0, 1] (a share of the inlier threshold)");
   if (max_hits_per_1000_documents < 0)
     return absl::InvalidArgumentError("max_hits_per_1000_documents must be >= 0");
   if (prefilter_documents < 0)
@@ -377,6 +380,11 @@ namespace {
 constexpr int kMaxExhaustivePairs = 12;
 // ...and refines at most this many of their consensus sets.
 constexpr int kMaxDeepHypotheses = 3;
+// RANSAC iterations of the robust refit of an accepted page's homography.
+constexpr int kPolishIterations = 500;
+// ...which is grown again only when it moves a corner of the view by more than this share
+// of its gate (most robust fits are the guided refit's own, to the pixel).
+constexpr double kPolishMinMove = 0.5;
 
 struct Correspondence {
   uint32_t document;
@@ -835,6 +843,42 @@ std::vector<DocumentHit> LlahRetriever::RetrieveDescribed(const std::vector<cv::
       const bool traced = trace && doc == trace->watch;
       if (traced && !exhaustive) trace->ransac_inliers = static_cast<int>(inlier_pairs.size());
 
+      // Every page keypoint that `h` puts within `gate` of a free query keypoint, each query
+      // keypoint taken by the nearest one: (query, page) pairs and their points.
+      auto match_at = [&](const cv::Matx33d &h, double gate,
+                          std::vector<std::pair<int, int>> *matched, std::vector<cv::Point2f> *gr,
+                          std::vector<cv::Point2f> *gq) {
+        std::vector<int> owner(query.size(), -1);
+        std::vector<float> owner_d(query.size(), 0.f);
+        for (int r = 0; r < static_cast<int>(model.base); ++r) {
+          const cv::Point2d p = ApplyHomography(h, model.keypoints[r]);
+          if (!std::isfinite(p.x) || !std::isfinite(p.y)) continue;
+          // Most of a page projects outside the view, where the grid's ring search is
+          // longest and finds nothing within the gate anyway.
+          if (p.x < query_box.x - gate || p.y < query_box.y - gate ||
+              p.x > query_box.x + query_box.width + gate ||
+              p.y > query_box.y + query_box.height + gate)
+            continue;
+          query_grid.NearestTo(cv::Point2f(static_cast<float>(p.x), static_cast<float>(p.y)), 1,
+                               -1, &nearest);
+          if (nearest.empty() || used[nearest[0]]) continue;
+          const float d = static_cast<float>(cv::norm(cv::Point2d(query[nearest[0]]) - p));
+          if (d > gate) continue;
+          if (owner[nearest[0]] < 0 || d < owner_d[nearest[0]]) {
+            owner[nearest[0]] = r;
+            owner_d[nearest[0]] = d;
+          }
+        }
+        matched->clear();
+        gr->clear();
+        gq->clear();
+        for (int q = 0; q < static_cast<int>(query.size()); ++q) {
+          if (owner[q] < 0) continue;
+          matched->emplace_back(q, owner[q]);
+          gr->push_back(model.keypoints[owner[q]]);
+          gq->push_back(query[q]);
+        }
+      };
       // Guided refinement: every reference keypoint projected by H takes the
       // nearest free query keypoint within the threshold; the homography is
       // refitted on those matches. (Their number alone is no evidence: projected text
@@ -849,36 +893,10 @@ std::vector<DocumentHit> LlahRetriever::RetrieveDescribed(const std::vector<cv::
         size_t grown = 0;  // matches of the last round at the full gate
         int shrunk = 0;    // rounds since the gate began to shrink
         for (int round = 0; round < o.guided_growth_rounds + 3; ++round) {
-          std::vector<int> owner(query.size(), -1);
-          std::vector<float> owner_d(query.size(), 0.f);
-          for (int r = 0; r < static_cast<int>(model.base); ++r) {
-            const cv::Point2d p = ApplyHomography(*h, model.keypoints[r]);
-            if (!std::isfinite(p.x) || !std::isfinite(p.y)) continue;
-            // Most of a page projects outside the view, where the grid's ring search is
-            // longest and finds nothing within the gate anyway.
-            if (p.x < query_box.x - gate || p.y < query_box.y - gate ||
-                p.x > query_box.x + query_box.width + gate ||
-                p.y > query_box.y + query_box.height + gate)
-              continue;
-            query_grid.NearestTo(cv::Point2f(static_cast<float>(p.x), static_cast<float>(p.y)), 1,
-                                 -1, &nearest);
-            if (nearest.empty() || used[nearest[0]]) continue;
-            const float d = static_cast<float>(cv::norm(cv::Point2d(query[nearest[0]]) - p));
-            if (d > gate) continue;
-            if (owner[nearest[0]] < 0 || d < owner_d[nearest[0]]) {
-              owner[nearest[0]] = r;
-              owner_d[nearest[0]] = d;
-            }
-          }
           std::vector<std::pair<int, int>> previous;
           previous.swap(guided);
           std::vector<cv::Point2f> gr, gq;
-          for (int q = 0; q < static_cast<int>(query.size()); ++q) {
-            if (owner[q] < 0) continue;
-            guided.emplace_back(q, owner[q]);
-            gr.push_back(model.keypoints[owner[q]]);
-            gq.push_back(query[q]);
-          }
+          match_at(*h, gate, &guided, &gr, &gq);
           if (guided.size() < agreeing.size() || guided.size() < 8) {
             guided = agreeing;
             break;
@@ -1072,6 +1090,44 @@ std::vector<DocumentHit> LlahRetriever::RetrieveDescribed(const std::vector<cv::
           continue;
       }
       if (traced) trace->accepted = true;
+      // The robust refit (RetrievalOptions::polish_homography): the guided refits above are
+      // least squares, which a few wrong matches far from the rest can pull off; the
+      // refit is kept only when more of the page then lands on query keypoints.
+      if (o.polish_homography && guided.size() >= 8) {
+        const double gate = o.polish_gate * threshold;
+        std::vector<cv::Point2f> gr, gq;
+        for (const auto &[qi, ri] : guided) {
+          gr.push_back(model.keypoints[ri]);
+          gq.push_back(query[qi]);
+        }
+        const cv::Mat robust =
+            cv::findHomography(gr, gq, cv::RANSAC, gate, cv::noArray(), kPolishIterations);
+        cv::Matx33d polished = robust.empty() ? H : cv::Matx33d(robust);
+        // How far the robust fit moves the corners of the view.
+        double moved = 0;
+        const cv::Matx33d to_page = H.inv();
+        for (const cv::Point2d corner :
+             {cv::Point2d(query_box.x, query_box.y), cv::Point2d(query_box.br().x, query_box.y),
+              cv::Point2d(query_box.x, query_box.br().y), cv::Point2d(query_box.br())}) {
+          moved = std::max(
+              moved, cv::norm(ApplyHomography(polished, ApplyHomography(to_page, corner)) - corner));
+        }
+        if (!robust.empty() && moved > kPolishMinMove * gate &&
+            MakePlausibleHomography(&polished, gr)) {
+          std::vector<std::pair<int, int>> regrown = refine(&polished, inlier_pairs);
+          std::vector<std::pair<int, int>> before, after;
+          match_at(H, gate, &before, &gr, &gq);
+          match_at(polished, gate, &after, &gr, &gq);
+          if (after.size() > before.size()) {
+            H = polished;
+            guided = std::move(regrown);
+            inliers = 0;
+            for (size_t i = 0; i < pairs.size(); ++i)
+              inliers += cv::norm(ApplyHomography(H, ref_pts[i]) - cv::Point2d(query_pts[i])) <=
+                         threshold;
+          }
+        }
+      }
       DocumentHit hit;
       hit.document = doc;
       // h22 = +-1, keeping the sign that puts the matched points in front of the camera.

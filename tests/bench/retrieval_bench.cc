@@ -458,6 +458,10 @@ int main(int argc, char **argv) {
   bool no_similarity_start = false;
   app.add_flag("--no-similarity-start", no_similarity_start,
                "guided matching from the homography only, not also from a similarity");
+  bool no_polish = false;
+  app.add_flag("--no-polish", no_polish,
+               "no robust refit of an accepted page's homography (RetrievalOptions::"
+               "polish_homography)");
   bool line_closing = false;
   app.add_flag("--line-closing", line_closing,
                "register and query first with the line closing (new database only)");
@@ -591,6 +595,7 @@ int main(int argc, char **argv) {
   if (no_rectify) registry_options.retrieval.rectify_perspective = false;
   if (line_closing) std::swap(registry_options.keypoints, registry_options.fallback_keypoints[0]);
   if (no_similarity_start) registry_options.retrieval.guided_similarity_start = false;
+  if (no_polish) registry_options.retrieval.polish_homography = false;
   if (no_fallback) registry_options.fallback_keypoints.clear();
   if (no_line_refinement) registry_options.retrieval.refine_perspective = false;
   if (no_rectified_picture) registry_options.rectified_picture_retry = false;

@@ -847,6 +847,8 @@ TEST(RetrievalOptionsTest, ValidateRejectsBadValuesWithAMessage) {
       {"deep_min_weak_inliers", [](RetrievalOptions& o) { o.deep_min_weak_inliers = 7; }},
       {"deep_min_layout_ratio", [](RetrievalOptions& o) { o.deep_min_layout_ratio = 0.2; }},
       {"guided_growth_rounds", [](RetrievalOptions& o) { o.guided_growth_rounds = -1; }},
+      {"polish_gate", [](RetrievalOptions& o) { o.polish_gate = 0; }},
+      {"polish_gate", [](RetrievalOptions& o) { o.polish_gate = 1.5; }},
   };
   for (const Case& c : cases) {
     RetrievalOptions o;
@@ -869,6 +871,7 @@ TEST(RetrievalOptionsTest, ValidateRejectsBadValuesWithAMessage) {
   edge.min_layout_matches = 6;
   edge.min_layout_ratio = 1;
   edge.max_results = 0;
+  edge.polish_gate = 1;
   EXPECT_TRUE(edge.Validate().ok()) << edge.Validate();
 }
 
