@@ -859,8 +859,8 @@ std::vector<DocumentHit> LlahRetriever::RetrieveDescribed(const std::vector<cv::
               p.x > query_box.x + query_box.width + gate ||
               p.y > query_box.y + query_box.height + gate)
             continue;
-          query_grid.NearestTo(cv::Point2f(static_cast<float>(p.x), static_cast<float>(p.y)), 1,
-                               -1, &nearest);
+          query_grid.NearestTo(cv::Point2f(static_cast<float>(p.x), static_cast<float>(p.y)), 1, -1,
+                               &nearest);
           if (nearest.empty() || used[nearest[0]]) continue;
           const float d = static_cast<float>(cv::norm(cv::Point2d(query[nearest[0]]) - p));
           if (d > gate) continue;
@@ -1110,7 +1110,8 @@ std::vector<DocumentHit> LlahRetriever::RetrieveDescribed(const std::vector<cv::
              {cv::Point2d(query_box.x, query_box.y), cv::Point2d(query_box.br().x, query_box.y),
               cv::Point2d(query_box.x, query_box.br().y), cv::Point2d(query_box.br())}) {
           moved = std::max(
-              moved, cv::norm(ApplyHomography(polished, ApplyHomography(to_page, corner)) - corner));
+              moved,
+              cv::norm(ApplyHomography(polished, ApplyHomography(to_page, corner)) - corner));
         }
         if (!robust.empty() && moved > kPolishMinMove * gate &&
             MakePlausibleHomography(&polished, gr)) {
@@ -1123,8 +1124,8 @@ std::vector<DocumentHit> LlahRetriever::RetrieveDescribed(const std::vector<cv::
             guided = std::move(regrown);
             inliers = 0;
             for (size_t i = 0; i < pairs.size(); ++i)
-              inliers += cv::norm(ApplyHomography(H, ref_pts[i]) - cv::Point2d(query_pts[i])) <=
-                         threshold;
+              inliers +=
+                  cv::norm(ApplyHomography(H, ref_pts[i]) - cv::Point2d(query_pts[i])) <= threshold;
           }
         }
       }

@@ -596,9 +596,9 @@ TEST_F(DocumentRegistryTest, HomographyOfAPageBesideAChartIsRefitRobustly) {
     auto result = registry->Retrieve(Gray(photos.back().image), std::nullopt, 0);
     ASSERT_TRUE(result.ok()) << result.status();
     ASSERT_EQ(result->documents.size(), 1u) << "page " << v.page;
-    const double error = testdata::MeanHomographyError(
-        result->documents[0].homography, photos.back().homography, pages[i].size(),
-        photos.back().image.size());
+    const double error =
+        testdata::MeanHomographyError(result->documents[0].homography, photos.back().homography,
+                                      pages[i].size(), photos.back().image.size());
     off_without += error > 10;
     std::printf("page %llu: %.1f px without the robust refit\n",
                 static_cast<unsigned long long>(v.page), error);
