@@ -9,6 +9,9 @@
 #include <algorithm>
 #include <filesystem>
 #include <map>
+#include <cstdio>
+#include <iterator>
+#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <set>
 
@@ -545,42 +548,44 @@ TEST_F(DocumentRegistryTest, SteepViewIsFoundByTheHorizonsPerspectiveAlone) {
 // Views of the retrieval benchmark (10,000 pages; view sets 1 and 2) in which the right
 // page was found with a homography 12-27 px off over the view: a bar chart beside the
 // text, whose pieces are cut as words, gave guided matching a few wrong matches that the
-// least-squares refits followed. The robust refit of the accepted page's homography
-// (RetrievalOptions::polish_homography) puts each within 2 px of the truth.
+// least-squares refits followed. With one page registered, the view of page 2447 is still
+// found 10 px off; the other two are found within 2 px at this size of database either way
+// and check that the refit keeps them so. The robust refit of the accepted page's
+// homography (RetrievalOptions::polish_homography) puts all three within 2 px.
 TEST_F(DocumentRegistryTest, HomographyOfAPageBesideAChartIsRefitRobustly) {
   struct BenchmarkView {
     uint64_t page, seed;
     int jpeg_quality;
     double fov, tilt, azimuth, roll, scale, look_x, look_y, blur, noise, light;
+    cv::Scalar desk;
   };
-  // The benchmark's draws (texfree-bench-retrieval --view-set 1 and 2), to the last digit:
-  // the view's pixels are the same.
+  // The benchmark's draws (texfree-bench-retrieval --view-set 1 and 2), to the last digit,
+  // and its path: the colour view JPEG-encoded, decoded as grey.
   const BenchmarkView views[] = {
       {2447, 7919011750, 72, 66.779983032604775, 26.040662120843372, 94.394488039603232,
        114.25883047230593, 0.81302810869177911, 636.83546678139908, 572.10994827981119,
-       1.2078088239921509, 0.40434047310238963, 0.22943636428976827},
+       1.2078088239921509, 0.40434047310238963, 0.22943636428976827,
+       {63.022815974262933, 100.910726438765, 174.96656076475978}},
       {2348, 7919011529, 83, 59.830688291078886, 36.932661175090992, 15.885478840624899,
        177.1030123152097, 1.1886276123185471, 333.59557535658894, 937.83459342750052,
-       0.83364714373722926, 1.1022057939908623, 0.40834656380332585},
+       0.83364714373722926, 1.1022057939908623, 0.40834656380332585,
+       {56.079028969421394, 89.411083335187513, 142.68367522390591}},
       {7208, 15838011472, 64, 69.89303005341489, 31.343088532825085, -48.706874585011917,
        -40.508355257931697, 1.2149856893848907, 351.91928770399221, 899.76850235386451,
-       0.54330206803843151, 1.9702675713008935, 0.024444252550695766},
+       0.54330206803843151, 1.9702675713008935, 0.024444252550695766,
+       {46.069771859026176, 35.472149964756198, 46.133933475527492}},
   };
   DocumentRegistryOptions options;
   options.retrieval.polish_homography = false;
   auto registry = Open(options);
   ASSERT_NE(registry, nullptr);
   std::vector<std::string> ids;
-  std::vector<cv::Mat> pages;
+  std::vector<cv::Mat> pages, pictures;
+  std::vector<testdata::CameraView> photos;
   for (const BenchmarkView& v : views) {
     pages.emplace_back();
     ids.push_back(RegisterPages(*registry, {v.page}, v.page, &pages.back()));
     ASSERT_FALSE(ids.back().empty());
-  }
-  std::vector<testdata::CameraView> photos;
-  int off_without = 0;
-  for (size_t i = 0; i < std::size(views); ++i) {
-    const BenchmarkView& v = views[i];
     testdata::CameraViewOptions view;
     view.horizontal_fov_deg = v.fov;
     view.tilt_deg = v.tilt;
@@ -591,28 +596,41 @@ TEST_F(DocumentRegistryTest, HomographyOfAPageBesideAChartIsRefitRobustly) {
     view.blur_sigma = v.blur;
     view.noise_sigma = v.noise;
     view.illumination_gradient = v.light;
-    view.jpeg_quality = v.jpeg_quality;
-    photos.push_back(testdata::RenderCameraView(pages[i], view, v.seed));
-    auto result = registry->Retrieve(Gray(photos.back().image), std::nullopt, 0);
-    ASSERT_TRUE(result.ok()) << result.status();
-    ASSERT_EQ(result->documents.size(), 1u) << "page " << v.page;
-    const double error =
-        testdata::MeanHomographyError(result->documents[0].homography, photos.back().homography,
-                                      pages[i].size(), photos.back().image.size());
-    off_without += error > 10;
-    std::printf("page %llu: %.1f px without the robust refit\n",
-                static_cast<unsigned long long>(v.page), error);
+    view.background = v.desk;
+    photos.push_back(testdata::RenderCameraView(pages.back(), view, v.seed));
+    std::vector<uchar> jpeg;
+    ASSERT_TRUE(cv::imencode(".jpg", photos.back().image, jpeg,
+                             {cv::IMWRITE_JPEG_QUALITY, v.jpeg_quality}));
+    pictures.push_back(cv::imdecode(jpeg, cv::IMREAD_GRAYSCALE));
   }
-  ASSERT_GE(off_without, 1) << "the views must need the robust refit to test it";
+  // Mean homography error over the view of each picture's page (1e9: not found alone).
+  const auto errors = [&](const DocumentRegistry& r) {
+    std::vector<double> out;
+    for (size_t i = 0; i < std::size(views); ++i) {
+      auto result = r.Retrieve(pictures[i], std::nullopt, 0);
+      EXPECT_TRUE(result.ok()) << result.status();
+      const bool alone = result.ok() && result->documents.size() == 1 &&
+                         result->documents[0].document.id == ids[i];
+      out.push_back(alone ? testdata::MeanHomographyError(result->documents[0].homography,
+                                                          photos[i].homography, pages[i].size(),
+                                                          pictures[i].size())
+                          : 1e9);
+    }
+    return out;
+  };
+  const std::vector<double> without = errors(*registry);
+  for (size_t i = 0; i < without.size(); ++i)
+    std::printf("page %llu: %.2f px without the robust refit\n",
+                static_cast<unsigned long long>(views[i].page), without[i]);
+  ASSERT_GT(*std::max_element(without.begin(), without.end()), 10)
+      << "the views must need the robust refit to test it";
 
   registry.reset();
   options.retrieval.polish_homography = true;
   registry = Open(options);
   ASSERT_NE(registry, nullptr);
-  for (size_t i = 0; i < std::size(views); ++i) {
-    SCOPED_TRACE("page " + std::to_string(views[i].page));
-    ExpectFinds(*registry, photos[i], pages[i], ids[i], 2.0);
-  }
+  const std::vector<double> with = errors(*registry);
+  for (size_t i = 0; i < with.size(); ++i) EXPECT_LT(with[i], 2.0) << "page " << views[i].page;
 }
 
 }  // namespace
