@@ -135,9 +135,9 @@ struct RetrievalOptions {
   // 37 words), no false match of 300 unregistered views, CPU time unchanged.
   bool guided_similarity_start = true;
   // An accepted page's homography is fitted once more, robustly: RANSAC over its guided
-  // matches at polish_gate times the inlier threshold, grown by guided matching again. The
-  // refit is kept when it puts more of the page's keypoints within that gate of a query
-  // keypoint. (Guided matching's last refits are least squares: a few wrong matches at the
+  // matches at polish_gate times the inlier threshold, then (when it moves a corner of the
+  // view by more than half that gate) grown by guided matching again. The refit is kept
+  // when it puts more of the page's keypoints within that gate of a query keypoint. (Guided matching's last refits are least squares: a few wrong matches at the
   // edge of a view, pieces of a bar chart cut as words, left a homography with 48 right
   // matches of 55 at 27 px mean error over the view; the robust refit put it within 2 px.)
   bool polish_homography = true;
