@@ -837,6 +837,13 @@ std::vector<DocumentHit> LlahRetriever::RetrieveDescribed(const std::vector<cv::
           }
         }
       };
+      // LLAH correspondences that `h` puts within the threshold.
+      auto count_inliers = [&](const cv::Matx33d &h) {
+        int n = 0;
+        for (size_t i = 0; i < pairs.size(); ++i)
+          n += cv::norm(ApplyHomography(h, ref_pts[i]) - cv::Point2d(query_pts[i])) <= threshold;
+        return n;
+      };
       std::vector<cv::Point2f> inlier_ref;
       std::vector<std::pair<int, int>> inlier_pairs;
       if (!exhaustive) inliers_of(H, &inlier_pairs, &inlier_ref);
@@ -1054,11 +1061,7 @@ std::vector<DocumentHit> LlahRetriever::RetrieveDescribed(const std::vector<cv::
         guided = refine(&H, inlier_pairs);
       }
       // Re-count LLAH inliers under the final homography.
-      int inliers = 0;
-      for (size_t i = 0; i < pairs.size(); ++i) {
-        const cv::Point2d p = ApplyHomography(H, ref_pts[i]);
-        if (cv::norm(p - cv::Point2d(query_pts[i])) <= threshold) ++inliers;
-      }
+      int inliers = count_inliers(H);
       if (traced) {
         trace->final_inliers = inliers;
         trace->guided = static_cast<int>(guided.size());
@@ -1113,19 +1116,17 @@ std::vector<DocumentHit> LlahRetriever::RetrieveDescribed(const std::vector<cv::
               moved,
               cv::norm(ApplyHomography(polished, ApplyHomography(to_page, corner)) - corner));
         }
-        if (!robust.empty() && moved > kPolishMinMove * gate &&
-            MakePlausibleHomography(&polished, gr)) {
+        if (moved > kPolishMinMove * gate && MakePlausibleHomography(&polished, gr)) {
           std::vector<std::pair<int, int>> regrown = refine(&polished, inlier_pairs);
+          // Page keypoints within the gate of a query keypoint, before and after (gr, gq are
+          // scratch here).
           std::vector<std::pair<int, int>> before, after;
           match_at(H, gate, &before, &gr, &gq);
           match_at(polished, gate, &after, &gr, &gq);
           if (after.size() > before.size()) {
             H = polished;
             guided = std::move(regrown);
-            inliers = 0;
-            for (size_t i = 0; i < pairs.size(); ++i)
-              inliers +=
-                  cv::norm(ApplyHomography(H, ref_pts[i]) - cv::Point2d(query_pts[i])) <= threshold;
+            inliers = count_inliers(H);
           }
         }
       }

@@ -137,9 +137,10 @@ struct RetrievalOptions {
   // An accepted page's homography is fitted once more, robustly: RANSAC over its guided
   // matches at polish_gate times the inlier threshold, then (when it moves a corner of the
   // view by more than half that gate) grown by guided matching again. The refit is kept
-  // when it puts more of the page's keypoints within that gate of a query keypoint. (Guided matching's last refits are least squares: a few wrong matches at the
-  // edge of a view, pieces of a bar chart cut as words, left a homography with 48 right
-  // matches of 55 at 27 px mean error over the view; the robust refit put it within 2 px.)
+  // when it puts more of the page's keypoints within that gate of a query keypoint.
+  // (Guided matching's last refits are least squares: a few wrong matches at the edge of a
+  // view, pieces of a bar chart cut as words, left a homography with 48 right matches of
+  // 55 at 27 px mean error over the view; the robust refit put it within 2 px.)
   bool polish_homography = true;
   double polish_gate = 0.5;
   // The few-keypoint pass. Views of large type, of a page's corner, or steep views of a
