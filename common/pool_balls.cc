@@ -207,9 +207,10 @@ class SilhouetteScorer {
   // (unlit underside) and off it (contact shadow, ambient occlusion): no edge to fit.
   // True for a pixel whose ray passes the ball's centre lower than 0.4 radius below it.
   bool InShadowZone(const cv::Vec3d& centre, double u, double v) const {
+    // camera_z + t d_z < centre_z - 0.4 r with t = (centre - camera).d / d.d, multiplied
+    // out by d.d > 0 (no division: the fits call this for every pixel of their boxes).
     const cv::Vec3d d = Ray(u, v);
-    const double t = (centre - camera_).dot(d) / d.dot(d);
-    return camera_[2] + t * d[2] < centre[2] - 0.4 * radius_;
+    return (centre - camera_).dot(d) * d[2] < (centre[2] - 0.4 * radius_ - camera_[2]) * d.dot(d);
   }
   bool NearCushion(const cv::Point2d& xy) const {
     return xy.x < 2 * radius_ || xy.y < 2 * radius_ || xy.x > length_ - 2 * radius_ ||
@@ -246,11 +247,11 @@ class SilhouetteScorer {
       for (int u = box.x; u < box.x + box.width; ++u) {
         const double w = cl ? 1.0 - cl[u - roi_.x] : 1.0;
         if (w <= 0) continue;
+        const double bn = b[u - roi_.x];
+        if (bn < 0) continue;  // kMaskedOut: a pocket
         const double cov = Coverage(Q, u, v);
         if (near_cushion && cov > 0 && HiddenByCushion(centre, u, v)) continue;
         if (!count_shadow_zone_ && InShadowZone(centre, u, v)) continue;
-        const double bn = b[u - roi_.x];
-        if (bn < 0) continue;  // kMaskedOut: a pocket
         score += w * (2 * cov - 1) * (2 * bn - 1);
         cov_sum += cov * w;
         ball_sum += cov * w * bn;
@@ -277,9 +278,12 @@ class SilhouetteScorer {
     const double qy = Q(1, 0) * u + Q(1, 1) * v + Q(1, 2);
     const double qz = Q(2, 0) * u + Q(2, 1) * v + Q(2, 2);
     const double g = u * qx + v * qy + qz;
-    const double grad = 2 * std::sqrt(qx * qx + qy * qy);
-    if (grad <= 0) return 0;
-    return std::clamp(0.5 + g / grad, 0.0, 1.0);
+    const double grad2 = qx * qx + qy * qy;  // (half the gradient's length)^2
+    if (grad2 <= 0) return 0;
+    // Most pixels of a box lie wholly inside or outside: |g| >= grad / 2 tells them
+    // without the root and the division.
+    if (g * g >= grad2) return g > 0 ? 1.0 : 0.0;
+    return std::clamp(0.5 + g / (2 * std::sqrt(grad2)), 0.0, 1.0);
   }
 
   // Compass search for the best table position, starting at `xy`.
