@@ -111,8 +111,8 @@ void InvertedIndex::AddBatch(const std::vector<Batch>& batch, int per_point, int
           const uint64_t h = hashes[i];
           const size_t k = key(h);
           if (h == 0 || k < lo || k >= hi) continue;
-          pending[fill[(k - lo) >> kPartitionBits]++] = {
-              h, batch[d].document, static_cast<uint32_t>(i / per_point)};
+          pending[fill[(k - lo) >> kPartitionBits]++] = {h, batch[d].document,
+                                                         static_cast<uint32_t>(i / per_point)};
         }
       }
       for (const Pending& e : pending) visit(e.hash, e.document, e.keypoint);
