@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <utility>
 
 namespace texfree {
@@ -47,9 +48,10 @@ void NeighborGrid::NearestTo(const cv::Point2f& p, int k, int exclude,
                              std::vector<int>* out) const {
   out->clear();
   if (points_.empty() || k <= 0) return;
-  // Small max-heap of (squared distance, index) holding the best k so far.
-  std::vector<std::pair<float, int>> best;
-  best.reserve(k + 1);
+  // Small max-heap of (squared distance, index) holding the best k so far; per-thread
+  // scratch, as extraction, describing and verification call this thousands of times a query.
+  thread_local std::vector<std::pair<float, int>> best;
+  best.clear();
   const int cx = std::clamp(static_cast<int>((p.x - origin_.x) / cell_), 0, cols_ - 1);
   const int cy = std::clamp(static_cast<int>((p.y - origin_.y) / cell_), 0, rows_ - 1);
   const int max_ring = std::max(cols_, rows_);
@@ -84,9 +86,16 @@ void NeighborGrid::NearestTo(const cv::Point2f& p, int k, int exclude,
         visit(cx + r, y);
       }
     }
-    // Any point in ring r+1 or beyond is at least r * cell away from p.
+    // Any point not yet visited lies outside the square of cells searched so far, beyond
+    // one of its sides that has cells behind it: at least as far from p as the nearest such
+    // side (r cells or more; a side at the grid's edge has nothing behind it).
     if (static_cast<int>(best.size()) == k) {
-      const double reach = r * cell_;
+      constexpr double kNothing = std::numeric_limits<double>::infinity();
+      const double left = cx - r > 0 ? p.x - (origin_.x + (cx - r) * cell_) : kNothing;
+      const double right = cx + r < cols_ - 1 ? origin_.x + (cx + r + 1) * cell_ - p.x : kNothing;
+      const double top = cy - r > 0 ? p.y - (origin_.y + (cy - r) * cell_) : kNothing;
+      const double bottom = cy + r < rows_ - 1 ? origin_.y + (cy + r + 1) * cell_ - p.y : kNothing;
+      const double reach = std::min(std::min(left, right), std::min(top, bottom));
       if (reach * reach >= best.front().first) break;
     }
   }

@@ -49,6 +49,17 @@ std::vector<Blob> Blobs(const cv::Mat &mask, double min_side) {
     const auto &c = contours[i];
     if (hierarchy[i][3] >= 0) continue;  // a hole
     if (c.size() < 3) continue;
+    // The rectangle's short side b obeys b^2 <= its area <= the axis-aligned box's: specks
+    // (most contours of a noisy view) are dropped without the hull and calipers.
+    int min_x = c[0].x, max_x = c[0].x, min_y = c[0].y, max_y = c[0].y;
+    for (const cv::Point &p : c) {
+      min_x = std::min(min_x, p.x);
+      max_x = std::max(max_x, p.x);
+      min_y = std::min(min_y, p.y);
+      max_y = std::max(max_y, p.y);
+    }
+    if (static_cast<double>(max_x - min_x) * (max_y - min_y) < 0.999 * min_side * min_side)
+      continue;
     const cv::RotatedRect r = cv::minAreaRect(c);
     float a = r.size.width, b = r.size.height;
     float angle = r.angle * static_cast<float>(CV_PI / 180.0);
@@ -354,8 +365,13 @@ std::vector<Word> GroupLettersIntoWords(const cv::Mat &ink, double h, double ang
   // dots, commas and ascenders).
   std::vector<float> local_h(kept.size());
   std::vector<float> heights;
+  // Each glyph's neighbours, kept for the pairing below (nn_begin[a]..nn_begin[a + 1]).
+  std::vector<int> neighbours, nn_begin(kept.size() + 1, 0);
+  neighbours.reserve(kept.size() * kNeighbors);
   for (size_t a = 0; a < kept.size(); ++a) {
     grid.Nearest(static_cast<int>(a), kNeighbors, &nn);
+    neighbours.insert(neighbours.end(), nn.begin(), nn.end());
+    nn_begin[a + 1] = static_cast<int>(neighbours.size());
     heights.clear();
     heights.push_back(glyphs[static_cast<size_t>(kept[a])].height());
     for (int b : nn) heights.push_back(glyphs[static_cast<size_t>(kept[b])].height());
@@ -373,9 +389,9 @@ std::vector<Word> GroupLettersIntoWords(const cv::Mat &ink, double h, double ang
   std::vector<float> next_gap;  // per glyph: the gap to the next glyph along its line
   for (size_t a = 0; a < kept.size(); ++a) {
     const Glyph &ga = glyphs[static_cast<size_t>(kept[a])];
-    grid.Nearest(static_cast<int>(a), kNeighbors, &nn);
     float nearest = FLT_MAX;
-    for (int b : nn) {
+    for (int i = nn_begin[a]; i < nn_begin[a + 1]; ++i) {
+      const int b = neighbours[static_cast<size_t>(i)];
       const Glyph &gb = glyphs[static_cast<size_t>(kept[b])];
       const float overlap = std::min(ga.max_n, gb.max_n) - std::max(ga.min_n, gb.min_n);
       if (overlap < 0.5f * std::min(ga.height(), gb.height())) continue;
