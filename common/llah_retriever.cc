@@ -29,6 +29,8 @@ absl::Status RetrievalOptions::Validate() const {
         "polish_gate must be in (0, 1] (a share of the inlier threshold)");
   if (max_hits_per_1000_documents < 0)
     return absl::InvalidArgumentError("max_hits_per_1000_documents must be >= 0");
+  if (stop_word_keypoints < 0)
+    return absl::InvalidArgumentError("stop_word_keypoints must be >= 0 (0: never lowered)");
   if (prefilter_documents < 0)
     return absl::InvalidArgumentError("prefilter_documents must be >= 0 (0 keeps all)");
   if (query_probes < 0 || query_probes > LlahDescriber::kMaxProbes)
@@ -386,6 +388,15 @@ constexpr int kPolishIterations = 500;
 // of its gate (most robust fits are the guided refit's own, to the pixel).
 constexpr double kPolishMinMove = 0.5;
 
+// The database's share of the stop-word limit for a view of `keypoints`: `limit` up to
+// `plenty` keypoints, then lowered in proportion, to no less than a quarter
+// (RetrievalOptions::stop_word_keypoints).
+int StopWordLimit(int limit, int keypoints, int plenty) {
+  if (plenty <= 0 || keypoints <= plenty) return limit;
+  const double lowered = static_cast<double>(limit) * plenty / keypoints;
+  return static_cast<int>(std::lround(std::max(lowered, 0.25 * limit)));
+}
+
 struct Correspondence {
   uint32_t document;
   int query;
@@ -639,9 +650,10 @@ std::vector<DocumentHit> LlahRetriever::RetrieveDescribed(const std::vector<cv::
     {
       std::shared_lock lock(mutex_);
       if (pass == 0) {
-        const int max_hits =
-            std::max<int>(o.max_hits_per_descriptor,
-                          static_cast<int>(o.max_hits_per_1000_documents * models_.size() / 1000));
+        const int max_hits = std::max<int>(
+            o.max_hits_per_descriptor,
+            StopWordLimit(static_cast<int>(o.max_hits_per_1000_documents * models_.size() / 1000),
+                          static_cast<int>(query.size()), o.stop_word_keypoints));
         for (size_t q = 0; q < query.size(); ++q) {
           hit_begin[q] = hit_count;
           for (int j = 0; j < per; ++j) {

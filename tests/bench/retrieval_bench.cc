@@ -395,6 +395,8 @@ int main(int argc, char **argv) {
                  "descriptors with more index entries than this do not vote");
   app.add_option("--max-hits-per-1000", registry_options.retrieval.max_hits_per_1000_documents,
                  "stop-word limit growth: entries per 1,000 registered pages");
+  app.add_option("--stop-word-keypoints", registry_options.retrieval.stop_word_keypoints,
+                 "views with more keypoints get a proportionally lower stop-word limit (0: off)");
   app.add_option("--max-candidates", registry_options.retrieval.max_candidates,
                  "documents verified per query");
   app.add_option("--min-votes", registry_options.retrieval.min_votes,

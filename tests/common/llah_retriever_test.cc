@@ -824,6 +824,7 @@ TEST(RetrievalOptionsTest, ValidateRejectsBadValuesWithAMessage) {
   };
   const Case cases[] = {
       {"max_hits_per_descriptor", [](RetrievalOptions& o) { o.max_hits_per_descriptor = 0; }},
+      {"stop_word_keypoints", [](RetrievalOptions& o) { o.stop_word_keypoints = -1; }},
       {"min_votes", [](RetrievalOptions& o) { o.min_votes = 3; }},
       {"candidate_vote_ratio", [](RetrievalOptions& o) { o.candidate_vote_ratio = -0.1; }},
       {"candidate_vote_ratio", [](RetrievalOptions& o) { o.candidate_vote_ratio = 1.5; }},
@@ -872,6 +873,7 @@ TEST(RetrievalOptionsTest, ValidateRejectsBadValuesWithAMessage) {
   edge.min_layout_ratio = 1;
   edge.max_results = 0;
   edge.polish_gate = 1;
+  edge.stop_word_keypoints = 0;
   EXPECT_TRUE(edge.Validate().ok()) << edge.Validate();
 }
 
