@@ -137,8 +137,10 @@ Blob MinAreaRectOfHull(const std::vector<cv::Point> &hull) {
 // edge, table, figure box): RETR_CCOMP puts all outer boundaries at the top
 // level, holes below them.
 std::vector<Blob> Blobs(const cv::Mat &mask, double min_side) {
-  std::vector<std::vector<cv::Point>> contours;
-  std::vector<cv::Vec4i> hierarchy;
+  // Kept per thread: findContours then reuses the contours' storage instead of allocating
+  // a vector for each of a view's thousand contours.
+  thread_local std::vector<std::vector<cv::Point>> contours;
+  thread_local std::vector<cv::Vec4i> hierarchy;
   cv::findContours(mask, contours, hierarchy, cv::RETR_CCOMP, cv::CHAIN_APPROX_SIMPLE);
   std::vector<Blob> out;
   out.reserve(contours.size());
@@ -417,22 +419,30 @@ std::vector<Word> GroupLettersIntoWords(const cv::Mat &ink, double h, double ang
   }
   for (int y = 0; y < labels.rows; ++y) {
     const int *row = labels.ptr<int>(y);
-    for (int x = 0; x < labels.cols; ++x) {
-      const int l = row[x];
-      if (l == 0) continue;
-      Glyph &g = glyphs[static_cast<size_t>(l)];
-      const float u = x * ux + y * uy, n = -x * uy + y * ux;
-      g.min_u = std::min(g.min_u, u);
-      g.max_u = std::max(g.max_u, u);
-      g.min_n = std::min(g.min_n, n);
-      g.max_n = std::max(g.max_n, n);
-      g.area += 1;
-      g.sx += x;
-      g.sy += y;
-      g.left = std::min(g.left, x);
-      g.right = std::max(g.right, x);
-      g.top = std::min(g.top, y);
-      g.bottom = std::max(g.bottom, y);
+    // One run of a label at a time: u and n are monotonic along a row (in floating point
+    // too), so a run's extremes are at its ends, and its sums are closed forms.
+    for (int x0 = 0; x0 < labels.cols;) {
+      const int l = row[x0];
+      int x1 = x0;
+      while (x1 + 1 < labels.cols && row[x1 + 1] == l) ++x1;
+      if (l != 0) {
+        Glyph &g = glyphs[static_cast<size_t>(l)];
+        const float u0 = x0 * ux + y * uy, n0 = -x0 * uy + y * ux;
+        const float u1 = x1 * ux + y * uy, n1 = -x1 * uy + y * ux;
+        g.min_u = std::min({g.min_u, u0, u1});
+        g.max_u = std::max({g.max_u, u0, u1});
+        g.min_n = std::min({g.min_n, n0, n1});
+        g.max_n = std::max({g.max_n, n0, n1});
+        const int length = x1 - x0 + 1;
+        g.area += length;
+        g.sx += 0.5 * (static_cast<double>(x0) + x1) * length;
+        g.sy += static_cast<double>(y) * length;
+        g.left = std::min(g.left, x0);
+        g.right = std::max(g.right, x1);
+        g.top = std::min(g.top, y);
+        g.bottom = std::max(g.bottom, y);
+      }
+      x0 = x1 + 1;
     }
   }
   // Glyphs that may be part of words: not noise specks, not rules, frames or
