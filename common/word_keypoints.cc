@@ -35,103 +35,6 @@ struct Blob {
   cv::Point2f center;
 };
 
-// Convex hull of integer points (Andrew's monotone chain), without collinear points,
-// written to `hull` (cleared). Only each row's leftmost and rightmost points can be
-// vertices, and taken row by row they come sorted by (y, x): no sort.
-void ConvexHullOf(const std::vector<cv::Point> &points, std::vector<int> *scratch,
-                  std::vector<cv::Point> *hull) {
-  hull->clear();
-  if (points.empty()) return;
-  int min_y = points[0].y, max_y = points[0].y;
-  for (const cv::Point &q : points) {
-    min_y = std::min(min_y, q.y);
-    max_y = std::max(max_y, q.y);
-  }
-  const size_t rows = static_cast<size_t>(max_y - min_y) + 1;
-  std::vector<int> &extent = *scratch;  // row r: leftmost x at 2r, rightmost at 2r + 1
-  extent.assign(2 * rows, 0);
-  for (size_t r = 0; r < rows; ++r) {
-    extent[2 * r] = INT32_MAX;
-    extent[2 * r + 1] = INT32_MIN;
-  }
-  for (const cv::Point &q : points) {
-    const size_t r = static_cast<size_t>(q.y - min_y);
-    extent[2 * r] = std::min(extent[2 * r], q.x);
-    extent[2 * r + 1] = std::max(extent[2 * r + 1], q.x);
-  }
-  const auto cross = [](const cv::Point &o, const cv::Point &a, const cv::Point &b) {
-    return static_cast<int64_t>(a.x - o.x) * (b.y - o.y) -
-           static_cast<int64_t>(a.y - o.y) * (b.x - o.x);
-  };
-  // Sorted candidates first (in `hull`), then the chains built after them in place.
-  for (size_t r = 0; r < rows; ++r) {
-    if (extent[2 * r] > extent[2 * r + 1]) continue;  // no point on this row
-    const int y = min_y + static_cast<int>(r);
-    hull->emplace_back(extent[2 * r], y);
-    if (extent[2 * r + 1] != extent[2 * r]) hull->emplace_back(extent[2 * r + 1], y);
-  }
-  const size_t n = hull->size();
-  if (n < 3) return;
-  std::vector<cv::Point> &h = *hull;
-  h.resize(3 * n);
-  cv::Point *const p = h.data();  // p[0..n): candidates; chain from p + n
-  cv::Point *const c = p + n;
-  size_t k = 0;
-  for (size_t i = 0; i < n; ++i) {  // one chain
-    while (k >= 2 && cross(c[k - 2], c[k - 1], p[i]) <= 0) --k;
-    c[k++] = p[i];
-  }
-  for (size_t i = n - 1, first = k + 1; i-- > 0;) {  // the other
-    while (k >= first && cross(c[k - 2], c[k - 1], p[i]) <= 0) --k;
-    c[k++] = p[i];
-  }
-  std::copy(c, c + (k - 1), p);  // the last point is the first
-  h.resize(k - 1);
-}
-
-// The minimum-area rectangle of a convex polygon has a side along one of its edges
-// (Freeman and Shapira): each edge's bounding rectangle is measured, the smallest kept (the
-// first of equal ones). Short side, long side, long side's direction and centre, as a Blob.
-// cv::minAreaRect finds the same rectangle but costs 1.5-2.5 us a call in allocations and
-// its own hull; a view's pass 1 measures thousands of contours.
-Blob MinAreaRectOfHull(const std::vector<cv::Point> &hull) {
-  const size_t m = hull.size();
-  if (m == 0) return {};
-  if (m < 3) {
-    const cv::Point2f a(hull.front()), b(hull.back());
-    const cv::Point2f d = b - a;
-    return {0.f, static_cast<float>(std::hypot(d.x, d.y)), std::atan2(d.y, d.x), (a + b) * 0.5f};
-  }
-  double best_area = DBL_MAX;
-  Blob best{};
-  for (size_t i = 0; i < m; ++i) {
-    const cv::Point &p0 = hull[i], &p1 = hull[(i + 1) % m];
-    const double ex = p1.x - p0.x, ey = p1.y - p0.y, len = std::hypot(ex, ey);
-    const double ux = ex / len, uy = ey / len;  // along the edge; (-uy, ux) across it
-    double min_u = DBL_MAX, max_u = -DBL_MAX, min_n = DBL_MAX, max_n = -DBL_MAX;
-    for (const cv::Point &q : hull) {
-      const double u = q.x * ux + q.y * uy, n = -q.x * uy + q.y * ux;
-      min_u = std::min(min_u, u);
-      max_u = std::max(max_u, u);
-      min_n = std::min(min_n, n);
-      max_n = std::max(max_n, n);
-    }
-    const double along = max_u - min_u, across = max_n - min_n, area = along * across;
-    if (area >= best_area) continue;
-    best_area = area;
-    const double cu = 0.5 * (min_u + max_u), cn = 0.5 * (min_n + max_n);
-    const cv::Point2f center(static_cast<float>(cu * ux - cn * uy),
-                             static_cast<float>(cu * uy + cn * ux));
-    if (along >= across)
-      best = {static_cast<float>(across), static_cast<float>(along),
-              static_cast<float>(std::atan2(uy, ux)), center};
-    else
-      best = {static_cast<float>(along), static_cast<float>(across),
-              static_cast<float>(std::atan2(ux, -uy)), center};
-  }
-  return best;
-}
-
 // Minimum-area rectangles of the ink's outer contours: rotation-invariant
 // sizes. Every component's outer boundary counts, also inside a frame (page
 // edge, table, figure box): RETR_CCOMP puts all outer boundaries at the top
@@ -144,8 +47,6 @@ std::vector<Blob> Blobs(const cv::Mat &mask, double min_side) {
   cv::findContours(mask, contours, hierarchy, cv::RETR_CCOMP, cv::CHAIN_APPROX_SIMPLE);
   std::vector<Blob> out;
   out.reserve(contours.size());
-  std::vector<int> scratch;
-  std::vector<cv::Point> hull;
   for (size_t i = 0; i < contours.size(); ++i) {
     const auto &c = contours[i];
     if (hierarchy[i][3] >= 0) continue;  // a hole
@@ -161,10 +62,15 @@ std::vector<Blob> Blobs(const cv::Mat &mask, double min_side) {
     }
     if (static_cast<double>(max_x - min_x) * (max_y - min_y) < 0.999 * min_side * min_side)
       continue;
-    ConvexHullOf(c, &scratch, &hull);
-    const Blob blob = MinAreaRectOfHull(hull);
-    if (blob.short_side < min_side) continue;
-    out.push_back(blob);
+    const cv::RotatedRect r = cv::minAreaRect(c);
+    float a = r.size.width, b = r.size.height;
+    float angle = r.angle * static_cast<float>(CV_PI / 180.0);
+    if (b > a) {
+      std::swap(a, b);
+      angle += static_cast<float>(CV_PI / 2);
+    }
+    if (b < min_side) continue;
+    out.push_back({b, a, angle, r.center});
   }
   return out;
 }
