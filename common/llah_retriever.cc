@@ -149,6 +149,12 @@ double Log10BinomialTail(int n, int k, double p) {
 
 }  // namespace
 
+int StopWordLimit(int limit, int keypoints, int plenty) {
+  if (plenty <= 0 || keypoints <= plenty) return limit;
+  const double lowered = static_cast<double>(limit) * plenty / keypoints;
+  return static_cast<int>(std::lround(std::max(lowered, 0.25 * limit)));
+}
+
 double LayoutLog10Tail(int inside, int matched, double chance) {
   const int n = inside, k = std::min(matched, inside);
   if (n <= 0 || k <= 0 || !(chance > 0) || chance >= 1) return 0;
@@ -387,15 +393,6 @@ constexpr int kPolishIterations = 500;
 // ...which is grown again only when it moves a corner of the view by more than this share
 // of its gate (most robust fits are the guided refit's own, to the pixel).
 constexpr double kPolishMinMove = 0.5;
-
-// The database's share of the stop-word limit for a view of `keypoints`: `limit` up to
-// `plenty` keypoints, then lowered in proportion, to no less than a quarter
-// (RetrievalOptions::stop_word_keypoints).
-int StopWordLimit(int limit, int keypoints, int plenty) {
-  if (plenty <= 0 || keypoints <= plenty) return limit;
-  const double lowered = static_cast<double>(limit) * plenty / keypoints;
-  return static_cast<int>(std::lround(std::max(lowered, 0.25 * limit)));
-}
 
 struct Correspondence {
   uint32_t document;

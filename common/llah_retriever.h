@@ -186,6 +186,11 @@ double WeakMatchLog10Nfa(int correspondences, int inliers, double threshold_px, 
 // keypoint, each with probability `chance` (binomial tail); `matched` is capped at `inside`.
 double LayoutLog10Tail(int inside, int matched, double chance);
 
+// The database's share of the stop-word limit for a view of `keypoints`: `limit` up to
+// `plenty` keypoints (or when plenty is 0), then limit * plenty / keypoints, rounded, and
+// never below a quarter of `limit` (RetrievalOptions::stop_word_keypoints).
+int StopWordLimit(int limit, int keypoints, int plenty);
+
 // How many of a keypoint's n nearest neighbours (the farthest at `radius`) are expected
 // beyond the frame's edges, for neighbours spread evenly over the disk.
 double NeighboursLostToFrame(const cv::Point2f &p, float radius, int n, const cv::Size &frame);
