@@ -821,7 +821,7 @@ TEST(StopWordLimitTest, LoweredInProportionForViewsWithManyKeypointsToAQuarter) 
   EXPECT_EQ(StopWordLimit(400, 150, 150), 400);  // up to `plenty` included
   EXPECT_EQ(StopWordLimit(400, 300, 150), 200);  // twice as many: half
   EXPECT_EQ(StopWordLimit(400, 200, 150), 300);
-  EXPECT_EQ(StopWordLimit(400, 600, 150), 100);  // four times: a quarter
+  EXPECT_EQ(StopWordLimit(400, 600, 150), 100);   // four times: a quarter
   EXPECT_EQ(StopWordLimit(400, 2000, 150), 100);  // and never below it
   EXPECT_EQ(StopWordLimit(400, 2000, 0), 400);    // 0: never lowered
   EXPECT_EQ(StopWordLimit(0, 500, 150), 0);       // an empty database's share stays 0
