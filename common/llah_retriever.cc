@@ -624,11 +624,12 @@ std::vector<DocumentHit> LlahRetriever::RetrieveDescribed(const std::vector<cv::
   struct HitBuffer {
     std::unique_ptr<LocalHit[]> data;
     size_t capacity = 0;
-    void Reserve(size_t n) {
+    // Room for n hits, keeping the first `used`.
+    void Reserve(size_t used, size_t n) {
       if (n <= capacity) return;
       const size_t grown = std::max(n, 2 * capacity);
       std::unique_ptr<LocalHit[]> bigger(new LocalHit[grown]);
-      std::copy(data.get(), data.get() + capacity, bigger.get());
+      std::copy(data.get(), data.get() + used, bigger.get());
       data = std::move(bigger);
       capacity = grown;
     }
@@ -661,7 +662,7 @@ std::vector<DocumentHit> LlahRetriever::RetrieveDescribed(const std::vector<cv::
               if (trace) ++trace->stop_word_lookups;
               continue;
             }
-            hit_buffer.Reserve(hit_count + static_cast<size_t>(max_hits) + 1);
+            hit_buffer.Reserve(hit_count, hit_count + static_cast<size_t>(max_hits) + 1);
             LocalHit *out = hit_buffer.data.get() + hit_count;
             const int found = index_.ForEachUpTo(h, max_hits, [&](uint32_t doc, uint16_t kp) {
               out->document = doc;

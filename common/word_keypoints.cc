@@ -52,7 +52,7 @@ std::vector<Blob> Blobs(const cv::Mat &mask, double min_side) {
     if (hierarchy[i][3] >= 0) continue;  // a hole
     if (c.size() < 3) continue;
     // The rectangle's short side b obeys b^2 <= its area <= the axis-aligned box's: specks
-    // (most contours of a noisy view) are dropped without the hull and calipers.
+    // of noise and JPEG are dropped without cv::minAreaRect's hull and calipers.
     int min_x = c[0].x, max_x = c[0].x, min_y = c[0].y, max_y = c[0].y;
     for (const cv::Point &p : c) {
       min_x = std::min(min_x, p.x);
