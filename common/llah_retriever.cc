@@ -620,21 +620,9 @@ std::vector<DocumentHit> LlahRetriever::RetrieveDescribed(const std::vector<cv::
   // Scratch kept per thread: a query's hits run to hundreds of thousands at 10,000 pages.
   // Filled through a pointer, field by field: push_back built each {document, reference} on
   // the stack with two narrow stores and copied it with one wide load, a store-forwarding
-  // stall on every hit (a fifth of this function's time at 10,000 pages).
-  struct HitBuffer {
-    std::unique_ptr<LocalHit[]> data;
-    size_t capacity = 0;
-    // Room for n hits, keeping the first `used`.
-    void Reserve(size_t used, size_t n) {
-      if (n <= capacity) return;
-      const size_t grown = std::max(n, 2 * capacity);
-      std::unique_ptr<LocalHit[]> bigger(new LocalHit[grown]);
-      std::copy(data.get(), data.get() + used, bigger.get());
-      data = std::move(bigger);
-      capacity = grown;
-    }
-  };
-  thread_local HitBuffer hit_buffer;
+  // stall on every hit (a fifth of this function's time at 10,000 pages). Sized ahead and
+  // never shrunk, so it is zeroed only when it grows; hit_count is the part in use.
+  thread_local std::vector<LocalHit> hit_buffer;
   size_t hit_count = 0;
   std::vector<size_t> hit_begin(query.size() + 1, 0);
   // Pass 0 votes among the documents with most hits; pass 1, the few-keypoint pass
@@ -662,8 +650,9 @@ std::vector<DocumentHit> LlahRetriever::RetrieveDescribed(const std::vector<cv::
               if (trace) ++trace->stop_word_lookups;
               continue;
             }
-            hit_buffer.Reserve(hit_count, hit_count + static_cast<size_t>(max_hits) + 1);
-            LocalHit *out = hit_buffer.data.get() + hit_count;
+            const size_t room = hit_count + static_cast<size_t>(max_hits) + 1;
+            if (hit_buffer.size() < room) hit_buffer.resize(std::max(room, 2 * hit_buffer.size()));
+            LocalHit *out = hit_buffer.data() + hit_count;
             const int found = index_.ForEachUpTo(h, max_hits, [&](uint32_t doc, uint16_t kp) {
               out->document = doc;
               out->reference = kp;
@@ -679,7 +668,7 @@ std::vector<DocumentHit> LlahRetriever::RetrieveDescribed(const std::vector<cv::
         hit_begin[query.size()] = hit_count;
         if (trace) trace->total_hits = static_cast<int>(hit_count);
       }
-      const LocalHit *hits = hit_buffer.data.get();
+      const LocalHit *hits = hit_buffer.data();
       // Only the documents with most hits go on (bounds the query time of large databases).
       // Raw hits favour long pages, which collect chance hits by the hundred, so the cut is
       // generous (256 pages) and the ranking below uses votes instead.

@@ -53,14 +53,8 @@ std::vector<Blob> Blobs(const cv::Mat &mask, double min_side) {
     if (c.size() < 3) continue;
     // The rectangle's short side b obeys b^2 <= its area <= the axis-aligned box's: specks
     // of noise and JPEG are dropped without cv::minAreaRect's hull and calipers.
-    int min_x = c[0].x, max_x = c[0].x, min_y = c[0].y, max_y = c[0].y;
-    for (const cv::Point &p : c) {
-      min_x = std::min(min_x, p.x);
-      max_x = std::max(max_x, p.x);
-      min_y = std::min(min_y, p.y);
-      max_y = std::max(max_y, p.y);
-    }
-    if (static_cast<double>(max_x - min_x) * (max_y - min_y) < 0.999 * min_side * min_side)
+    const cv::Rect box = cv::boundingRect(c);  // points' extent + 1, as whole pixels
+    if (static_cast<double>(box.width - 1) * (box.height - 1) < 0.999 * min_side * min_side)
       continue;
     const cv::RotatedRect r = cv::minAreaRect(c);
     float a = r.size.width, b = r.size.height;
