@@ -134,26 +134,33 @@ cv::Mat BallnessMap(const cv::Mat& bgr, const cv::Rect& roi, const cv::Vec3f& cl
 constexpr float kMaskedOut = -1;
 
 // Compass search: from `xy`, step along +-X and +-Y while `score` improves, halving the
-// step down to 0.02 mm, never farther than `max_move` from the start.
+// step down to 0.02 mm, never farther than `max_move` from the start. After a move the
+// step straight back is not tried: it is where the search came from, already worse.
 template <typename Score>
 cv::Point2d CompassSearch(cv::Point2d xy, double first_step, double max_move, const Score& score) {
   double best = score(xy);
   const cv::Point2d start = xy;
   const cv::Point2d dirs[4] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}};
+  int back = -1;  // the direction back to where the last move came from
   for (double step = first_step; step > 0.02;) {
     bool moved = false;
-    for (const auto& d : dirs) {
-      const cv::Point2d cand = xy + d * step;
+    for (int k = 0; k < 4; ++k) {
+      if (k == back) continue;
+      const cv::Point2d cand = xy + dirs[k] * step;
       if (cv::norm(cand - start) > max_move) continue;
       const double s = score(cand);
       if (s > best + 1e-9) {
         best = s;
         xy = cand;
         moved = true;
+        back = k ^ 1;
         break;
       }
     }
-    if (!moved) step *= 0.5;
+    if (!moved) {
+      step *= 0.5;
+      back = -1;
+    }
   }
   return xy;
 }
@@ -249,9 +256,9 @@ class SilhouetteScorer {
         if (w <= 0) continue;
         const double bn = b[u - roi_.x];
         if (bn < 0) continue;  // kMaskedOut: a pocket
+        if (!count_shadow_zone_ && InShadowZone(centre, u, v)) continue;
         const double cov = Coverage(Q, u, v);
         if (near_cushion && cov > 0 && HiddenByCushion(centre, u, v)) continue;
-        if (!count_shadow_zone_ && InShadowZone(centre, u, v)) continue;
         score += w * (2 * cov - 1) * (2 * bn - 1);
         cov_sum += cov * w;
         ball_sum += cov * w * bn;

@@ -9,6 +9,7 @@
 
 #include "absl/strings/str_cat.h"
 #include "common/connected_components.h"
+#include "common/hough_lines.h"
 #include "common/status_macros.h"
 
 namespace texfree {
@@ -420,11 +421,9 @@ absl::StatusOr<PoolTableDetection> DetectPoolTableFrom(const cv::Mat& bgr, const
     return absl::FailedPreconditionError(partial_message);
 
   // 4. Hough lines on the outline, clustered into distinct lines.
-  cv::Mat outline = cv::Mat::zeros(small.size(), CV_8UC1);
-  cv::polylines(outline, contour, true, cv::Scalar(255), 1);
-  std::vector<cv::Vec3f> hough;
   const int threshold = std::max(10, static_cast<int>(contour.size() / 40));
-  cv::HoughLines(outline, hough, 1, kPi / 360, threshold);
+  const std::vector<cv::Vec3f> hough =
+      HoughLinesOnPoints(contour, small.size(), 1, kPi / 360, threshold);
   // A line is distinct when most of the outline points it passes near are not near a
   // stronger line already kept: the two halves of a side broken by a side pocket, or a
   // side's slight curve left by the lens, give many Hough lines within a few degrees and
