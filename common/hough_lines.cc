@@ -10,9 +10,8 @@
 
 namespace texfree {
 
-std::vector<cv::Vec3f> HoughLinesOnPoints(const std::vector<cv::Point>& points,
-                                          cv::Size image_size, double rho_step,
-                                          double theta_step, int threshold) {
+std::vector<cv::Vec3f> HoughLinesOnPoints(const std::vector<cv::Point>& points, cv::Size image_size,
+                                          double rho_step, double theta_step, int threshold) {
   std::vector<cv::Vec3f> lines;
   if (points.empty() || rho_step <= 0 || theta_step <= 0 || image_size.area() <= 0) return lines;
   // Distinct pixels inside the image, as the non-zero pixels of a drawn outline.
@@ -58,8 +57,8 @@ std::vector<cv::Vec3f> HoughLinesOnPoints(const std::vector<cv::Point>& points,
     const cv::v_float32x4 vc = cv::v_setall_f32(c), vs = cv::v_setall_f32(s);
     size_t i = 0;
     for (; i + 4 <= count; i += 4)
-      cv::v_store(rs.data() + i, cv::v_round(cv::v_load(xs.data() + i) * vc +
-                                              cv::v_load(ys.data() + i) * vs));
+      cv::v_store(rs.data() + i,
+                  cv::v_round(cv::v_load(xs.data() + i) * vc + cv::v_load(ys.data() + i) * vs));
     for (; i < count; ++i) rs[i] = cvRound(xs[i] * c + ys[i] * s);
     for (i = 0; i < count; ++i) {
       const int r = rs[i];

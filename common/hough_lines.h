@@ -17,8 +17,7 @@ namespace texfree {
 // while voting are tested as peaks. Same votes, same peaks, same order; the table
 // outline's transform costs a fraction of OpenCV's.
 // Thread-safe (the accumulator is per thread).
-std::vector<cv::Vec3f> HoughLinesOnPoints(const std::vector<cv::Point>& points,
-                                          cv::Size image_size, double rho_step,
-                                          double theta_step, int threshold);
+std::vector<cv::Vec3f> HoughLinesOnPoints(const std::vector<cv::Point>& points, cv::Size image_size,
+                                          double rho_step, double theta_step, int threshold);
 
 }  // namespace texfree
