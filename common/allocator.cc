@@ -11,7 +11,7 @@ namespace texfree {
 void KeepFreedMemoryForReuse() {
 #if defined(__GLIBC__)
   // Fixed thresholds also switch off glibc's dynamic mmap threshold.
-  mallopt(M_MMAP_THRESHOLD, 64 << 20);
+  mallopt(M_MMAP_THRESHOLD, 32 << 20);
   mallopt(M_TRIM_THRESHOLD, 512 << 20);
 #endif
 }
