@@ -21,7 +21,6 @@
 #include <thread>
 #include <utility>
 
-#include "common/allocator.h"
 #include "server/config.h"
 #include "server/service_registry.h"
 
@@ -46,7 +45,6 @@ void SetUpLogging(const std::string& level) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  texfree::KeepFreedMemoryForReuse();
   CLI::App app{
       "texfree-server: gRPC server for texture-free keypoint matching "
       "(documents, maps, light photogrammetry, pool).\n"

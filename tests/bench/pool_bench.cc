@@ -21,7 +21,6 @@
 #include <string>
 #include <vector>
 
-#include "common/allocator.h"
 #include "common/pool_analyzer.h"
 #include "common/pool_profile.h"
 #include "common/pool_shots.h"
@@ -174,7 +173,6 @@ PoolView CachedPoolView(const std::string& dir, const std::string& key, const Po
 }  // namespace
 
 int main(int argc, char** argv) {
-  texfree::KeepFreedMemoryForReuse();  // as the server does
   CLI::App app{"texfree-bench-pool: pool table analysis accuracy and speed"};
   int frames = 60;
   uint64_t seed = 7;

@@ -25,7 +25,6 @@
 #include <string>
 #include <vector>
 
-#include "common/allocator.h"
 #include "common/image_io.h"
 #include "common/neighbor_grid.h"
 #include "common/planar_pose.h"
@@ -370,7 +369,6 @@ void PrintTrueRectification(const DocumentRegistry &registry, const Query &q, co
 }  // namespace
 
 int main(int argc, char **argv) {
-  texfree::KeepFreedMemoryForReuse();  // as the server does
   CLI::App app{"texfree document retrieval benchmark"};
   std::vector<int> checkpoints{100, 1000};
   int queries = 200, unregistered = 100;

@@ -41,7 +41,6 @@
 #include <thread>
 #include <vector>
 
-#include "common/allocator.h"
 #include "common/document_tracker.h"
 #include "common/timing.h"
 #include "common/video_keypoints.h"
@@ -148,7 +147,6 @@ struct Report {
 }  // namespace
 
 int main(int argc, char** argv) {
-  texfree::KeepFreedMemoryForReuse();  // as the server does
   CLI::App app{"texfree tracking benchmark"};
   double step = 0.5, print_every = 5;
   int distractors = 20, streams = 8;
