@@ -1159,8 +1159,13 @@ std::vector<PoolDetectedBall> DetectPoolBallsOnce(const cv::Mat& image, const cv
   const cv::Vec3f cloth(cloth_bgr[0], cloth_bgr[1], cloth_bgr[2]);
   // JPEG rings around sharp colour edges (and halves the colour resolution); a light
   // blur removes the ringing that would make the cloth next to a ball look like ball.
-  cv::Mat bgr;
-  cv::GaussianBlur(image, bgr, cv::Size(0, 0), 0.8);
+  // Its buffer is kept per thread: allocated afresh for every frame, it and the frame's
+  // other large buffers were given back to the kernel and faulted in again each time
+  // (112,000 page faults over the pool benchmark's 60 frames, 67,000 with this). Nothing
+  // keeps a reference to it past this call.
+  thread_local cv::Mat blurred;
+  cv::GaussianBlur(image, blurred, cv::Size(0, 0), 0.8);
+  const cv::Mat& bgr = blurred;
   const double cloth_intensity = (cloth[0] + cloth[1] + cloth[2]) / 3;
   // Where balls can be seen: the playing surface from the cloth up to a ball's height,
   // without the pockets.
