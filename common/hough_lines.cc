@@ -27,7 +27,7 @@ std::vector<cv::Vec3f> HoughLinesOnPoints(const std::vector<cv::Point>& points, 
   const size_t count = pixels.size();
   std::vector<float> xs(count), ys(count);
   std::vector<int> rs(count);
-  for (size_t i = 0; i < pixels.size(); ++i) {
+  for (size_t i = 0; i < count; ++i) {
     xs[i] = static_cast<float>(pixels[i].x);
     ys[i] = static_cast<float>(pixels[i].y);
   }
@@ -50,8 +50,8 @@ std::vector<cv::Vec3f> HoughLinesOnPoints(const std::vector<cv::Point>& points, 
   for (int n = 0; n < num_angles; ++n, angle += theta) {
     const float c = static_cast<float>(std::cos(static_cast<double>(angle)) * irho);
     const float s = static_cast<float>(std::sin(static_cast<double>(angle)) * irho);
-    int* row = accumulator.data() + static_cast<size_t>(n + 1) * stride + 1 + rho_offset;
-    const int row_start = (n + 1) * stride + 1 + rho_offset;
+    const int row_start = (n + 1) * stride + 1 + rho_offset;  // the cell of rho 0
+    int* row = accumulator.data() + row_start;
     // The rounding is done four at a time (round to nearest even, as cvRound), the votes
     // one by one.
     const cv::v_float32x4 vc = cv::v_setall_f32(c), vs = cv::v_setall_f32(s);
