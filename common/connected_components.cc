@@ -2,7 +2,11 @@
 #include "common/connected_components.h"
 
 #include <algorithm>
+#include <cfloat>
+#include <climits>
+#include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <opencv2/imgproc.hpp>
 #include <vector>
 
@@ -41,6 +45,172 @@ int ConnectedComponentsWithStats(const cv::Mat &mask, int connectivity, cv::Mat 
     centroids->at<double>(l, 1) = static_cast<double>(sum_y[l]) / area[l];
   }
   return n;
+}
+
+namespace {
+
+int64_t Cross(const cv::Point &o, const cv::Point &a, const cv::Point &b) {
+  return static_cast<int64_t>(a.x - o.x) * (b.y - o.y) -
+         static_cast<int64_t>(a.y - o.y) * (b.x - o.x);
+}
+
+// Strict convex hull (no collinear vertices) of points sorted by (y, x): Andrew's monotone
+// chain, in linear time since they come sorted.
+void SortedPointsHull(const std::vector<cv::Point> &points, std::vector<cv::Point> *hull) {
+  hull->assign(2 * points.size(), cv::Point());
+  std::vector<cv::Point> &h = *hull;
+  size_t k = 0;
+  for (const cv::Point &p : points) {
+    while (k >= 2 && Cross(h[k - 2], h[k - 1], p) <= 0) --k;
+    h[k++] = p;
+  }
+  for (size_t i = points.size() - 1, lower = k + 1; i-- > 0;) {
+    while (k >= lower && Cross(h[k - 2], h[k - 1], points[i]) <= 0) --k;
+    h[k++] = points[i];
+  }
+  h.resize(k > 1 ? k - 1 : k);
+}
+
+// The minimum-area rectangle around a convex polygon has a side on one of its edges
+// (Freeman and Shapira, 1975): every edge is tried against every vertex. Hulls of letters
+// have a handful of vertices, for which this is several times faster than cv::minAreaRect
+// (hull, conversion to float and rotating calipers, each with its allocations). Of edges
+// giving the same area, the first from the top-left vertex is kept. `width` lies along that
+// edge and `angle` is its direction, in degrees, as cv::RotatedRect has them.
+cv::RotatedRect ConvexPolygonMinAreaRect(const std::vector<cv::Point> &hull) {
+  const size_t m = hull.size();
+  double best_area = DBL_MAX;
+  cv::RotatedRect best;
+  for (size_t i = 0; i < m; ++i) {
+    const cv::Point &p = hull[i], &q = hull[(i + 1) % m];
+    const double length = std::hypot(q.x - p.x, q.y - p.y);
+    const double ux = (q.x - p.x) / length, uy = (q.y - p.y) / length;
+    double min_u = 0, max_u = 0, min_v = 0, max_v = 0;  // p is at the origin
+    for (const cv::Point &r : hull) {
+      const double dx = r.x - p.x, dy = r.y - p.y;
+      const double u = dx * ux + dy * uy, v = dy * ux - dx * uy;
+      min_u = std::min(min_u, u);
+      max_u = std::max(max_u, u);
+      min_v = std::min(min_v, v);
+      max_v = std::max(max_v, v);
+    }
+    const double area = (max_u - min_u) * (max_v - min_v);
+    if (!(area < best_area - 1e-9 * (1 + area))) continue;
+    best_area = area;
+    const double cu = 0.5 * (min_u + max_u), cv_ = 0.5 * (min_v + max_v);
+    best.center = cv::Point2f(static_cast<float>(p.x + cu * ux - cv_ * uy),
+                              static_cast<float>(p.y + cu * uy + cv_ * ux));
+    best.size = cv::Size2f(static_cast<float>(max_u - min_u), static_cast<float>(max_v - min_v));
+    best.angle = static_cast<float>(std::atan2(uy, ux) * 180.0 / CV_PI);
+  }
+  return best;
+}
+
+}  // namespace
+
+int LabelMaskRuns(const cv::Mat &mask, std::vector<MaskRun> *runs) {
+  CV_Assert(mask.type() == CV_8UC1);
+  runs->clear();
+  thread_local std::vector<int> parent;
+  parent.clear();
+  const auto find = [](int i) {
+    while (parent[static_cast<size_t>(i)] != i)
+      i = parent[static_cast<size_t>(i)] = parent[static_cast<size_t>(parent[static_cast<size_t>(i)])];
+    return i;
+  };
+  size_t previous_row = 0;  // first run of the row above
+  for (int y = 0; y < mask.rows; ++y) {
+    const uchar *row = mask.ptr<uchar>(y);
+    const size_t row_start = runs->size();
+    for (int x = 0; x < mask.cols;) {
+      // Background is most of a page: skip it eight bytes at a time.
+      uint64_t word;
+      if (x + 8 <= mask.cols && (std::memcpy(&word, row + x, 8), word == 0)) {
+        x += 8;
+        continue;
+      }
+      if (row[x] == 0) {
+        ++x;
+        continue;
+      }
+      int x1 = x;
+      while (x1 + 1 < mask.cols && row[x1 + 1] != 0) ++x1;
+      runs->push_back({y, x, x1, 0});
+      parent.push_back(static_cast<int>(parent.size()));
+      x = x1 + 1;
+    }
+    // Runs of this row touch runs of the row above that overlap them widened by a pixel
+    // (8-connectivity); both rows are sorted, so one sweep finds every pair.
+    size_t above = previous_row;
+    for (size_t i = row_start; i < runs->size(); ++i) {
+      const MaskRun &r = (*runs)[i];
+      while (above < row_start && (*runs)[above].x1 < r.x0 - 1) ++above;
+      for (size_t j = above; j < row_start && (*runs)[j].x0 <= r.x1 + 1; ++j) {
+        // The earlier run's root is kept, so that a component's root is its first run.
+        const int a = find(static_cast<int>(i)), b = find(static_cast<int>(j));
+        if (a != b) parent[static_cast<size_t>(std::max(a, b))] = std::min(a, b);
+      }
+    }
+    previous_row = row_start;
+  }
+  // Components numbered in the order of their first runs (raster order).
+  int count = 0;
+  for (size_t i = 0; i < runs->size(); ++i) {
+    const int root = find(static_cast<int>(i));
+    (*runs)[i].component =
+        root == static_cast<int>(i) ? count++ : (*runs)[static_cast<size_t>(root)].component;
+  }
+  return count;
+}
+
+std::vector<cv::RotatedRect> ComponentMinAreaRects(const cv::Mat &mask, double min_short_side) {
+  thread_local std::vector<MaskRun> runs;
+  thread_local std::vector<int> left, right, top, bottom, first_extent, row_min, row_max;
+  thread_local std::vector<cv::Point> ends, hull;
+  const size_t count = static_cast<size_t>(LabelMaskRuns(mask, &runs));
+  left.assign(count, INT_MAX);
+  right.assign(count, -1);
+  top.assign(count, -1);
+  bottom.assign(count, -1);
+  for (const MaskRun &r : runs) {
+    const size_t c = static_cast<size_t>(r.component);
+    if (top[c] < 0) top[c] = r.y;
+    bottom[c] = r.y;
+    left[c] = std::min(left[c], r.x0);
+    right[c] = std::max(right[c], r.x1);
+  }
+  // Each kept component gets one slot per row for the row's end pixels.
+  const double min_box = 0.999 * min_short_side * min_short_side;
+  first_extent.assign(count, -1);
+  int extents = 0;
+  for (size_t c = 0; c < count; ++c) {
+    if (static_cast<double>(right[c] - left[c]) * (bottom[c] - top[c]) < min_box) continue;
+    first_extent[c] = extents;
+    extents += bottom[c] - top[c] + 1;
+  }
+  row_min.assign(static_cast<size_t>(extents), INT_MAX);
+  row_max.assign(static_cast<size_t>(extents), -1);
+  for (const MaskRun &r : runs) {
+    const size_t c = static_cast<size_t>(r.component);
+    if (first_extent[c] < 0) continue;
+    const size_t i = static_cast<size_t>(first_extent[c] + r.y - top[c]);
+    row_min[i] = std::min(row_min[i], r.x0);
+    row_max[i] = std::max(row_max[i], r.x1);
+  }
+  std::vector<cv::RotatedRect> rects;
+  for (size_t c = 0; c < count; ++c) {
+    if (first_extent[c] < 0) continue;
+    ends.clear();
+    for (int y = top[c]; y <= bottom[c]; ++y) {
+      const size_t i = static_cast<size_t>(first_extent[c] + y - top[c]);
+      ends.emplace_back(row_min[i], y);
+      if (row_max[i] != row_min[i]) ends.emplace_back(row_max[i], y);
+    }
+    SortedPointsHull(ends, &hull);
+    if (hull.size() < 3) continue;  // a straight line one pixel thin
+    rects.push_back(ConvexPolygonMinAreaRect(hull));
+  }
+  return rects;
 }
 
 }  // namespace texfree

@@ -2,6 +2,7 @@
 #pragma once
 
 #include <opencv2/core.hpp>
+#include <vector>
 
 namespace texfree {
 
@@ -14,5 +15,28 @@ namespace texfree {
 // frame. Thread-safe (no shared state).
 int ConnectedComponentsWithStats(const cv::Mat &mask, int connectivity, cv::Mat *labels,
                                  cv::Mat *stats, cv::Mat *centroids);
+
+// A row's run x0..x1 (inclusive) of non-zero pixels, and its 8-connected component.
+struct MaskRun {
+  int y, x0, x1, component;
+};
+
+// Labels the 8-connected components of `mask` (CV_8UC1, non-zero pixels) run by run: `runs`
+// in raster order, components numbered from 0 in the raster order of their first pixels;
+// returns the number of components. Text is a few runs per letter and row, so this is
+// several times faster than labelling every pixel when only the components' row extents
+// are needed. Thread-safe.
+int LabelMaskRuns(const cv::Mat &mask, std::vector<MaskRun> *runs);
+
+// The minimum-area rectangle of each 8-connected component of `mask` (non-zero pixels)
+// whose bounding box could hold a rectangle of short side `min_short_side`
+// ((width - 1) * (height - 1) >= min_short_side^2), in the order of the components' first pixels; smaller components, and
+// lines one pixel thin, are left out. These are the rectangles cv::minAreaRect gives for the
+// components' outer contours as cv::findContours traces them (to float rounding; of two
+// rectangles of equal area either may come), found several times faster: a contour's hull
+// is its component's, which the end pixels of the component's rows span, and the runs
+// (LabelMaskRuns) give those instead of tracing every outline. Thread-safe (its buffers are per
+// thread).
+std::vector<cv::RotatedRect> ComponentMinAreaRects(const cv::Mat &mask, double min_short_side);
 
 }  // namespace texfree

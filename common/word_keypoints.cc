@@ -35,28 +35,13 @@ struct Blob {
   cv::Point2f center;
 };
 
-// Minimum-area rectangles of the ink's outer contours: rotation-invariant
-// sizes. Every component's outer boundary counts, also inside a frame (page
-// edge, table, figure box): RETR_CCOMP puts all outer boundaries at the top
-// level, holes below them.
+// Minimum-area rectangles of the ink's components (their outer contours'): rotation-invariant
+// sizes. Every component counts, also inside a frame (page edge, table, figure box). Specks
+// whose bounding box cannot hold a rectangle of short side min_side are dropped before any
+// rectangle is fitted.
 std::vector<Blob> Blobs(const cv::Mat &mask, double min_side) {
-  // Kept per thread: findContours then reuses the contours' storage instead of allocating
-  // a vector for each of a view's thousand contours.
-  thread_local std::vector<std::vector<cv::Point>> contours;
-  thread_local std::vector<cv::Vec4i> hierarchy;
-  cv::findContours(mask, contours, hierarchy, cv::RETR_CCOMP, cv::CHAIN_APPROX_SIMPLE);
   std::vector<Blob> out;
-  out.reserve(contours.size());
-  for (size_t i = 0; i < contours.size(); ++i) {
-    const auto &c = contours[i];
-    if (hierarchy[i][3] >= 0) continue;  // a hole
-    if (c.size() < 3) continue;
-    // The rectangle's short side b obeys b^2 <= its area <= the axis-aligned box's: specks
-    // of noise and JPEG are dropped without cv::minAreaRect's hull and calipers.
-    const cv::Rect box = cv::boundingRect(c);  // points' extent + 1, as whole pixels
-    if (static_cast<double>(box.width - 1) * (box.height - 1) < 0.999 * min_side * min_side)
-      continue;
-    const cv::RotatedRect r = cv::minAreaRect(c);
+  for (const cv::RotatedRect &r : ComponentMinAreaRects(mask, min_side)) {
     float a = r.size.width, b = r.size.height;
     float angle = r.angle * static_cast<float>(CV_PI / 180.0);
     if (b > a) {
