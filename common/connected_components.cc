@@ -115,7 +115,8 @@ int LabelMaskRuns(const cv::Mat &mask, std::vector<MaskRun> *runs) {
   parent.clear();
   const auto find = [](int i) {
     while (parent[static_cast<size_t>(i)] != i)
-      i = parent[static_cast<size_t>(i)] = parent[static_cast<size_t>(parent[static_cast<size_t>(i)])];
+      i = parent[static_cast<size_t>(i)] =
+          parent[static_cast<size_t>(parent[static_cast<size_t>(i)])];
     return i;
   };
   size_t previous_row = 0;  // first run of the row above

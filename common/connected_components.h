@@ -30,13 +30,13 @@ int LabelMaskRuns(const cv::Mat &mask, std::vector<MaskRun> *runs);
 
 // The minimum-area rectangle of each 8-connected component of `mask` (non-zero pixels)
 // whose bounding box could hold a rectangle of short side `min_short_side`
-// ((width - 1) * (height - 1) >= min_short_side^2), in the order of the components' first pixels; smaller components, and
-// lines one pixel thin, are left out. These are the rectangles cv::minAreaRect gives for the
-// components' outer contours as cv::findContours traces them (to float rounding; of two
-// rectangles of equal area either may come), found several times faster: a contour's hull
-// is its component's, which the end pixels of the component's rows span, and the runs
-// (LabelMaskRuns) give those instead of tracing every outline. Thread-safe (its buffers are per
-// thread).
+// ((width - 1) * (height - 1) >= min_short_side^2), in the order of the components' first pixels;
+// smaller components, and lines one pixel thin, are left out. These are the rectangles
+// cv::minAreaRect gives for the components' outer contours as cv::findContours traces them (to
+// float rounding; of two rectangles of equal area either may come), found several times faster: a
+// contour's hull is its component's, which the end pixels of the component's rows span, and the
+// runs (LabelMaskRuns) give those instead of tracing every outline. Thread-safe (its buffers are
+// per thread).
 std::vector<cv::RotatedRect> ComponentMinAreaRects(const cv::Mat &mask, double min_short_side);
 
 }  // namespace texfree

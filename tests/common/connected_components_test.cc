@@ -87,7 +87,8 @@ TEST(LabelMaskRunsTest, RunsPaintOpenCvsLabels) {
         if (a == 0) continue;
         if (to_cv[static_cast<size_t>(a)] < 0) {
           ASSERT_EQ(a, next_first++) << "at " << x << "," << y;
-          ASSERT_LT(from_cv[static_cast<size_t>(b)], 0) << "two components joined at " << x << "," << y;
+          ASSERT_LT(from_cv[static_cast<size_t>(b)], 0)
+              << "two components joined at " << x << "," << y;
           to_cv[static_cast<size_t>(a)] = b;
           from_cv[static_cast<size_t>(b)] = a;
         }
@@ -216,7 +217,7 @@ TEST(ComponentMinAreaRectsTest, MatchesOutlineRectanglesOnTheInkOfCameraViews) {
 TEST(ComponentMinAreaRectsTest, KnownShapes) {
   cv::Mat mask = cv::Mat::zeros(60, 80, CV_8UC1);
   cv::rectangle(mask, {10, 10}, {29, 14}, 255, -1);  // 20 x 5 pixels: centres span 19 x 4
-  cv::line(mask, {40, 5}, {70, 5}, 255, 1);         // one pixel thin: no rectangle
+  cv::line(mask, {40, 5}, {70, 5}, 255, 1);          // one pixel thin: no rectangle
   mask.at<uchar>(50, 50) = 255;                      // a speck
   const std::vector<cv::RotatedRect> rects = ComponentMinAreaRects(mask, 1.0);
   ASSERT_EQ(rects.size(), 1u);
