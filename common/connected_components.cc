@@ -154,13 +154,29 @@ int LabelMaskRuns(const cv::Mat &mask, std::vector<MaskRun> *runs) {
     }
     previous_row = row_start;
   }
-  // Components numbered in the order of their first runs (raster order).
+  // Components numbered as cv::connectedComponents numbers them (8-connectivity, OpenCV
+  // 4.6): in the raster order of their first 2x2 blocks, the cells its labelling works in.
+  // A block's pixels are all 8-connected, so no two components share a first block. The
+  // word extractor's glyph order, and with it the order of its keypoints, stays as it was
+  // with OpenCV's labels.
   int count = 0;
   for (size_t i = 0; i < runs->size(); ++i) {
     const int root = find(static_cast<int>(i));
     (*runs)[i].component =
         root == static_cast<int>(i) ? count++ : (*runs)[static_cast<size_t>(root)].component;
   }
+  thread_local std::vector<std::pair<int64_t, int>> first_block;  // (block key, component)
+  first_block.assign(static_cast<size_t>(count), {INT64_MAX, 0});
+  for (const MaskRun &r : *runs) {
+    const int64_t key = (static_cast<int64_t>(r.y >> 1) << 32) | (r.x0 >> 1);
+    auto &f = first_block[static_cast<size_t>(r.component)];
+    f = {std::min(f.first, key), r.component};
+  }
+  std::sort(first_block.begin(), first_block.end());
+  thread_local std::vector<int> number;
+  number.resize(static_cast<size_t>(count));
+  for (int k = 0; k < count; ++k) number[static_cast<size_t>(first_block[static_cast<size_t>(k)].second)] = k;
+  for (MaskRun &r : *runs) r.component = number[static_cast<size_t>(r.component)];
   return count;
 }
 

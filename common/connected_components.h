@@ -22,7 +22,8 @@ struct MaskRun {
 };
 
 // Labels the 8-connected components of `mask` (CV_8UC1, non-zero pixels) run by run: `runs`
-// in raster order, components numbered from 0 in the raster order of their first pixels;
+// in raster order, each with its component, numbered from 0 as cv::connectedComponents (8,
+// CV_32S) numbers its labels from 1 (in the raster order of their first 2x2 blocks);
 // returns the number of components. Text is a few runs per letter and row, so this is
 // several times faster than labelling every pixel when only the components' row extents
 // are needed. Thread-safe.

@@ -291,44 +291,36 @@ double WordGapThreshold(const std::vector<float> &gaps, double fallback) {
 // for the whole image cannot do this.
 std::vector<Word> GroupLettersIntoWords(const cv::Mat &ink, double h, double angle,
                                         const WordKeypointOptions &o) {
-  // Labels only, and every glyph's statistics from one scan of them: OpenCV's
-  // connectedComponentsWithStats measures the same area, box and centroid several
-  // times slower (a fifth of the extraction's time).
-  cv::Mat labels;
-  const int count = cv::connectedComponents(ink, labels, 8, CV_32S);
+  // Every glyph's statistics from its runs (LabelMaskRuns numbers glyphs as
+  // cv::connectedComponents would, from 1 here): OpenCV's connectedComponentsWithStats
+  // measures the same area, box and centroid several times slower.
+  thread_local std::vector<MaskRun> runs;
+  const int count = LabelMaskRuns(ink, &runs) + 1;  // label 0: the background
   const float ux = static_cast<float>(std::cos(angle)), uy = static_cast<float>(std::sin(angle));
   std::vector<Glyph> glyphs(static_cast<size_t>(count));
   for (Glyph &g : glyphs) {
     g.left = g.top = INT32_MAX;
     g.right = g.bottom = -1;
   }
-  for (int y = 0; y < labels.rows; ++y) {
-    const int *row = labels.ptr<int>(y);
-    // One run of a label at a time: u and n are monotonic along a row (in floating point
-    // too), so a run's extremes are at its ends, and its sums are closed forms.
-    for (int x0 = 0; x0 < labels.cols;) {
-      const int l = row[x0];
-      int x1 = x0;
-      while (x1 + 1 < labels.cols && row[x1 + 1] == l) ++x1;
-      if (l != 0) {
-        Glyph &g = glyphs[static_cast<size_t>(l)];
-        const float u0 = x0 * ux + y * uy, n0 = -x0 * uy + y * ux;
-        const float u1 = x1 * ux + y * uy, n1 = -x1 * uy + y * ux;
-        g.min_u = std::min({g.min_u, u0, u1});
-        g.max_u = std::max({g.max_u, u0, u1});
-        g.min_n = std::min({g.min_n, n0, n1});
-        g.max_n = std::max({g.max_n, n0, n1});
-        const int length = x1 - x0 + 1;
-        g.area += length;
-        g.sx += 0.5 * (static_cast<double>(x0) + x1) * length;
-        g.sy += static_cast<double>(y) * length;
-        g.left = std::min(g.left, x0);
-        g.right = std::max(g.right, x1);
-        g.top = std::min(g.top, y);
-        g.bottom = std::max(g.bottom, y);
-      }
-      x0 = x1 + 1;
-    }
+  // u and n are monotonic along a row (in floating point too), so a run's extremes are at its
+  // ends, and its sums are closed forms.
+  for (const MaskRun &r : runs) {
+    Glyph &g = glyphs[static_cast<size_t>(r.component) + 1];
+    const int x0 = r.x0, x1 = r.x1, y = r.y;
+    const float u0 = x0 * ux + y * uy, n0 = -x0 * uy + y * ux;
+    const float u1 = x1 * ux + y * uy, n1 = -x1 * uy + y * ux;
+    g.min_u = std::min({g.min_u, u0, u1});
+    g.max_u = std::max({g.max_u, u0, u1});
+    g.min_n = std::min({g.min_n, n0, n1});
+    g.max_n = std::max({g.max_n, n0, n1});
+    const int length = x1 - x0 + 1;
+    g.area += length;
+    g.sx += 0.5 * (static_cast<double>(x0) + x1) * length;
+    g.sy += static_cast<double>(y) * length;
+    g.left = std::min(g.left, x0);
+    g.right = std::max(g.right, x1);
+    g.top = std::min(g.top, y);
+    g.bottom = std::max(g.bottom, y);
   }
   // Glyphs that may be part of words: not noise specks, not rules, frames or
   // figures.

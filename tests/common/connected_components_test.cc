@@ -63,13 +63,13 @@ TEST(ConnectedComponentsTest, EmptyMaskHasOnlyTheBackground) {
   EXPECT_EQ(cv::countNonZero(labels), 0);
 }
 
-// The runs, painted with their component + 1, are OpenCV's 8-connected components (one
-// label of each for every label of the other; OpenCV numbers them in another order), and
-// the components are numbered in the raster order of their first pixels.
+// The runs, painted with their component + 1, are OpenCV's 8-connected labels: the same
+// components, numbered alike. Masks of odd and even sizes, specks at every parity.
 TEST(LabelMaskRunsTest, RunsPaintOpenCvsLabels) {
-  for (uint32_t seed : {1u, 2u, 3u}) {
+  for (uint32_t seed : {1u, 2u, 3u, 4u}) {
     SCOPED_TRACE("seed " + std::to_string(seed));
-    const cv::Mat mask = RandomMask(seed);
+    cv::Mat mask = RandomMask(seed);
+    if (seed % 2 == 0) mask = mask(cv::Rect(1, 1, mask.cols - 2, mask.rows - 1)).clone();
     std::vector<MaskRun> runs;
     const int n = LabelMaskRuns(mask, &runs);
     cv::Mat painted = cv::Mat::zeros(mask.size(), CV_32S), cv_labels;
@@ -78,23 +78,7 @@ TEST(LabelMaskRunsTest, RunsPaintOpenCvsLabels) {
       for (int x = r.x0; x <= r.x1; ++x) painted.at<int>(r.y, x) = r.component + 1;
     }
     EXPECT_EQ(n + 1, cv::connectedComponents(mask, cv_labels, 8, CV_32S));
-    std::vector<int> to_cv(static_cast<size_t>(n) + 1, -1), from_cv(static_cast<size_t>(n) + 1, -1);
-    int next_first = 1;  // the next component to meet in raster order
-    for (int y = 0; y < mask.rows; ++y) {
-      for (int x = 0; x < mask.cols; ++x) {
-        const int a = painted.at<int>(y, x), b = cv_labels.at<int>(y, x);
-        ASSERT_EQ(a == 0, b == 0);
-        if (a == 0) continue;
-        if (to_cv[static_cast<size_t>(a)] < 0) {
-          ASSERT_EQ(a, next_first++) << "at " << x << "," << y;
-          ASSERT_LT(from_cv[static_cast<size_t>(b)], 0)
-              << "two components joined at " << x << "," << y;
-          to_cv[static_cast<size_t>(a)] = b;
-          from_cv[static_cast<size_t>(b)] = a;
-        }
-        ASSERT_EQ(to_cv[static_cast<size_t>(a)], b) << "a component split at " << x << "," << y;
-      }
-    }
+    EXPECT_EQ(cv::countNonZero(painted != cv_labels), 0);
     EXPECT_EQ(static_cast<int>(runs.size()),
               cv::countNonZero(mask(cv::Rect(1, 0, mask.cols - 1, mask.rows)) &
                                ~mask(cv::Rect(0, 0, mask.cols - 1, mask.rows))) +
