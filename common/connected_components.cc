@@ -175,7 +175,8 @@ int LabelMaskRuns(const cv::Mat &mask, std::vector<MaskRun> *runs) {
   std::sort(first_block.begin(), first_block.end());
   thread_local std::vector<int> number;
   number.resize(static_cast<size_t>(count));
-  for (int k = 0; k < count; ++k) number[static_cast<size_t>(first_block[static_cast<size_t>(k)].second)] = k;
+  for (int k = 0; k < count; ++k)
+    number[static_cast<size_t>(first_block[static_cast<size_t>(k)].second)] = k;
   for (MaskRun &r : *runs) r.component = number[static_cast<size_t>(r.component)];
   return count;
 }
