@@ -49,6 +49,39 @@ int ConnectedComponentsWithStats(const cv::Mat &mask, int connectivity, cv::Mat 
 
 namespace {
 
+// Background is most of a page and letters' runs are short: rows are searched eight bytes at
+// a time. The first non-zero byte of a little-endian word is its lowest set bit's; its first
+// zero byte is the lowest bit of (w - 0x01..01) & ~w & 0x80..80 (borrows only carry past
+// zero bytes, so bits above the first may be spurious, the lowest never is).
+constexpr uint64_t kOnes = 0x0101010101010101ull, kHighs = 0x8080808080808080ull;
+
+uint64_t Load8(const uchar *p) {
+  uint64_t w;
+  std::memcpy(&w, p, 8);
+#if __BYTE_ORDER__ == __ORDER_BIG_ENDIAN__
+  w = __builtin_bswap64(w);
+#endif
+  return w;
+}
+
+// The first x' >= x with row[x'] != 0, or cols.
+int NextNonZero(const uchar *row, int x, int cols) {
+  for (; x + 8 <= cols; x += 8)
+    if (const uint64_t w = Load8(row + x)) return x + (__builtin_ctzll(w) >> 3);
+  while (x < cols && row[x] == 0) ++x;
+  return x;
+}
+
+// The first x' >= x with row[x'] == 0, or cols.
+int NextZero(const uchar *row, int x, int cols) {
+  for (; x + 8 <= cols; x += 8) {
+    const uint64_t w = Load8(row + x);
+    if (const uint64_t zeros = (w - kOnes) & ~w & kHighs) return x + (__builtin_ctzll(zeros) >> 3);
+  }
+  while (x < cols && row[x] != 0) ++x;
+  return x;
+}
+
 int64_t Cross(const cv::Point &o, const cv::Point &a, const cv::Point &b) {
   return static_cast<int64_t>(a.x - o.x) * (b.y - o.y) -
          static_cast<int64_t>(a.y - o.y) * (b.x - o.x);
@@ -123,22 +156,11 @@ int LabelMaskRuns(const cv::Mat &mask, std::vector<MaskRun> *runs) {
   for (int y = 0; y < mask.rows; ++y) {
     const uchar *row = mask.ptr<uchar>(y);
     const size_t row_start = runs->size();
-    for (int x = 0; x < mask.cols;) {
-      // Background is most of a page: skip it eight bytes at a time.
-      uint64_t word;
-      if (x + 8 <= mask.cols && (std::memcpy(&word, row + x, 8), word == 0)) {
-        x += 8;
-        continue;
-      }
-      if (row[x] == 0) {
-        ++x;
-        continue;
-      }
-      int x1 = x;
-      while (x1 + 1 < mask.cols && row[x1 + 1] != 0) ++x1;
-      runs->push_back({y, x, x1, 0});
+    for (int x = NextNonZero(row, 0, mask.cols); x < mask.cols;) {
+      const int end = NextZero(row, x + 1, mask.cols);
+      runs->push_back({y, x, end - 1, 0});
       parent.push_back(static_cast<int>(parent.size()));
-      x = x1 + 1;
+      x = NextNonZero(row, end, mask.cols);
     }
     // Runs of this row touch runs of the row above that overlap them widened by a pixel
     // (8-connectivity); both rows are sorted, so one sweep finds every pair.
