@@ -14,35 +14,67 @@ namespace texfree {
 
 int ConnectedComponentsWithStats(const cv::Mat &mask, int connectivity, cv::Mat *labels,
                                  cv::Mat *stats, cv::Mat *centroids) {
-  const int n = cv::connectedComponents(mask, *labels, connectivity, CV_32S);
-  *stats = cv::Mat::zeros(n, cv::CC_STAT_MAX, CV_32S);
-  *centroids = cv::Mat::zeros(n, 2, CV_64F);
-  std::vector<int> left(n, INT32_MAX), top(n, INT32_MAX), right(n, -1), bottom(n, -1), area(n, 0);
-  std::vector<int64_t> sum_x(n, 0), sum_y(n, 0);
-  for (int y = 0; y < labels->rows; ++y) {
-    const int *row = labels->ptr<int>(y);
-    for (int x = 0; x < labels->cols; ++x) {
-      const int l = row[x];
-      if (l == 0) continue;
-      left[l] = std::min(left[l], x);
-      right[l] = std::max(right[l], x);
-      top[l] = std::min(top[l], y);
-      bottom[l] = std::max(bottom[l], y);
-      ++area[l];
-      sum_x[l] += x;
-      sum_y[l] += y;
+  int n = 0;
+  std::vector<int> left, top, right, bottom, area;
+  std::vector<int64_t> sum_x, sum_y;
+  const auto start = [&](int count) {
+    n = count;
+    left.assign(static_cast<size_t>(n), INT32_MAX);
+    top.assign(static_cast<size_t>(n), INT32_MAX);
+    right.assign(static_cast<size_t>(n), -1);
+    bottom.assign(static_cast<size_t>(n), -1);
+    area.assign(static_cast<size_t>(n), 0);
+    sum_x.assign(static_cast<size_t>(n), 0);
+    sum_y.assign(static_cast<size_t>(n), 0);
+  };
+  // Adds the run x0..x1 of row y to label l's statistics.
+  const auto add_run = [&](size_t l, int y, int x0, int x1) {
+    const int length = x1 - x0 + 1;
+    left[l] = std::min(left[l], x0);
+    right[l] = std::max(right[l], x1);
+    top[l] = std::min(top[l], y);
+    bottom[l] = std::max(bottom[l], y);
+    area[l] += length;
+    sum_x[l] += static_cast<int64_t>(x0 + x1) * length / 2;  // x0 + x1 and length: not both odd
+    sum_y[l] += static_cast<int64_t>(y) * length;
+  };
+  if (connectivity == 8 && mask.type() == CV_8UC1) {
+    // Runs, numbered as OpenCV numbers its labels, painted into the label image.
+    thread_local std::vector<MaskRun> runs;
+    start(LabelMaskRuns(mask, &runs) + 1);
+    labels->create(mask.size(), CV_32S);
+    labels->setTo(0);
+    for (const MaskRun &r : runs) {
+      int *row = labels->ptr<int>(r.y);
+      std::fill(row + r.x0, row + r.x1 + 1, r.component + 1);
+      add_run(static_cast<size_t>(r.component) + 1, r.y, r.x0, r.x1);
+    }
+  } else {
+    start(cv::connectedComponents(mask, *labels, connectivity, CV_32S));
+    for (int y = 0; y < labels->rows; ++y) {
+      const int *row = labels->ptr<int>(y);
+      for (int x0 = 0; x0 < labels->cols;) {
+        const int l = row[x0];
+        int x1 = x0;
+        while (x1 + 1 < labels->cols && row[x1 + 1] == l) ++x1;
+        if (l != 0) add_run(static_cast<size_t>(l), y, x0, x1);
+        x0 = x1 + 1;
+      }
     }
   }
-  // connectedComponents numbers the components 1..n-1 without gaps: each has pixels.
+  *stats = cv::Mat::zeros(n, cv::CC_STAT_MAX, CV_32S);
+  *centroids = cv::Mat::zeros(n, 2, CV_64F);
+  // Labels are numbered 1..n-1 without gaps: each has pixels.
   for (int l = 1; l < n; ++l) {
+    const size_t i = static_cast<size_t>(l);
     int *s = stats->ptr<int>(l);
-    s[cv::CC_STAT_LEFT] = left[l];
-    s[cv::CC_STAT_TOP] = top[l];
-    s[cv::CC_STAT_WIDTH] = right[l] - left[l] + 1;
-    s[cv::CC_STAT_HEIGHT] = bottom[l] - top[l] + 1;
-    s[cv::CC_STAT_AREA] = area[l];
-    centroids->at<double>(l, 0) = static_cast<double>(sum_x[l]) / area[l];
-    centroids->at<double>(l, 1) = static_cast<double>(sum_y[l]) / area[l];
+    s[cv::CC_STAT_LEFT] = left[i];
+    s[cv::CC_STAT_TOP] = top[i];
+    s[cv::CC_STAT_WIDTH] = right[i] - left[i] + 1;
+    s[cv::CC_STAT_HEIGHT] = bottom[i] - top[i] + 1;
+    s[cv::CC_STAT_AREA] = area[i];
+    centroids->at<double>(l, 0) = static_cast<double>(sum_x[i]) / area[i];
+    centroids->at<double>(l, 1) = static_cast<double>(sum_y[i]) / area[i];
   }
   return n;
 }

@@ -10,9 +10,10 @@ namespace texfree {
 // component, as cv::connectedComponentsWithStats(mask, labels, stats, centroids,
 // connectivity, CV_32S), returning the number of labels (background included); the
 // background's row (label 0) is left zero. OpenCV 4.6 gathers the statistics
-// pixel by pixel through a generic visitor; summing them in one scan of the labels is
-// several times faster, which counts for the word and ball extractors that label every
-// frame. Thread-safe (no shared state).
+// pixel by pixel through a generic visitor; summing them run by run is several times
+// faster, which counts for the ball and table finders that label every frame. With
+// 8-connectivity the runs come from LabelMaskRuns and are painted into `labels`; with 4,
+// OpenCV labels and the runs are read back. Thread-safe.
 int ConnectedComponentsWithStats(const cv::Mat &mask, int connectivity, cv::Mat *labels,
                                  cv::Mat *stats, cv::Mat *centroids);
 
