@@ -22,13 +22,6 @@ int OddAtLeast(double v, int minimum) {
   return i | 1;
 }
 
-cv::Mat InkMask(const cv::Mat &smooth, int block, double offset) {
-  cv::Mat ink;
-  cv::adaptiveThreshold(smooth, ink, 255, cv::ADAPTIVE_THRESH_MEAN_C, cv::THRESH_BINARY_INV, block,
-                        offset);
-  return ink;
-}
-
 struct Blob {
   float short_side, long_side,
       angle;  // minimum-area rectangle, angle of the long side
@@ -435,6 +428,23 @@ std::vector<Word> GroupLettersIntoWords(const cv::Mat &ink, double h, double ang
 }
 
 }  // namespace
+
+// The same box mean as cv::adaptiveThreshold; OpenCV then looks each pixel up in a table,
+// which took as long as the mean itself.
+cv::Mat InkMask(const cv::Mat &smooth, int block, double offset) {
+  CV_Assert(smooth.type() == CV_8UC1 && block % 2 == 1 && block > 1);
+  thread_local cv::Mat mean;
+  cv::boxFilter(smooth, mean, CV_8U, cv::Size(block, block), cv::Point(-1, -1), true,
+                cv::BORDER_REPLICATE | cv::BORDER_ISOLATED);
+  const int delta = cvFloor(offset);
+  cv::Mat ink(smooth.size(), CV_8UC1);
+  for (int y = 0; y < smooth.rows; ++y) {
+    const uchar *s = smooth.ptr<uchar>(y), *m = mean.ptr<uchar>(y);
+    uchar *d = ink.ptr<uchar>(y);
+    for (int x = 0; x < smooth.cols; ++x) d[x] = m[x] - s[x] >= delta ? 255 : 0;
+  }
+  return ink;
+}
 
 absl::Status WordKeypointOptions::Validate() const {
   if (threshold_offset < 0 || threshold_offset > 128)

@@ -93,6 +93,12 @@ struct TextGeometry {
   double text_angle_rad = 0;  // text line direction
 };
 
+// Ink of a CV_8UC1 image: 255 where a pixel is darker than the mean of the block x block
+// window around it (replicated borders) by at least floor(offset), else 0. The same mask as
+// cv::adaptiveThreshold(gray, ink, 255, ADAPTIVE_THRESH_MEAN_C, THRESH_BINARY_INV, block,
+// offset), made in one vectorised pass after the box mean. `block` is odd and > 1.
+cv::Mat InkMask(const cv::Mat &gray, int block, double offset);
+
 struct WordKeypoints {
   std::vector<cv::Point2f> points;
   double char_height = 0;     // estimated character height, pixels

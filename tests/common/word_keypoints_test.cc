@@ -302,6 +302,30 @@ TEST(WordKeypointsTest, BlankPageGivesAlmostNoKeypoints) {
   EXPECT_TRUE(extractor.Extract(cv::Mat(200, 300, CV_8UC1, cv::Scalar(255))).points.empty());
 }
 
+// InkMask is OpenCV's adaptive mean threshold, pixel for pixel: small and large windows
+// (OpenCV sums small ones in 16 bits), fractional offsets, a view's noise and uneven light.
+TEST(WordKeypointsTest, InkMaskIsOpenCvsAdaptiveMeanThreshold) {
+  const cv::Mat page = Gray(1);
+  testdata::CameraViewOptions options;
+  options.tilt_deg = 30;
+  options.noise_sigma = 4;
+  options.illumination_gradient = 0.4;
+  const cv::Mat view = ToGray(testdata::RenderCameraView(Page(1).image, options, 3).image);
+  for (const cv::Mat &gray : {page(cv::Rect(0, 0, 333, 251)), view}) {
+    for (int block : {3, 7, 15, 17, 31, 61, 101}) {
+      for (double offset : {0.0, 4.5, 8.0, 20.0}) {
+        cv::Mat want;
+        cv::adaptiveThreshold(gray, want, 255, cv::ADAPTIVE_THRESH_MEAN_C, cv::THRESH_BINARY_INV,
+                              block, offset);
+        const cv::Mat got = InkMask(gray, block, offset);
+        ASSERT_EQ(got.size(), want.size());
+        EXPECT_EQ(cv::countNonZero(got != want), 0) << "block " << block << " offset " << offset;
+        EXPECT_GT(cv::countNonZero(got), 0);
+      }
+    }
+  }
+}
+
 TEST(WordKeypointsTest, OptionsValidate) {
   EXPECT_TRUE(WordKeypointOptions().Validate().ok());
   WordKeypointOptions o;
