@@ -1,4 +1,5 @@
-// ConnectedComponentsWithStats: OpenCV's labelling, statistics summed in one scan.
+// Connected components of binary masks: run labelling (LabelMaskRuns), statistics summed per
+// run (ConnectedComponentsWithStats) and the components' minimum-area rectangles.
 #include "common/connected_components.h"
 
 #include <algorithm>
@@ -11,70 +12,68 @@
 #include <vector>
 
 namespace texfree {
+namespace {
+
+// A component's box, pixel count and coordinate sums, gathered run by run.
+struct RunStats {
+  int left = INT_MAX, top = INT_MAX, right = -1, bottom = -1, area = 0;
+  int64_t sum_x = 0, sum_y = 0;
+  void Add(int y, int x0, int x1) {
+    const int length = x1 - x0 + 1;
+    left = std::min(left, x0);
+    right = std::max(right, x1);
+    top = std::min(top, y);
+    bottom = std::max(bottom, y);
+    area += length;
+    sum_x += static_cast<int64_t>(x0 + x1) * length / 2;  // x0 + x1 and length: not both odd
+    sum_y += static_cast<int64_t>(y) * length;
+  }
+};
+
+}  // namespace
 
 int ConnectedComponentsWithStats(const cv::Mat &mask, int connectivity, cv::Mat *labels,
                                  cv::Mat *stats, cv::Mat *centroids) {
-  int n = 0;
-  std::vector<int> left, top, right, bottom, area;
-  std::vector<int64_t> sum_x, sum_y;
-  const auto start = [&](int count) {
-    n = count;
-    left.assign(static_cast<size_t>(n), INT32_MAX);
-    top.assign(static_cast<size_t>(n), INT32_MAX);
-    right.assign(static_cast<size_t>(n), -1);
-    bottom.assign(static_cast<size_t>(n), -1);
-    area.assign(static_cast<size_t>(n), 0);
-    sum_x.assign(static_cast<size_t>(n), 0);
-    sum_y.assign(static_cast<size_t>(n), 0);
-  };
-  // Adds the run x0..x1 of row y to label l's statistics.
-  const auto add_run = [&](size_t l, int y, int x0, int x1) {
-    const int length = x1 - x0 + 1;
-    left[l] = std::min(left[l], x0);
-    right[l] = std::max(right[l], x1);
-    top[l] = std::min(top[l], y);
-    bottom[l] = std::max(bottom[l], y);
-    area[l] += length;
-    sum_x[l] += static_cast<int64_t>(x0 + x1) * length / 2;  // x0 + x1 and length: not both odd
-    sum_y[l] += static_cast<int64_t>(y) * length;
-  };
+  std::vector<RunStats> sums;
   if (connectivity == 8 && mask.type() == CV_8UC1) {
     // Runs, numbered as OpenCV numbers its labels, painted into the label image.
     thread_local std::vector<MaskRun> runs;
-    start(LabelMaskRuns(mask, &runs) + 1);
+    sums.assign(static_cast<size_t>(LabelMaskRuns(mask, &runs)) + 1, RunStats());
     labels->create(mask.size(), CV_32S);
     labels->setTo(0);
     for (const MaskRun &r : runs) {
       int *row = labels->ptr<int>(r.y);
       std::fill(row + r.x0, row + r.x1 + 1, r.component + 1);
-      add_run(static_cast<size_t>(r.component) + 1, r.y, r.x0, r.x1);
+      sums[static_cast<size_t>(r.component) + 1].Add(r.y, r.x0, r.x1);
     }
   } else {
-    start(cv::connectedComponents(mask, *labels, connectivity, CV_32S));
+    sums.assign(static_cast<size_t>(cv::connectedComponents(mask, *labels, connectivity, CV_32S)),
+                RunStats());
     for (int y = 0; y < labels->rows; ++y) {
       const int *row = labels->ptr<int>(y);
       for (int x0 = 0; x0 < labels->cols;) {
         const int l = row[x0];
         int x1 = x0;
         while (x1 + 1 < labels->cols && row[x1 + 1] == l) ++x1;
-        if (l != 0) add_run(static_cast<size_t>(l), y, x0, x1);
+        if (l != 0) sums[static_cast<size_t>(l)].Add(y, x0, x1);
         x0 = x1 + 1;
       }
     }
   }
+  const int n = static_cast<int>(sums.size());
   *stats = cv::Mat::zeros(n, cv::CC_STAT_MAX, CV_32S);
   *centroids = cv::Mat::zeros(n, 2, CV_64F);
   // Labels are numbered 1..n-1 without gaps: each has pixels.
   for (int l = 1; l < n; ++l) {
-    const size_t i = static_cast<size_t>(l);
+    const RunStats &c = sums[static_cast<size_t>(l)];
     int *s = stats->ptr<int>(l);
-    s[cv::CC_STAT_LEFT] = left[i];
-    s[cv::CC_STAT_TOP] = top[i];
-    s[cv::CC_STAT_WIDTH] = right[i] - left[i] + 1;
-    s[cv::CC_STAT_HEIGHT] = bottom[i] - top[i] + 1;
-    s[cv::CC_STAT_AREA] = area[i];
-    centroids->at<double>(l, 0) = static_cast<double>(sum_x[i]) / area[i];
-    centroids->at<double>(l, 1) = static_cast<double>(sum_y[i]) / area[i];
+    s[cv::CC_STAT_LEFT] = c.left;
+    s[cv::CC_STAT_TOP] = c.top;
+    s[cv::CC_STAT_WIDTH] = c.right - c.left + 1;
+    s[cv::CC_STAT_HEIGHT] = c.bottom - c.top + 1;
+    s[cv::CC_STAT_AREA] = c.area;
+    centroids->at<double>(l, 0) = static_cast<double>(c.sum_x) / c.area;
+    centroids->at<double>(l, 1) = static_cast<double>(c.sum_y) / c.area;
   }
   return n;
 }
@@ -237,35 +236,28 @@ int LabelMaskRuns(const cv::Mat &mask, std::vector<MaskRun> *runs) {
 
 std::vector<cv::RotatedRect> ComponentMinAreaRects(const cv::Mat &mask, double min_short_side) {
   thread_local std::vector<MaskRun> runs;
-  thread_local std::vector<int> left, right, top, bottom, first_extent, row_min, row_max;
+  thread_local std::vector<RunStats> boxes;
+  thread_local std::vector<int> first_extent, row_min, row_max;
   thread_local std::vector<cv::Point> ends, hull;
   const size_t count = static_cast<size_t>(LabelMaskRuns(mask, &runs));
-  left.assign(count, INT_MAX);
-  right.assign(count, -1);
-  top.assign(count, -1);
-  bottom.assign(count, -1);
-  for (const MaskRun &r : runs) {
-    const size_t c = static_cast<size_t>(r.component);
-    if (top[c] < 0) top[c] = r.y;
-    bottom[c] = r.y;
-    left[c] = std::min(left[c], r.x0);
-    right[c] = std::max(right[c], r.x1);
-  }
+  boxes.assign(count, RunStats());
+  for (const MaskRun &r : runs) boxes[static_cast<size_t>(r.component)].Add(r.y, r.x0, r.x1);
   // Each kept component gets one slot per row for the row's end pixels.
   const double min_box = 0.999 * min_short_side * min_short_side;
   first_extent.assign(count, -1);
   int extents = 0;
   for (size_t c = 0; c < count; ++c) {
-    if (static_cast<double>(right[c] - left[c]) * (bottom[c] - top[c]) < min_box) continue;
+    const RunStats &b = boxes[c];
+    if (static_cast<double>(b.right - b.left) * (b.bottom - b.top) < min_box) continue;
     first_extent[c] = extents;
-    extents += bottom[c] - top[c] + 1;
+    extents += b.bottom - b.top + 1;
   }
   row_min.assign(static_cast<size_t>(extents), INT_MAX);
   row_max.assign(static_cast<size_t>(extents), -1);
   for (const MaskRun &r : runs) {
     const size_t c = static_cast<size_t>(r.component);
     if (first_extent[c] < 0) continue;
-    const size_t i = static_cast<size_t>(first_extent[c] + r.y - top[c]);
+    const size_t i = static_cast<size_t>(first_extent[c] + r.y - boxes[c].top);
     row_min[i] = std::min(row_min[i], r.x0);
     row_max[i] = std::max(row_max[i], r.x1);
   }
@@ -273,8 +265,8 @@ std::vector<cv::RotatedRect> ComponentMinAreaRects(const cv::Mat &mask, double m
   for (size_t c = 0; c < count; ++c) {
     if (first_extent[c] < 0) continue;
     ends.clear();
-    for (int y = top[c]; y <= bottom[c]; ++y) {
-      const size_t i = static_cast<size_t>(first_extent[c] + y - top[c]);
+    for (int y = boxes[c].top; y <= boxes[c].bottom; ++y) {
+      const size_t i = static_cast<size_t>(first_extent[c] + y - boxes[c].top);
       ends.emplace_back(row_min[i], y);
       if (row_max[i] != row_min[i]) ends.emplace_back(row_max[i], y);
     }
