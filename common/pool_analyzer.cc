@@ -58,9 +58,9 @@ cv::Point2d PoolAnalyzer::Project(const PlanarPose& pose, const cv::Vec3d& point
 }
 
 cv::Mat PoolAnalyzer::EmptyTable() const {
-  if (!undistorter_ || last_ideal_.empty()) return {};
-  return EmptyTableBackground(last_ideal_, undistorter_->camera().K, last_pose_, profile_,
-                              last_balls_);
+  if (!undistorter_ || last_working_.empty()) return {};
+  return EmptyTableBackground(undistorter_->Undistort(last_working_), undistorter_->camera().K,
+                              last_pose_, profile_, last_balls_);
 }
 
 double ArrangementDistance(const std::vector<PoolBall>& balls,
@@ -92,15 +92,17 @@ absl::StatusOr<PoolAnalysis> PoolAnalyzer::Analyze(const cv::Mat& bgr,
     t0 = SteadyClock::now();
   }
   const cv::Matx33d& K = undistorter_->camera().K;
-  last_ideal_ = undistorter_->Undistort(reduced.empty() ? bgr : reduced);
+  last_working_ = reduced.empty() ? bgr : reduced;
+  // Undistorted at half resolution now, at full resolution around the table as it is found.
+  IdealView ideal(*undistorter_, last_working_, &ideal_storage_);
   analysis.timings_ms.emplace_back("undistort", MillisecondsSince(t0));
   t0 = SteadyClock::now();
   ASSIGN_OR_RETURN(PoolTableDetection table,
-                   DetectPoolTable(last_ideal_, K, profile_, options_.table));
+                   DetectPoolTable(&ideal, K, profile_, options_.table));
   analysis.timings_ms.emplace_back("table", MillisecondsSince(t0));
   t0 = SteadyClock::now();
   std::vector<PoolDetectedBall> detected = DetectPoolBalls(
-      last_ideal_, K, table.pose, profile_, table.cloth_bgr, options_.balls, &light_gains_);
+      &ideal, K, table.pose, profile_, table.cloth_bgr, options_.balls, &light_gains_);
   analysis.timings_ms.emplace_back("balls", MillisecondsSince(t0));
   PlanarPose pose = table.pose;
   const double L = profile_.length_mm, W = profile_.width_mm;

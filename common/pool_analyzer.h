@@ -78,7 +78,8 @@ class PoolAnalyzer {
   cv::Point2d Project(const PlanarPose& pose, const cv::Vec3d& point_mm) const;
 
   // Figure 4.10 for the last analysed image: the table without its balls (undistorted, at
-  // the working size: max_working_pixels).
+  // the working size: max_working_pixels). It reads the image passed to Analyze, which must
+  // not have been overwritten since.
   cv::Mat EmptyTable() const;
 
   const PoolTableProfile& profile() const { return profile_; }
@@ -101,7 +102,10 @@ class PoolAnalyzer {
   PoolAnalyzerOptions options_;
   std::optional<PoolUndistorter> undistorter_;  // for the current working size
   cv::Size image_size_;                         // of the image as passed
-  cv::Mat last_ideal_;
+  // The last picture at the working size (distorted; EmptyTable undistorts it whole), and
+  // the buffer its ideal image is remapped into, kept from frame to frame.
+  cv::Mat last_working_;
+  cv::Mat ideal_storage_;
   PlanarPose last_pose_;
   std::vector<PoolDetectedBall> last_balls_;
   cv::Vec3f light_gains_{1, 1, 1};  // the white balance found on an earlier picture

@@ -57,6 +57,36 @@ std::vector<cv::Point> TableOutlinePx(const PlanarPose& pose, const cv::Matx33d&
   return corners;
 }
 
+// Where balls can be seen: the bounding box of the playing surface from the cloth up to a
+// ball's height, in the image. `hull` (optional) receives the convex outline.
+cv::Rect BallSearchRect(const PlanarPose& pose, const cv::Matx33d& K, double L, double W,
+                        double r, const cv::Size& image_size,
+                        std::vector<cv::Point>* hull = nullptr) {
+  std::vector<cv::Point> hull_points = TableOutlinePx(pose, K, L, W, 0);
+  for (const cv::Point& p : TableOutlinePx(pose, K, L, W, 2 * r)) hull_points.push_back(p);
+  std::vector<cv::Point> own;
+  std::vector<cv::Point>& out = hull ? *hull : own;
+  cv::convexHull(hull_points, out);
+  return cv::boundingRect(out) & cv::Rect(0, 0, image_size.width, image_size.height);
+}
+
+// Radius of the light blur DetectPoolBallsOnce reads the picture through (sigma 0.8 gives
+// OpenCV's 7-tap kernel for 8-bit images).
+constexpr double kOutlineBlurSigma = 0.8;
+constexpr int kOutlineBlurRadius = 3;
+
+// How far beyond BallSearchRect the ball finder reads pixels: the box of a ball is at most
+// its apparent radius (SilhouetteScorer::Box) from the ball, and the local cloth and the
+// colour distance are read up to half a box beyond it; plus the blur's reach.
+int BallReadMarginPx(const PlanarPose& pose, const cv::Matx33d& K, double L, double W, double r) {
+  // The nearest a ball's centre can be to the camera: the table point under it.
+  const cv::Vec3d c = CameraCentre(pose);
+  const cv::Vec3d nearest(std::clamp(c[0], 0.0, L), std::clamp(c[1], 0.0, W), r);
+  const double distance = std::max(1e-9, cv::norm(nearest - c));
+  const double box_half = 1.35 * K(0, 0) * r / distance + 2.5 + 1;
+  return static_cast<int>(std::ceil(box_half)) + kOutlineBlurRadius + 2;
+}
+
 // The ball-ness of every pixel in `roi` (0 = cloth, 1 = ball), soft around the
 // thresholds so that sub-pixel fitting sees a continuous image.
 // `dark_counts` false: by colour alone (a shadow on the cloth is dark, never coloured).
@@ -1149,9 +1179,10 @@ constexpr double kMinWhiteShare = 0.2;
 constexpr size_t kMinWhitePixels = 10;
 constexpr double kMaxWhiteSaturation = 0.4;
 
-// One pass of DetectPoolBalls on the picture as given.
-std::vector<PoolDetectedBall> DetectPoolBallsOnce(const cv::Mat& image, const cv::Matx33d& K,
-                                                  const PlanarPose& pose,
+// One pass of DetectPoolBalls on the picture as given, whose pixels are valid (the ideal
+// image's) inside `valid` only.
+std::vector<PoolDetectedBall> DetectPoolBallsOnce(const cv::Mat& image, const cv::Rect& valid,
+                                                  const cv::Matx33d& K, const PlanarPose& pose,
                                                   const PoolTableProfile& profile,
                                                   const cv::Vec3b& cloth_bgr,
                                                   const PoolBallOptions& options) {
@@ -1163,18 +1194,32 @@ std::vector<PoolDetectedBall> DetectPoolBallsOnce(const cv::Mat& image, const cv
   // other large buffers were given back to the kernel and faulted in again each time
   // (112,000 page faults over the pool benchmark's 60 frames, 67,000 with this). Nothing
   // keeps a reference to it past this call.
+  if (valid.area() <= 0) return {};
   thread_local cv::Mat blurred;
-  cv::GaussianBlur(image, blurred, cv::Size(0, 0), 0.8);
+  const cv::Rect whole(0, 0, image.cols, image.rows);
+  // The pixels that are read: those the blur gives exactly as on the whole picture (its
+  // radius inside `valid`, except along the picture's own border).
+  cv::Rect image_rect = valid;
+  if (valid != whole) {
+    // OpenCV blurs a part of a picture by another path than a whole one (it differs by a
+    // grey level in a few pixels in a hundred); a copy of the part is blurred like a whole.
+    blurred.create(image.size(), image.type());
+    cv::Mat out = blurred(valid);
+    cv::GaussianBlur(image(valid).clone(), out, cv::Size(0, 0), kOutlineBlurSigma);
+    const int d = kOutlineBlurRadius;
+    const int x0 = valid.x > 0 ? valid.x + d : 0, y0 = valid.y > 0 ? valid.y + d : 0;
+    const int x1 = valid.br().x < whole.width ? valid.br().x - d : whole.width;
+    const int y1 = valid.br().y < whole.height ? valid.br().y - d : whole.height;
+    image_rect = cv::Rect(x0, y0, std::max(0, x1 - x0), std::max(0, y1 - y0));
+  } else {
+    cv::GaussianBlur(image, blurred, cv::Size(0, 0), kOutlineBlurSigma);
+  }
   const cv::Mat& bgr = blurred;
   const double cloth_intensity = (cloth[0] + cloth[1] + cloth[2]) / 3;
   // Where balls can be seen: the playing surface from the cloth up to a ball's height,
   // without the pockets.
-  std::vector<cv::Point> hull_points = TableOutlinePx(pose, K, L, W, 0);
-  for (const cv::Point& p : TableOutlinePx(pose, K, L, W, 2 * r)) hull_points.push_back(p);
   std::vector<cv::Point> hull;
-  cv::convexHull(hull_points, hull);
-  const cv::Rect image_rect(0, 0, bgr.cols, bgr.rows);
-  const cv::Rect roi = cv::boundingRect(hull) & image_rect;
+  const cv::Rect roi = BallSearchRect(pose, K, L, W, r, image.size(), &hull) & image_rect;
   if (roi.area() <= 0) return {};
   cv::Mat region = cv::Mat::zeros(roi.size(), CV_8UC1);
   std::vector<cv::Point> shifted;
@@ -2206,12 +2251,15 @@ cv::Vec3f BallWhiteGains(const cv::Mat& image, const std::vector<PoolDetectedBal
 
 }  // namespace
 
-std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Matx33d& K,
-                                              const PlanarPose& pose,
-                                              const PoolTableProfile& profile,
-                                              const cv::Vec3b& cloth_bgr,
-                                              const PoolBallOptions& options,
-                                              cv::Vec3f* light_gains) {
+namespace {
+
+// DetectPoolBalls on a picture whose pixels are valid inside `valid` only.
+std::vector<PoolDetectedBall> DetectPoolBallsIn(const cv::Mat& image, const cv::Rect& valid,
+                                                const cv::Matx33d& K, const PlanarPose& pose,
+                                                const PoolTableProfile& profile,
+                                                const cv::Vec3b& cloth_bgr,
+                                                const PoolBallOptions& options,
+                                                cv::Vec3f* light_gains) {
   const bool balance = options.white_balance_min_cast > 0;
   const cv::Vec3f prior = balance && light_gains ? *light_gains : cv::Vec3f(1, 1, 1);
   const auto balanced_cloth = [&](const cv::Vec3f& gains) {
@@ -2221,14 +2269,15 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
   };
   const auto balanced_image = [&](const cv::Vec3f& gains) {
     if (gains == cv::Vec3f(1, 1, 1)) return image;
-    cv::Mat balanced;
-    cv::multiply(image, cv::Scalar(gains[0], gains[1], gains[2]), balanced);
+    cv::Mat balanced(image.size(), image.type());
+    cv::Mat part = balanced(valid);
+    cv::multiply(image(valid), cv::Scalar(gains[0], gains[1], gains[2]), part);
     return balanced;
   };
   const cv::Mat seen = balanced_image(prior);
   const cv::Vec3b seen_cloth = balanced_cloth(prior);
   std::vector<PoolDetectedBall> balls =
-      DetectPoolBallsOnce(seen, K, pose, profile, seen_cloth, options);
+      DetectPoolBallsOnce(seen, valid, K, pose, profile, seen_cloth, options);
   if (!balance) return balls;
   // Two witnesses of the light's colour must agree: the white of the balls, and the cloth
   // measured on the picture against the profile's cloth colour. The white of one small
@@ -2243,8 +2292,37 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
     return balls;
   const cv::Vec3f gains = prior.mul(residual);
   if (light_gains) *light_gains = gains;
-  return DetectPoolBallsOnce(balanced_image(gains), K, pose, profile, balanced_cloth(gains),
-                             options);
+  return DetectPoolBallsOnce(balanced_image(gains), valid, K, pose, profile,
+                             balanced_cloth(gains), options);
+}
+
+}  // namespace
+
+std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Matx33d& K,
+                                              const PlanarPose& pose,
+                                              const PoolTableProfile& profile,
+                                              const cv::Vec3b& cloth_bgr,
+                                              const PoolBallOptions& options,
+                                              cv::Vec3f* light_gains) {
+  return DetectPoolBallsIn(image, cv::Rect(0, 0, image.cols, image.rows), K, pose, profile,
+                           cloth_bgr, options, light_gains);
+}
+
+std::vector<PoolDetectedBall> DetectPoolBalls(IdealView* view, const cv::Matx33d& K,
+                                              const PlanarPose& pose,
+                                              const PoolTableProfile& profile,
+                                              const cv::Vec3b& cloth_bgr,
+                                              const PoolBallOptions& options,
+                                              cv::Vec3f* light_gains) {
+  const double L = profile.length_mm, W = profile.width_mm, r = profile.ball_radius_mm;
+  const cv::Rect search = BallSearchRect(pose, K, L, W, r, view->full().size());
+  if (search.area() > 0) {
+    const int margin = BallReadMarginPx(pose, K, L, W, r);
+    view->Require({search.x - margin, search.y - margin, search.width + 2 * margin,
+                   search.height + 2 * margin});
+  }
+  return DetectPoolBallsIn(view->full(), view->valid(), K, pose, profile, cloth_bgr, options,
+                           light_gains);
 }
 
 cv::Mat EmptyTableBackground(const cv::Mat& bgr, const cv::Matx33d& K, const PlanarPose& pose,

@@ -240,6 +240,16 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& ideal_bgr, const cv
                                               const PoolBallOptions& options = {},
                                               cv::Vec3f* light_gains = nullptr);
 
+class IdealView;
+// The same on a picture undistorted on demand (pool_table.h): makes valid the part of
+// view->full() around the table that the balls are looked for in, and reads only that.
+std::vector<PoolDetectedBall> DetectPoolBalls(IdealView* view, const cv::Matx33d& K,
+                                              const PlanarPose& pose,
+                                              const PoolTableProfile& profile,
+                                              const cv::Vec3b& cloth_bgr,
+                                              const PoolBallOptions& options = {},
+                                              cv::Vec3f* light_gains = nullptr);
+
 // Seed eq. 4.3 and the nearest-colour votes: a score for each number 0..9.
 // `white_outward` as PoolDetectedBall's (0: no information on where the white lies).
 std::array<double, 10> PoolNumberScores(const PoolVotes& votes, const PoolBallOptions& options,

@@ -112,11 +112,15 @@ cv::Vec3f Bilinear(const cv::Mat& bgr, double x, double y) {
 // edge is for any symmetric blur. Chromaticity, not colour: a cushion face seen beyond
 // the cloth at a grazing angle is cloth in shade, as dark as the rail but of the cloth's
 // hue, and the cloth-covered cushion top beyond it may be only a pixel or two wide.
+// Farther out than in: the outside plateau must be the rail, past a cushion face and top
+// that the outline may have cut short.
+constexpr double kEdgeInner = 5.0, kEdgeOuter = 7.0;
+// How far from the sides EdgePoints reads pixels (its bilinear samples take the next pixel).
+constexpr int kEdgeReachPx = static_cast<int>(kEdgeOuter) + 2;
+
 std::vector<cv::Point2d> EdgePoints(const cv::Mat& bgr, const cv::Point2d& a, const cv::Point2d& b,
                                     const cv::Point2d& outward, const cv::Vec3f& cloth) {
-  // Farther out than in: the outside plateau must be the rail, past a cushion face and
-  // top that the outline may have cut short.
-  constexpr double kInner = 5.0, kOuter = 7.0, kStep = 0.5;
+  constexpr double kInner = kEdgeInner, kOuter = kEdgeOuter, kStep = 0.5;
   // The colour crossing stands for the chromaticity crossing when this close (pixels).
   constexpr double kColourSnapPx = 1.0;
   constexpr int kSamples = static_cast<int>((kInner + kOuter) / kStep) + 1;
@@ -300,6 +304,11 @@ PoolUndistorter::PoolUndistorter(const CameraModel& camera) : camera_(camera) {
   if (camera_.has_distortion() && camera_.size.area() > 0) {
     cv::initUndistortRectifyMap(cv::Mat(camera_.K), cv::Mat(camera_.distortion), cv::Mat(),
                                 cv::Mat(camera_.K), camera_.size, CV_16SC2, map1_, map2_);
+    const cv::Matx33d half_K(camera_.K(0, 0) / 2, camera_.K(0, 1) / 2, camera_.K(0, 2) / 2, 0,
+                             camera_.K(1, 1) / 2, camera_.K(1, 2) / 2, 0, 0, 1);
+    const cv::Size half_size((camera_.size.width + 1) / 2, (camera_.size.height + 1) / 2);
+    cv::initUndistortRectifyMap(cv::Mat(half_K), cv::Mat(camera_.distortion), cv::Mat(),
+                                cv::Mat(half_K), half_size, CV_16SC2, half_map1_, half_map2_);
   }
 }
 
@@ -308,6 +317,74 @@ cv::Mat PoolUndistorter::Undistort(const cv::Mat& bgr) const {
   cv::Mat out;
   cv::remap(bgr, out, map1_, map2_, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
   return out;
+}
+
+void PoolUndistorter::UndistortRect(const cv::Mat& bgr, const cv::Rect& rect,
+                                    cv::Mat* ideal) const {
+  const cv::Rect r = rect & cv::Rect(0, 0, bgr.cols, bgr.rows);
+  if (r.area() <= 0) return;
+  cv::Mat out = (*ideal)(r);  // a view of *ideal: remap writes in place
+  if (map1_.empty() || bgr.size() != camera_.size) {
+    bgr(r).copyTo(out);
+    return;
+  }
+  // Each output pixel depends only on its own map entry, so a part of the maps gives
+  // exactly the pixels of the whole remap.
+  cv::remap(bgr, out, map1_(r), map2_(r), cv::INTER_LINEAR, cv::BORDER_REPLICATE);
+}
+
+cv::Mat PoolUndistorter::UndistortHalf(const cv::Mat& half_bgr) const {
+  if (half_map1_.empty() || half_bgr.size() != half_map1_.size()) return half_bgr;
+  cv::Mat out;
+  cv::remap(half_bgr, out, half_map1_, half_map2_, cv::INTER_LINEAR, cv::BORDER_REPLICATE);
+  return out;
+}
+
+IdealView::IdealView(const PoolUndistorter& undistorter, const cv::Mat& distorted_bgr,
+                     cv::Mat* storage)
+    : distorted_(distorted_bgr) {
+  cv::Mat half_distorted;
+  cv::pyrDown(distorted_bgr, half_distorted);
+  if (!undistorter.camera().has_distortion() ||
+      distorted_bgr.size() != undistorter.camera().size) {
+    full_ = distorted_bgr;
+    half_ = half_distorted;
+    valid_ = image_rect();
+    return;
+  }
+  undistorter_ = &undistorter;
+  half_ = undistorter.UndistortHalf(half_distorted);
+  cv::Mat own;
+  cv::Mat& buffer = storage ? *storage : own;
+  buffer.create(distorted_bgr.size(), distorted_bgr.type());  // kept when it fits already
+  full_ = buffer;
+}
+
+IdealView::IdealView(const cv::Mat& ideal_bgr) : distorted_(ideal_bgr), full_(ideal_bgr) {
+  cv::pyrDown(ideal_bgr, half_);
+  valid_ = image_rect();
+}
+
+void IdealView::Require(const cv::Rect& rect) {
+  const cv::Rect want = rect & image_rect();
+  if (want.area() <= 0 || (want & valid_) == want) return;
+  if (valid_.area() <= 0) {
+    undistorter_->UndistortRect(distorted_, want, &full_);
+    valid_ = want;
+    return;
+  }
+  // The bounding box minus the valid rectangle: up to four strips.
+  const cv::Rect box = want | valid_;
+  const cv::Rect v = valid_;
+  const cv::Rect strips[4] = {
+      {box.x, box.y, box.width, v.y - box.y},                             // above
+      {box.x, v.y + v.height, box.width, box.y + box.height - v.y - v.height},  // below
+      {box.x, v.y, v.x - box.x, v.height},                                // left
+      {v.x + v.width, v.y, box.x + box.width - v.x - v.width, v.height},  // right
+  };
+  for (const cv::Rect& strip : strips)
+    if (strip.width > 0 && strip.height > 0) undistorter_->UndistortRect(distorted_, strip, &full_);
+  valid_ = box;
 }
 
 cv::Point2d PoolUndistorter::Distort(const cv::Point2d& ideal) const {
@@ -371,12 +448,13 @@ std::vector<cv::Vec3f> DominantColours(const cv::Mat& small, double min_fraction
 }
 
 // The table found from a cloth colour `seed` (the wide search's centre): steps 1-8 below.
-absl::StatusOr<PoolTableDetection> DetectPoolTableFrom(const cv::Mat& bgr, const cv::Mat& small,
-                                                       const cv::Matx33d& K,
+absl::StatusOr<PoolTableDetection> DetectPoolTableFrom(IdealView* view, const cv::Matx33d& K,
                                                        const PoolTableProfile& profile,
                                                        const PoolTableOptions& options,
                                                        const cv::Vec3f& seed) {
   PoolTableDetection det;
+  const cv::Mat& small = view->half();
+  const cv::Mat& bgr = view->full();  // valid only where view->Require made it so
   // 1. Wide search for the cloth, then its colour measured on this image.
   int area = 0;
   cv::Mat region = LargestRegion(AngleMask(small, seed, options.search_angle_deg, 45), &area);
@@ -533,6 +611,11 @@ absl::StatusOr<PoolTableDetection> DetectPoolTableFrom(const cv::Mat& bgr, const
   // The edge points of the last pass that lie on their side's line, for the pose.
   std::vector<cv::Point2f> side_points;
   for (int pass = 0; pass < 2; ++pass) {
+    // EdgePoints' profiles reach kEdgeReachPx beyond the sides between the corners.
+    std::vector<cv::Point2f> corner_points(corners.begin(), corners.end());
+    const cv::Rect around = cv::boundingRect(corner_points);
+    view->Require({around.x - kEdgeReachPx, around.y - kEdgeReachPx,
+                   around.width + 2 * kEdgeReachPx, around.height + 2 * kEdgeReachPx});
     for (int i = 0; i < 4; ++i) {
       const cv::Point2d a = corners[(i + 3) % 4], b = corners[i];
       const cv::Point2d mid = (a + b) / 2;
@@ -651,12 +734,22 @@ absl::StatusOr<PoolTableDetection> DetectPoolTable(const cv::Mat& bgr, const cv:
   RETURN_IF_ERROR(profile.Validate());
   if (bgr.empty() || bgr.type() != CV_8UC3)
     return absl::InvalidArgumentError("table detection needs an 8-bit BGR image");
+  IdealView view(bgr);
+  return DetectPoolTable(&view, K, profile, options);
+}
+
+absl::StatusOr<PoolTableDetection> DetectPoolTable(IdealView* view, const cv::Matx33d& K,
+                                                   const PoolTableProfile& profile,
+                                                   const PoolTableOptions& options) {
+  RETURN_IF_ERROR(options.Validate());
+  RETURN_IF_ERROR(profile.Validate());
+  if (view->full().empty() || view->full().type() != CV_8UC3)
+    return absl::InvalidArgumentError("table detection needs an 8-bit BGR image");
   // The cloth, its outline and the Hough lines are found at half resolution (four times
   // fewer pixels); the sides are then refined on the full image.
-  cv::Mat small;
-  cv::pyrDown(bgr, small);
+  const cv::Mat& small = view->half();
   const cv::Vec3f profile_cloth(profile.cloth_bgr[0], profile.cloth_bgr[1], profile.cloth_bgr[2]);
-  auto found = DetectPoolTableFrom(bgr, small, K, profile, options, profile_cloth);
+  auto found = DetectPoolTableFrom(view, K, profile, options, profile_cloth);
   if (found.ok() || options.other_cloth_colours == 0) return found;
   // A cloth of another colour than the profile's (blue, red): the image's own dominant
   // colours, each of which must still give a table of the profile's proportions. When none
@@ -664,7 +757,7 @@ absl::StatusOr<PoolTableDetection> DetectPoolTable(const cv::Mat& bgr, const cv:
   for (const cv::Vec3f& colour :
        DominantColours(small, options.min_cloth_fraction, options.other_cloth_colours)) {
     if (ColorAngleDeg(colour, profile_cloth) < options.search_angle_deg) continue;  // tried
-    auto other = DetectPoolTableFrom(bgr, small, K, profile, options, colour);
+    auto other = DetectPoolTableFrom(view, K, profile, options, colour);
     if (!other.ok()) continue;
     other->cloth_not_profile_colour = true;
     return other;

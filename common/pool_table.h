@@ -67,6 +67,13 @@ absl::StatusOr<PoolTableDetection> DetectPoolTable(const cv::Mat& ideal_bgr, con
                                                    const PoolTableProfile& profile,
                                                    const PoolTableOptions& options = {});
 
+class IdealView;
+// The same on a picture undistorted on demand: the cloth and its outline on view->half(),
+// the sides on view->full() around the table, which it makes valid (IdealView::Require).
+absl::StatusOr<PoolTableDetection> DetectPoolTable(IdealView* view, const cv::Matx33d& K,
+                                                   const PoolTableProfile& profile,
+                                                   const PoolTableOptions& options = {});
+
 // Colour angle (degrees) between two BGR colours (seed eq. 4.1).
 double ColorAngleDeg(const cv::Vec3f& a, const cv::Vec3f& b);
 
@@ -85,19 +92,58 @@ cv::Vec3d CameraCentre(const PlanarPose& pose);
 PlanarPose RotateTableFrame(const PlanarPose& pose, double length_mm, double width_mm);
 
 // Undistortion of a camera's images into the ideal pinhole image with the same K, with the
-// remap tables computed once. Not thread-safe to construct; Undistort is const.
+// remap tables (full and half resolution) computed once. Not thread-safe to construct; the
+// const methods are.
 class PoolUndistorter {
  public:
   explicit PoolUndistorter(const CameraModel& camera);
   // Copies (or remaps when the camera has distortion) `bgr` to the ideal image.
   cv::Mat Undistort(const cv::Mat& bgr) const;
+  // Remaps only `rect` of the ideal image into (*ideal)(rect); *ideal must already have
+  // the picture's size and type. The pixels are exactly those Undistort gives there.
+  void UndistortRect(const cv::Mat& bgr, const cv::Rect& rect, cv::Mat* ideal) const;
+  // The ideal image at half resolution from cv::pyrDown of the picture: the half-size
+  // camera (K halved, p_full = 2 p_half as pyrDown keeps every second pixel) undistorted.
+  cv::Mat UndistortHalf(const cv::Mat& half_bgr) const;
   // Ideal pixels -> distorted image pixels.
   cv::Point2d Distort(const cv::Point2d& ideal) const;
   const CameraModel& camera() const { return camera_; }
 
  private:
   CameraModel camera_;
-  cv::Mat map1_, map2_;
+  cv::Mat map1_, map2_;            // full resolution
+  cv::Mat half_map1_, half_map2_;  // half resolution (pyrDown's size)
+};
+
+// One picture's ideal image, undistorted only where the analysis looks. The table is
+// found on the whole picture at half resolution, its sides and balls at full resolution
+// only around the table: remapping a whole 640x480 picture was an eighth of a frame's
+// time, and the table covers a quarter to a half of a typical view. Inside valid(),
+// full() holds exactly PoolUndistorter::Undistort's pixels; outside, whatever `storage`
+// held. Not thread-safe.
+class IdealView {
+ public:
+  // `storage` (optional) receives the full-resolution pixels; when it already has the
+  // picture's size and type its buffer is reused (no allocation, no page faults per
+  // frame). `undistorter` and `distorted_bgr` must outlive the view.
+  IdealView(const PoolUndistorter& undistorter, const cv::Mat& distorted_bgr,
+            cv::Mat* storage = nullptr);
+  // A picture without lens distortion (or undistorted already): every pixel is valid.
+  explicit IdealView(const cv::Mat& ideal_bgr);
+
+  const cv::Mat& half() const { return half_; }
+  const cv::Mat& full() const { return full_; }
+  const cv::Rect& valid() const { return valid_; }
+  cv::Rect image_rect() const { return {0, 0, full_.cols, full_.rows}; }
+  // Makes `rect` (clipped to the picture) valid, remapping the part not valid yet; valid()
+  // becomes the bounding box of the two.
+  void Require(const cv::Rect& rect);
+
+ private:
+  const PoolUndistorter* undistorter_ = nullptr;  // null: the picture is ideal already
+  cv::Mat distorted_;
+  cv::Mat full_, half_;
+  cv::Rect valid_;
 };
 
 }  // namespace texfree

@@ -4,6 +4,8 @@
 // background, the eq. 4.3 number votes, profile validation and colour calibration.
 #include <gtest/gtest.h>
 
+#include <opencv2/imgproc.hpp>
+
 #include <cmath>
 #include <random>
 #include <tuple>
@@ -1270,6 +1272,82 @@ TEST(PoolProfile, CalibrationLearnsClothAndBallColours) {
   auto outside =
       CalibratePoolColors(view.image, cv::Rect(600, 400, 100, 100), {}, BenchPoolProfile());
   EXPECT_EQ(outside.status().code(), absl::StatusCode::kInvalidArgument);
+}
+
+// The ideal image is undistorted only where the analysis looks. What it does remap must be
+// exactly the whole undistortion's pixels, and the balls must not read outside it: the
+// same balls, to the last bit, whatever the unremapped part of the buffer holds.
+TEST(PoolIdealView, RemapsOnlyWhatIsRequiredAndExactly) {
+  const BenchFrame frame = RenderBenchFrame(3);
+  const CameraModel camera = CameraOf(frame.view);
+  ASSERT_TRUE(camera.has_distortion());
+  const PoolUndistorter undistorter(camera);
+  const cv::Mat whole = undistorter.Undistort(frame.view.image);
+  cv::Mat storage(whole.size(), whole.type(), cv::Scalar(0, 0, 0));
+  IdealView view(undistorter, frame.view.image, &storage);
+  EXPECT_EQ(view.full().data, storage.data);  // the buffer passed in is the one written
+  EXPECT_EQ(view.valid().area(), 0);
+  // A middle part, one that overlaps it to the left and below, and one apart from both.
+  const cv::Rect parts[3] = {{200, 150, 120, 90}, {150, 200, 100, 100}, {500, 20, 30, 30}};
+  cv::Rect expected;
+  for (const cv::Rect& part : parts) {
+    view.Require(part);
+    expected = expected.area() > 0 ? (expected | part) : part;
+    ASSERT_EQ(view.valid(), expected);
+    EXPECT_EQ(cv::norm(view.full()(expected), whole(expected), cv::NORM_INF), 0);
+  }
+  // Nothing beyond the bounding box was remapped.
+  cv::Mat outside = cv::Mat::ones(whole.size(), CV_8UC1);
+  outside(expected).setTo(0);
+  cv::Mat untouched;
+  cv::cvtColor(view.full(), untouched, cv::COLOR_BGR2GRAY);
+  EXPECT_EQ(cv::countNonZero(untouched & outside), 0);
+  // Off the picture is clipped.
+  view.Require({600, 400, 200, 200});
+  EXPECT_EQ(view.valid() & cv::Rect(0, 0, whole.cols, whole.rows), view.valid());
+  // The half-resolution picture (pyrDown, then undistorted with the half-size camera)
+  // agrees with the whole undistortion's pyrDown to well under a grey level on average.
+  cv::Mat half_of_whole;
+  cv::pyrDown(whole, half_of_whole);
+  ASSERT_EQ(view.half().size(), half_of_whole.size());
+  const double mean_abs = cv::norm(view.half(), half_of_whole, cv::NORM_L1) /
+                          static_cast<double>(half_of_whole.total() * 3);
+  EXPECT_LT(mean_abs, 0.6);
+}
+
+TEST(PoolIdealView, TableAndBallsFromTheRequiredPartsAreThoseOfTheWholePicture) {
+  for (int index : {3, 8}) {
+    SCOPED_TRACE(index);
+    const BenchFrame frame = RenderBenchFrame(index);
+    const CameraModel camera = CameraOf(frame.view);
+    const PoolTableProfile profile = ProfileFor(frame.scene.table);
+    const PoolUndistorter undistorter(camera);
+    const cv::Mat whole = undistorter.Undistort(frame.view.image);
+    auto table = DetectPoolTable(whole, camera.K, profile);
+    ASSERT_TRUE(table.ok()) << table.status();
+    const std::vector<PoolDetectedBall> reference =
+        DetectPoolBalls(whole, camera.K, table->pose, profile, table->cloth_bgr);
+    ASSERT_GE(reference.size(), 5u);
+    for (uchar fill : {0, 255}) {
+      cv::Mat storage(whole.size(), whole.type(), cv::Scalar::all(fill));
+      IdealView view(undistorter, frame.view.image, &storage);
+      auto lazy_table = DetectPoolTable(&view, camera.K, profile);
+      ASSERT_TRUE(lazy_table.ok()) << lazy_table.status();
+      // Only the half-resolution search differs: the corners agree to a tenth of a pixel.
+      for (int i = 0; i < 4; ++i)
+        EXPECT_LT(cv::norm(lazy_table->cushion_corners[i] - table->cushion_corners[i]), 0.1);
+      const std::vector<PoolDetectedBall> balls =
+          DetectPoolBalls(&view, camera.K, table->pose, profile, table->cloth_bgr);
+      ASSERT_EQ(balls.size(), reference.size());
+      for (size_t i = 0; i < balls.size(); ++i) {
+        EXPECT_EQ(balls[i].number, reference[i].number);
+        EXPECT_EQ(balls[i].x_mm, reference[i].x_mm);
+        EXPECT_EQ(balls[i].y_mm, reference[i].y_mm);
+      }
+      // And it did leave most of the picture alone.
+      EXPECT_LT(view.valid().area(), 0.8 * whole.total());
+    }
+  }
 }
 
 }  // namespace
