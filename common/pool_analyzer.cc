@@ -97,8 +97,7 @@ absl::StatusOr<PoolAnalysis> PoolAnalyzer::Analyze(const cv::Mat& bgr,
   IdealView ideal(*undistorter_, last_working_, &ideal_storage_);
   analysis.timings_ms.emplace_back("undistort", MillisecondsSince(t0));
   t0 = SteadyClock::now();
-  ASSIGN_OR_RETURN(PoolTableDetection table,
-                   DetectPoolTable(&ideal, K, profile_, options_.table));
+  ASSIGN_OR_RETURN(PoolTableDetection table, DetectPoolTable(&ideal, K, profile_, options_.table));
   analysis.timings_ms.emplace_back("table", MillisecondsSince(t0));
   t0 = SteadyClock::now();
   std::vector<PoolDetectedBall> detected = DetectPoolBalls(

@@ -59,9 +59,8 @@ std::vector<cv::Point> TableOutlinePx(const PlanarPose& pose, const cv::Matx33d&
 
 // Where balls can be seen: the bounding box of the playing surface from the cloth up to a
 // ball's height, in the image. `hull` (optional) receives the convex outline.
-cv::Rect BallSearchRect(const PlanarPose& pose, const cv::Matx33d& K, double L, double W,
-                        double r, const cv::Size& image_size,
-                        std::vector<cv::Point>* hull = nullptr) {
+cv::Rect BallSearchRect(const PlanarPose& pose, const cv::Matx33d& K, double L, double W, double r,
+                        const cv::Size& image_size, std::vector<cv::Point>* hull = nullptr) {
   std::vector<cv::Point> hull_points = TableOutlinePx(pose, K, L, W, 0);
   for (const cv::Point& p : TableOutlinePx(pose, K, L, W, 2 * r)) hull_points.push_back(p);
   std::vector<cv::Point> own;
@@ -2292,8 +2291,8 @@ std::vector<PoolDetectedBall> DetectPoolBallsIn(const cv::Mat& image, const cv::
     return balls;
   const cv::Vec3f gains = prior.mul(residual);
   if (light_gains) *light_gains = gains;
-  return DetectPoolBallsOnce(balanced_image(gains), valid, K, pose, profile,
-                             balanced_cloth(gains), options);
+  return DetectPoolBallsOnce(balanced_image(gains), valid, K, pose, profile, balanced_cloth(gains),
+                             options);
 }
 
 }  // namespace
@@ -2308,12 +2307,9 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
                            cloth_bgr, options, light_gains);
 }
 
-std::vector<PoolDetectedBall> DetectPoolBalls(IdealView* view, const cv::Matx33d& K,
-                                              const PlanarPose& pose,
-                                              const PoolTableProfile& profile,
-                                              const cv::Vec3b& cloth_bgr,
-                                              const PoolBallOptions& options,
-                                              cv::Vec3f* light_gains) {
+std::vector<PoolDetectedBall> DetectPoolBalls(
+    IdealView* view, const cv::Matx33d& K, const PlanarPose& pose, const PoolTableProfile& profile,
+    const cv::Vec3b& cloth_bgr, const PoolBallOptions& options, cv::Vec3f* light_gains) {
   const double L = profile.length_mm, W = profile.width_mm, r = profile.ball_radius_mm;
   const cv::Rect search = BallSearchRect(pose, K, L, W, r, view->full().size());
   if (search.area() > 0) {

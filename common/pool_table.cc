@@ -345,8 +345,7 @@ IdealView::IdealView(const PoolUndistorter& undistorter, const cv::Mat& distorte
     : distorted_(distorted_bgr) {
   cv::Mat half_distorted;
   cv::pyrDown(distorted_bgr, half_distorted);
-  if (!undistorter.camera().has_distortion() ||
-      distorted_bgr.size() != undistorter.camera().size) {
+  if (!undistorter.camera().has_distortion() || distorted_bgr.size() != undistorter.camera().size) {
     full_ = distorted_bgr;
     half_ = half_distorted;
     valid_ = image_rect();
@@ -377,10 +376,10 @@ void IdealView::Require(const cv::Rect& rect) {
   const cv::Rect box = want | valid_;
   const cv::Rect v = valid_;
   const cv::Rect strips[4] = {
-      {box.x, box.y, box.width, v.y - box.y},                             // above
+      {box.x, box.y, box.width, v.y - box.y},                                   // above
       {box.x, v.y + v.height, box.width, box.y + box.height - v.y - v.height},  // below
-      {box.x, v.y, v.x - box.x, v.height},                                // left
-      {v.x + v.width, v.y, box.x + box.width - v.x - v.width, v.height},  // right
+      {box.x, v.y, v.x - box.x, v.height},                                      // left
+      {v.x + v.width, v.y, box.x + box.width - v.x - v.width, v.height},        // right
   };
   for (const cv::Rect& strip : strips)
     if (strip.width > 0 && strip.height > 0) undistorter_->UndistortRect(distorted_, strip, &full_);

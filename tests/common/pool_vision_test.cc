@@ -4,9 +4,8 @@
 // background, the eq. 4.3 number votes, profile validation and colour calibration.
 #include <gtest/gtest.h>
 
-#include <opencv2/imgproc.hpp>
-
 #include <cmath>
+#include <opencv2/imgproc.hpp>
 #include <random>
 #include <tuple>
 #include <utility>
