@@ -209,6 +209,41 @@ TEST(PlanarPoseTest, RefinePlanarPoseFromNearbyPoseConverges) {
             absl::StatusCode::kInvalidArgument);
 }
 
+// Without lens distortion the refinement is written out (RefinePinholePose): on noisy
+// pixels it must reach OpenCV's own Levenberg-Marquardt minimum (run to convergence).
+TEST(PlanarPoseTest, PinholeRefinementReachesOpenCvsMinimumOnNoisyPixels) {
+  CameraModel camera;
+  camera.K = cv::Matx33d(700, 0, 330, 0, 690, 235, 0, 0, 1);  // OpenCV projects without skew
+  camera.size = {640, 480};
+  std::mt19937 rng(5);
+  std::normal_distribution<double> noise(0, 0.7);
+  int tested = 0;
+  for (const PlanarPose &truth : Cameras()) {
+    std::vector<cv::Point2f> plane, pixels;
+    VisibleGrid(truth, camera, 40, &plane, &pixels);
+    if (plane.size() < 20) continue;
+    ++tested;
+    for (auto &p : pixels) p += cv::Point2f(noise(rng), noise(rng));
+    PlanarPose initial;
+    initial.R = Rotation(cv::Vec3d(-0.02, 0.03, 0.01)) * truth.R;
+    initial.t = truth.t + cv::Vec3d(-10, 12, 25);
+    auto pose = RefinePlanarPose(plane, pixels, camera, initial);
+    ASSERT_TRUE(pose.ok()) << pose.status();
+    std::vector<cv::Point3f> object;
+    for (const auto &p : plane) object.emplace_back(p.x, p.y, 0.f);
+    cv::Mat rvec, tvec = cv::Mat(initial.t).clone();
+    cv::Rodrigues(cv::Mat(initial.R), rvec);
+    cv::solvePnPRefineLM(object, pixels, cv::Mat(camera.K), cv::Mat(), rvec, tvec,
+                         cv::TermCriteria(cv::TermCriteria::EPS + cv::TermCriteria::COUNT, 100,
+                                          1e-12));
+    cv::Mat R_cv;
+    cv::Rodrigues(rvec, R_cv);
+    EXPECT_LT(RotationErrorDeg(pose->R, cv::Matx33d(R_cv)), 1e-5);
+    EXPECT_LT(cv::norm(pose->t - cv::Vec3d(tvec)), 1e-6 * cv::norm(truth.t));
+  }
+  EXPECT_GE(tested, 12);
+}
+
 TEST(PlanarPoseTest, EstimatePlanarPoseNeedsFourPoints) {
   CameraModel camera;
   camera.K = kK;
