@@ -233,9 +233,9 @@ TEST(PlanarPoseTest, PinholeRefinementReachesOpenCvsMinimumOnNoisyPixels) {
     for (const auto &p : plane) object.emplace_back(p.x, p.y, 0.f);
     cv::Mat rvec, tvec = cv::Mat(initial.t).clone();
     cv::Rodrigues(cv::Mat(initial.R), rvec);
-    cv::solvePnPRefineLM(object, pixels, cv::Mat(camera.K), cv::Mat(), rvec, tvec,
-                         cv::TermCriteria(cv::TermCriteria::EPS + cv::TermCriteria::COUNT, 100,
-                                          1e-12));
+    cv::solvePnPRefineLM(
+        object, pixels, cv::Mat(camera.K), cv::Mat(), rvec, tvec,
+        cv::TermCriteria(cv::TermCriteria::EPS + cv::TermCriteria::COUNT, 100, 1e-12));
     cv::Mat R_cv;
     cv::Rodrigues(rvec, R_cv);
     EXPECT_LT(RotationErrorDeg(pose->R, cv::Matx33d(R_cv)), 1e-5);
