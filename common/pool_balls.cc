@@ -1240,7 +1240,13 @@ std::vector<PoolDetectedBall> DetectPoolBallsOnce(const cv::Mat& image, const cv
     }
   }
   const cv::Mat ballness = BallnessMap(bgr, roi, cloth, options);
-  cv::Mat mask = (ballness > 0.5) & region;
+  cv::Mat mask(roi.size(), CV_8UC1);
+  for (int y = 0; y < roi.height; ++y) {
+    const float* b = ballness.ptr<float>(y);
+    const uchar* in = region.ptr<uchar>(y);
+    uchar* m = mask.ptr<uchar>(y);
+    for (int x = 0; x < roi.width; ++x) m[x] = b[x] > 0.5f && in[x] ? 255 : 0;
+  }
   // Outside the playing volume no ball can be: 0. The pockets are masked out at the cloth
   // and at the cushion top; seen from low on the table's long axis, a ball in front of a
   // side pocket lies partly over that mask. Those pixels say nothing about the ball (they
@@ -1248,10 +1254,19 @@ std::vector<PoolDetectedBall> DetectPoolBallsOnce(const cv::Mat& image, const cv
   // third of its silhouette masked was rejected as half cloth, benchmark frame 53).
   cv::Mat stick;  // the cue stick's pixels (StickPixels), found below
   const auto in_playing_volume = [&](const cv::Mat& map) {
-    cv::Mat out = map.clone();
-    out.setTo(0, playing_volume == 0);
-    out.setTo(kMaskedOut, (region == 0) & (playing_volume != 0));
-    if (!stick.empty()) out.setTo(kMaskedOut, stick);
+    cv::Mat out(map.size(), CV_32FC1);
+    for (int y = 0; y < map.rows; ++y) {
+      const float* in = map.ptr<float>(y);
+      const uchar* volume = playing_volume.ptr<uchar>(y);
+      const uchar* open = region.ptr<uchar>(y);  // the volume without the pockets
+      const uchar* on_stick = stick.empty() ? nullptr : stick.ptr<uchar>(y);
+      float* o = out.ptr<float>(y);
+      for (int x = 0; x < map.cols; ++x)
+        o[x] = on_stick && on_stick[x] ? kMaskedOut
+               : !volume[x]            ? 0.f
+               : !open[x]              ? kMaskedOut
+                                       : in[x];
+    }
     return out;
   };
   cv::Mat ballness_in_region = in_playing_volume(ballness);
