@@ -276,17 +276,43 @@ class SilhouetteScorer {
     const cv::Matx33d Q = SphereSilhouetteConic(pose_, K_, centre, radius_);
     const cv::Rect box = Box(centre);
     const bool near_cushion = NearCushion(xy);
+    // The compass search calls this tens of times per ball. The terms of the ray and of
+    // the conic's gradient that depend on the column alone are taken once per call, the
+    // row's once per row; each sum is formed in the same order as Ray() and Coverage()
+    // form it, so every value is bit for bit theirs.
+    thread_local std::vector<cv::Vec3d> ray_at_column;  // ray0_ + u ray_u_
+    thread_local std::vector<cv::Vec3d> conic_at_column;  // (Q00 u, Q10 u, Q20 u)
+    ray_at_column.resize(std::max(0, box.width));
+    conic_at_column.resize(std::max(0, box.width));
+    for (int i = 0; i < box.width; ++i) {
+      const double u = box.x + i;
+      ray_at_column[i] = ray0_ + u * ray_u_;
+      conic_at_column[i] = {Q(0, 0) * u, Q(1, 0) * u, Q(2, 0) * u};
+    }
+    const cv::Vec3d to_centre = centre - camera_;
+    const double shadow_level = centre[2] - 0.4 * radius_ - camera_[2];
     double score = 0, cov_sum = 0, ball_sum = 0;
     for (int v = box.y; v < box.y + box.height; ++v) {
       const float* b = ballness_.ptr<float>(v - roi_.y);
       const float* cl = claimed_.empty() ? nullptr : claimed_.ptr<float>(v - roi_.y);
+      const cv::Vec3d ray_row = static_cast<double>(v) * ray_v_;
+      const double qv0 = Q(0, 1) * v, qv1 = Q(1, 1) * v, qv2 = Q(2, 1) * v;
       for (int u = box.x; u < box.x + box.width; ++u) {
         const double w = cl ? 1.0 - cl[u - roi_.x] : 1.0;
         if (w <= 0) continue;
         const double bn = b[u - roi_.x];
         if (bn < 0) continue;  // kMaskedOut: a pocket
-        if (!count_shadow_zone_ && InShadowZone(centre, u, v)) continue;
-        const double cov = Coverage(Q, u, v);
+        const int i = u - box.x;
+        if (!count_shadow_zone_) {  // InShadowZone(centre, u, v)
+          const cv::Vec3d d = ray_at_column[i] + ray_row;
+          if (to_centre.dot(d) * d[2] < shadow_level * d.dot(d)) continue;
+        }
+        // Coverage(Q, u, v)
+        const cv::Vec3d& c = conic_at_column[i];
+        const double qx = c[0] + qv0 + Q(0, 2);
+        const double qy = c[1] + qv1 + Q(1, 2);
+        const double qz = c[2] + qv2 + Q(2, 2);
+        const double cov = CoverageFromGradient(qx, qy, qz, u, v);
         if (near_cushion && cov > 0 && HiddenByCushion(centre, u, v)) continue;
         score += w * (2 * cov - 1) * (2 * bn - 1);
         cov_sum += cov * w;
@@ -313,6 +339,10 @@ class SilhouetteScorer {
     const double qx = Q(0, 0) * u + Q(0, 1) * v + Q(0, 2);
     const double qy = Q(1, 0) * u + Q(1, 1) * v + Q(1, 2);
     const double qz = Q(2, 0) * u + Q(2, 1) * v + Q(2, 2);
+    return CoverageFromGradient(qx, qy, qz, u, v);
+  }
+  // Coverage with Q (u, v, 1) given as (qx, qy, qz).
+  static double CoverageFromGradient(double qx, double qy, double qz, double u, double v) {
     const double g = u * qx + v * qy + qz;
     const double grad2 = qx * qx + qy * qy;  // (half the gradient's length)^2
     if (grad2 <= 0) return 0;
