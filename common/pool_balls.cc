@@ -280,7 +280,7 @@ class SilhouetteScorer {
     // the conic's gradient that depend on the column alone are taken once per call, the
     // row's once per row; each sum is formed in the same order as Ray() and Coverage()
     // form it, so every value is bit for bit theirs.
-    thread_local std::vector<cv::Vec3d> ray_at_column;  // ray0_ + u ray_u_
+    thread_local std::vector<cv::Vec3d> ray_at_column;    // ray0_ + u ray_u_
     thread_local std::vector<cv::Vec3d> conic_at_column;  // (Q00 u, Q10 u, Q20 u)
     ray_at_column.resize(std::max(0, box.width));
     conic_at_column.resize(std::max(0, box.width));
