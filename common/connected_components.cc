@@ -35,10 +35,10 @@ struct RunStats {
 int ConnectedComponentsWithStats(const cv::Mat &mask, int connectivity, cv::Mat *labels,
                                  cv::Mat *stats, cv::Mat *centroids) {
   std::vector<RunStats> sums;
-  if (connectivity == 8 && mask.type() == CV_8UC1) {
+  if ((connectivity == 8 || connectivity == 4) && mask.type() == CV_8UC1) {
     // Runs, numbered as OpenCV numbers its labels, painted into the label image.
     thread_local std::vector<MaskRun> runs;
-    sums.assign(static_cast<size_t>(LabelMaskRuns(mask, &runs)) + 1, RunStats());
+    sums.assign(static_cast<size_t>(LabelMaskRuns(mask, &runs, connectivity)) + 1, RunStats());
     labels->create(mask.size(), CV_32S);
     // Row by row with memset: Mat::setTo copies a converted scalar block by block, which
     // took as long as the labelling itself.
@@ -175,8 +175,11 @@ cv::RotatedRect ConvexPolygonMinAreaRect(const std::vector<cv::Point> &hull) {
 
 }  // namespace
 
-int LabelMaskRuns(const cv::Mat &mask, std::vector<MaskRun> *runs) {
+int LabelMaskRuns(const cv::Mat &mask, std::vector<MaskRun> *runs, int connectivity) {
   CV_Assert(mask.type() == CV_8UC1);
+  CV_Assert(connectivity == 4 || connectivity == 8);
+  // Runs touch runs of the row above that overlap them, widened by a pixel for 8.
+  const int reach = connectivity == 8 ? 1 : 0;
   runs->clear();
   thread_local std::vector<int> parent;
   parent.clear();
@@ -196,13 +199,12 @@ int LabelMaskRuns(const cv::Mat &mask, std::vector<MaskRun> *runs) {
       parent.push_back(static_cast<int>(parent.size()));
       x = NextNonZero(row, end, mask.cols);
     }
-    // Runs of this row touch runs of the row above that overlap them widened by a pixel
-    // (8-connectivity); both rows are sorted, so one sweep finds every pair.
+    // Both rows are sorted, so one sweep finds every touching pair.
     size_t above = previous_row;
     for (size_t i = row_start; i < runs->size(); ++i) {
       const MaskRun &r = (*runs)[i];
-      while (above < row_start && (*runs)[above].x1 < r.x0 - 1) ++above;
-      for (size_t j = above; j < row_start && (*runs)[j].x0 <= r.x1 + 1; ++j) {
+      while (above < row_start && (*runs)[above].x1 < r.x0 - reach) ++above;
+      for (size_t j = above; j < row_start && (*runs)[j].x0 <= r.x1 + reach; ++j) {
         // The earlier run's root is kept, so that a component's root is its first run.
         const int a = find(static_cast<int>(i)), b = find(static_cast<int>(j));
         if (a != b) parent[static_cast<size_t>(std::max(a, b))] = std::min(a, b);
@@ -221,6 +223,9 @@ int LabelMaskRuns(const cv::Mat &mask, std::vector<MaskRun> *runs) {
     (*runs)[i].component =
         root == static_cast<int>(i) ? count++ : (*runs)[static_cast<size_t>(root)].component;
   }
+  // With 4-connectivity OpenCV labels pixel by pixel (Wu's SAUF), in the raster order of
+  // each component's first pixel: that of its first run, its root, as numbered above.
+  if (connectivity == 4) return count;
   thread_local std::vector<std::pair<int64_t, int>> first_block;  // (block key, component)
   first_block.assign(static_cast<size_t>(count), {INT64_MAX, 0});
   for (const MaskRun &r : *runs) {

@@ -11,24 +11,25 @@ namespace texfree {
 // connectivity, CV_32S), returning the number of labels (background included); the
 // background's row (label 0) is left zero. OpenCV 4.6 gathers the statistics
 // pixel by pixel through a generic visitor; summing them run by run is several times
-// faster, which counts for the ball and table finders that label every frame. With
-// 8-connectivity the runs come from LabelMaskRuns and are painted into `labels`; with 4,
+// faster, which counts for the ball and table finders that label every frame. For an
+// 8-bit mask the runs come from LabelMaskRuns and are painted into `labels`; otherwise
 // OpenCV labels and the runs are read back. Thread-safe.
 int ConnectedComponentsWithStats(const cv::Mat &mask, int connectivity, cv::Mat *labels,
                                  cv::Mat *stats, cv::Mat *centroids);
 
-// A row's run x0..x1 (inclusive) of non-zero pixels, and its 8-connected component.
+// A row's run x0..x1 (inclusive) of non-zero pixels, and its connected component.
 struct MaskRun {
   int y, x0, x1, component;
 };
 
-// Labels the 8-connected components of `mask` (CV_8UC1, non-zero pixels) run by run: `runs`
-// in raster order, each with its component, numbered from 0 as cv::connectedComponents (8,
-// CV_32S) numbers its labels from 1 (in the raster order of their first 2x2 blocks);
+// Labels the 8- (or 4-) connected components of `mask` (CV_8UC1, non-zero pixels) run by
+// run: `runs` in raster order, each with its component, numbered from 0 as
+// cv::connectedComponents (connectivity, CV_32S) numbers its labels from 1 (OpenCV 4.6: with
+// 8, in the raster order of their first 2x2 blocks; with 4, of their first pixels);
 // returns the number of components. Text is a few runs per letter and row, so this is
 // several times faster than labelling every pixel when only the components' row extents
 // are needed. Thread-safe.
-int LabelMaskRuns(const cv::Mat &mask, std::vector<MaskRun> *runs);
+int LabelMaskRuns(const cv::Mat &mask, std::vector<MaskRun> *runs, int connectivity = 8);
 
 // The minimum-area rectangle of each 8-connected component of `mask` (non-zero pixels)
 // whose bounding box could hold a rectangle of short side `min_short_side`
