@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 #include <numeric>
+#include <utility>
 #include <opencv2/imgproc.hpp>
 
 #include "absl/strings/str_cat.h"
@@ -453,9 +454,19 @@ class EdgeFitter {
     const cv::Matx33d Q = SphereSilhouetteConic(pose_, K_, centre, radius_);
     const cv::Matx33d to_table = pose_.R.t();
     constexpr int kPoints = 48;
+    // The compass searches visit tens of positions per ball: the 48 directions' cosines
+    // and sines are taken once (the same values as computed in place).
+    static const std::array<std::pair<double, double>, kPoints> kDirections = [] {
+      std::array<std::pair<double, double>, kPoints> out;
+      for (int k = 0; k < kPoints; ++k) {
+        const double a = 2 * 3.14159265358979 * k / kPoints;
+        out[k] = {std::cos(a), std::sin(a)};
+      }
+      return out;
+    }();
     for (int k = 0; k < kPoints; ++k) {
-      const double a = 2 * 3.14159265358979 * k / kPoints;
-      const cv::Vec3d point = circle_centre + rho * (std::cos(a) * e1 + std::sin(a) * e2);
+      const auto& [cos_a, sin_a] = kDirections[k];
+      const cv::Vec3d point = circle_centre + rho * (cos_a * e1 + sin_a * e2);
       // Height of the tangent point on the table: skip the dark lower part.
       const cv::Vec3d on_table = to_table * (point - pose_.t);
       if (on_table[2] < radius_ - 0.4 * radius_) continue;
