@@ -5,8 +5,8 @@
 #include <cmath>
 #include <limits>
 #include <numeric>
-#include <utility>
 #include <opencv2/imgproc.hpp>
+#include <utility>
 
 #include "absl/strings/str_cat.h"
 #include "common/connected_components.h"
