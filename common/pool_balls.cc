@@ -1102,7 +1102,9 @@ cv::Mat StickPixels(const cv::Mat& mask, const cv::Rect& roi, const PlanarPose& 
   const cv::Mat faces = outline(cushion_height) & ~cloth_outline;
   const cv::Mat thin_anywhere = mask & ~opened;
   const cv::Mat thin = thin_anywhere & ~faces;
-  cv::Mat labels, stats, centroids;
+  // Label images are kept per thread: fresh ones were faulted in anew every frame.
+  thread_local cv::Mat labels;
+  cv::Mat stats, centroids;
   const int n = ConnectedComponentsWithStats(thin, 8, &labels, &stats, &centroids);
   std::vector<uchar> is_stick(n, 0);
   std::vector<double> strip_radius(n, 0);
@@ -1320,7 +1322,8 @@ std::vector<PoolDetectedBall> DetectPoolBallsOnce(const cv::Mat& image, const cv
     // every fitted silhouette, where it weighs as little as the blur around it.) The ring
     // is taken where the pixels are ball at all (over 0.1): the lit cap's edge is partly
     // of the cloth's colour on one side, where a ring of clear ball pixels has a gap.
-    cv::Mat hole_labels, hole_stats, hole_centroids;
+    thread_local cv::Mat hole_labels;  // kept per thread, as StickPixels' labels
+    cv::Mat hole_stats, hole_centroids;
     const int holes = ConnectedComponentsWithStats(ballness <= 0.1, 4, &hole_labels, &hole_stats,
                                                    &hole_centroids);
     std::vector<uchar> fill(holes, 0);
@@ -1362,7 +1365,8 @@ std::vector<PoolDetectedBall> DetectPoolBallsOnce(const cv::Mat& image, const cv
   ballness_in_region.setTo(kMaskedOut, stick);
 
   // Blobs -> seeds (one per expected ball; touching balls split at distance maxima).
-  cv::Mat labels, stats, centroids;
+  thread_local cv::Mat labels;  // kept per thread, as StickPixels' labels
+  cv::Mat stats, centroids;
   const int n = ConnectedComponentsWithStats(mask, 8, &labels, &stats, &centroids);
   std::vector<cv::Point2d> seeds;
   // Blobs with the area of more balls than their distance maxima gave seeds for.

@@ -40,7 +40,8 @@ cv::Mat AngleMask(const cv::Mat& bgr, const cv::Vec3f& ref, double angle_deg, do
 
 // The largest 8-connected region of `mask` (and its area).
 cv::Mat LargestRegion(const cv::Mat& mask, int* area) {
-  cv::Mat labels, stats, centroids;
+  thread_local cv::Mat labels;  // kept per thread: a fresh one was faulted in every frame
+  cv::Mat stats, centroids;
   const int n = ConnectedComponentsWithStats(mask, 8, &labels, &stats, &centroids);
   int best = 0, best_area = 0;
   for (int i = 1; i < n; ++i) {
