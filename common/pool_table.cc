@@ -107,18 +107,18 @@ cv::Vec3f Bilinear(const cv::Mat& bgr, double x, double y) {
   return out;
 }
 
-// Sub-pixel points of the cloth/rail colour edge along the side from `a` to `b`, found
-// on profiles across the side (`outward` points away from the cloth): the place where
-// the chromaticity is half-way between the cloth's and the rail's, which is where the
-// edge is for any symmetric blur. Chromaticity, not colour: a cushion face seen beyond
-// the cloth at a grazing angle is cloth in shade, as dark as the rail but of the cloth's
-// hue, and the cloth-covered cushion top beyond it may be only a pixel or two wide.
 // Farther out than in: the outside plateau must be the rail, past a cushion face and top
 // that the outline may have cut short.
 constexpr double kEdgeInner = 5.0, kEdgeOuter = 7.0;
 // How far from the sides EdgePoints reads pixels (its bilinear samples take the next pixel).
 constexpr int kEdgeReachPx = static_cast<int>(kEdgeOuter) + 2;
 
+// Sub-pixel points of the cloth/rail colour edge along the side from `a` to `b`, found
+// on profiles across the side (`outward` points away from the cloth): the place where
+// the chromaticity is half-way between the cloth's and the rail's, which is where the
+// edge is for any symmetric blur. Chromaticity, not colour: a cushion face seen beyond
+// the cloth at a grazing angle is cloth in shade, as dark as the rail but of the cloth's
+// hue, and the cloth-covered cushion top beyond it may be only a pixel or two wide.
 std::vector<cv::Point2d> EdgePoints(const cv::Mat& bgr, const cv::Point2d& a, const cv::Point2d& b,
                                     const cv::Point2d& outward, const cv::Vec3f& cloth) {
   constexpr double kInner = kEdgeInner, kOuter = kEdgeOuter, kStep = 0.5;
