@@ -158,6 +158,16 @@ void VisibleGrid(const PlanarPose &truth, const CameraModel &camera, int step,
   }
 }
 
+// VisibleGrid with Gaussian noise of `sigma` pixels added to each pixel.
+void NoisyVisibleGrid(const PlanarPose &truth, const CameraModel &camera, int step, double sigma,
+                      std::mt19937 *rng, std::vector<cv::Point2f> *plane,
+                      std::vector<cv::Point2f> *pixels) {
+  VisibleGrid(truth, camera, step, plane, pixels);
+  std::normal_distribution<double> noise(0, sigma);
+  for (cv::Point2f &p : *pixels)
+    p += cv::Point2f(static_cast<float>(noise(*rng)), static_cast<float>(noise(*rng)));
+}
+
 TEST(PlanarPoseTest, EstimatePlanarPoseWithDistortionAndNoise) {
   CameraModel camera;
   camera.K = kK;
@@ -166,13 +176,10 @@ TEST(PlanarPoseTest, EstimatePlanarPoseWithDistortionAndNoise) {
   ASSERT_TRUE(camera.Validate().ok());
   ASSERT_TRUE(camera.has_distortion());
   std::mt19937 rng(5);
-  std::normal_distribution<double> noise(0, 0.3);
   int tested = 0;
   for (const PlanarPose &truth : Cameras()) {
     std::vector<cv::Point2f> plane, pixels;
-    VisibleGrid(truth, camera, 40, &plane, &pixels);
-    for (cv::Point2f &p : pixels)
-      p += cv::Point2f(static_cast<float>(noise(rng)), static_cast<float>(noise(rng)));
+    NoisyVisibleGrid(truth, camera, 40, 0.3, &rng, &plane, &pixels);
     if (plane.size() < 30) continue;
     ++tested;
     auto pose = EstimatePlanarPose(plane, pixels, camera);
@@ -216,14 +223,12 @@ TEST(PlanarPoseTest, PinholeRefinementReachesOpenCvsMinimumOnNoisyPixels) {
   camera.K = cv::Matx33d(700, 0, 330, 0, 690, 235, 0, 0, 1);  // OpenCV projects without skew
   camera.size = {640, 480};
   std::mt19937 rng(5);
-  std::normal_distribution<double> noise(0, 0.7);
   int tested = 0;
   for (const PlanarPose &truth : Cameras()) {
     std::vector<cv::Point2f> plane, pixels;
-    VisibleGrid(truth, camera, 40, &plane, &pixels);
+    NoisyVisibleGrid(truth, camera, 40, 0.7, &rng, &plane, &pixels);
     if (plane.size() < 20) continue;
     ++tested;
-    for (auto &p : pixels) p += cv::Point2f(noise(rng), noise(rng));
     PlanarPose initial;
     initial.R = Rotation(cv::Vec3d(-0.02, 0.03, 0.01)) * truth.R;
     initial.t = truth.t + cv::Vec3d(-10, 12, 25);
