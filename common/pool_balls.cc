@@ -1891,12 +1891,19 @@ std::vector<PoolDetectedBall> DetectPoolBallsOnce(const cv::Mat& image, const cv
             edge.FitToRim(seeds[i], distance, levels, std::max(3.0, 0.6 * r_px), &used);
         // Kept when enough rim was found, unless it leaves the silhouette half cloth where
         // the edge pass's was not: the ball would then be dropped as not a ball at all
-        // (on the 9-ft set two separated balls were lost that way).
+        // (on the 9-ft set two separated balls were lost that way). Under half ball is
+        // still kept when it loses no more ball-ness than the edge pass may
+        // (edge_max_ballness_drop) and stays a ball for the final check
+        // (min_fit_ballness): a green 6 on green cloth, its lit cap of the cloth's colour,
+        // is half ball on its rim, and the edge fit that is more ball has slid into its
+        // shadow (seed 41's frame 50: 5 px down, 0.49 on the rim against 0.55).
         double rim_ballness = 0, edge_ballness = 0;
         if (used >= kMinRimPointsToKeep) {
           scorer.Score(on_rim, &rim_ballness);
           scorer.Score(seeds[i], &edge_ballness);
-          if (rim_ballness >= 0.5 || edge_ballness < 0.5) seeds[i] = on_rim;
+          const bool little_lost = rim_ballness >= options.min_fit_ballness &&
+                                   rim_ballness >= edge_ballness - options.edge_max_ballness_drop;
+          if (rim_ballness >= 0.5 || edge_ballness < 0.5 || little_lost) seeds[i] = on_rim;
         }
       }
     }
