@@ -1223,6 +1223,34 @@ constexpr double kMaxWhiteSaturation = 0.4;
 
 // One pass of DetectPoolBalls on the picture as given, whose pixels are valid (the ideal
 // image's) inside `valid` only.
+// Median chromaticity (opponent chroma over intensity) of the lit ball pixels within half a
+// ball's apparent radius of where a ball at table position `xy` projects: the colour a seed
+// started on. False for a position not given (NaN) or with fewer than 6 such pixels (a
+// shadow, the 8: dark pixels have no chromaticity to speak of). `ballness` covers `roi`.
+bool SeedColour(const cv::Mat& bgr, const cv::Mat& ballness, const cv::Rect& roi,
+                const PlanarPose& pose, const cv::Matx33d& K, const cv::Point2d& xy, double r,
+                float cloth_sum, cv::Point2d* chroma) {
+  if (!std::isfinite(xy.x) || !std::isfinite(xy.y)) return false;
+  const cv::Point2d at = ProjectIdeal(pose, K, {xy.x, xy.y, r});
+  const double reach = 0.5 * ApparentRadiusPx(pose, K, xy, r);
+  std::vector<float> cx, cy;
+  for (int v = cvFloor(at.y - reach); v <= cvCeil(at.y + reach); ++v)
+    for (int u = cvFloor(at.x - reach); u <= cvCeil(at.x + reach); ++u) {
+      if (!roi.contains({u, v}) || std::hypot(u - at.x, v - at.y) > reach) continue;
+      if (ballness.at<float>(v - roi.y, u - roi.x) < 0.5f) continue;
+      const cv::Vec3b& p = bgr.at<cv::Vec3b>(v, u);
+      const float sum = static_cast<float>(p[0] + p[1] + p[2]);
+      if (sum < 0.45f * cloth_sum) continue;
+      cx.push_back((p[2] - 0.5f * (p[1] + p[0])) * 3 / sum);
+      cy.push_back(0.8660254f * (p[1] - p[0]) * 3 / sum);
+    }
+  if (cx.size() < 6) return false;
+  std::nth_element(cx.begin(), cx.begin() + cx.size() / 2, cx.end());
+  std::nth_element(cy.begin(), cy.begin() + cy.size() / 2, cy.end());
+  *chroma = {cx[cx.size() / 2], cy[cy.size() / 2]};
+  return true;
+}
+
 std::vector<PoolDetectedBall> DetectPoolBallsOnce(const cv::Mat& image, const cv::Rect& valid,
                                                   const cv::Matx33d& K, const PlanarPose& pose,
                                                   const PoolTableProfile& profile,
@@ -1450,6 +1478,10 @@ std::vector<PoolDetectedBall> DetectPoolBallsOnce(const cv::Mat& image, const cv
   std::sort(seeds.begin(), seeds.end(), [&](const cv::Point2d& a, const cv::Point2d& b) {
     return from_camera(a) < from_camera(b);
   });
+  // Where each seed started (its blob's distance maximum, inside its own ball), for the
+  // merge after the first pass.
+  std::vector<cv::Point2d> origins = seeds;
+  const float cloth_sum = cloth[0] + cloth[1] + cloth[2];
   cv::Mat claimed = cv::Mat::zeros(roi.size(), CV_32FC1);
   // The boxes (image pixels) painted in `claimed` since it was last cleared: claim() runs
   // a few times for every ball, and clearing the whole map each time was 3% of a frame.
@@ -1487,12 +1519,45 @@ std::vector<PoolDetectedBall> DetectPoolBallsOnce(const cv::Mat& image, const cv
       // A blob lengthened by a ball's dark underside and its shadow can be split into two
       // seeds that both go to the same ball; balls are at least 2r apart, so of two seeds
       // closer than options.seed_merge_distance only the one that fits better is a ball.
-      // Left in, the other would hide half of the real ball from its fit.
+      // Left in, the other would hide half of the real ball from its fit. But two seeds
+      // that started on pixels of clearly different colours (SeedColour) are two balls
+      // touching, and the fit of the one fitted first, with nothing claimed yet, slid onto
+      // the other (benchmark seed 19's frame 2: the yellow 9 in front of the cue ball,
+      // lost): the one that moved farther goes back to where it started, and the second
+      // pass fits each with the other claimed.
       for (bool merged = true; merged;) {
         merged = false;
         for (size_t i = 0; i < seeds.size() && !merged; ++i)
           for (size_t j = i + 1; j < seeds.size() && !merged; ++j) {
             if (cv::norm(seeds[i] - seeds[j]) >= options.seed_merge_distance * r) continue;
+            cv::Point2d chroma_i, chroma_j;
+            if (cv::norm(origins[i] - origins[j]) >= options.seed_merge_distance * r &&
+                SeedColour(bgr, ballness_in_region, roi, pose, K, origins[i], r, cloth_sum,
+                           &chroma_i) &&
+                SeedColour(bgr, ballness_in_region, roi, pose, K, origins[j], r, cloth_sum,
+                           &chroma_j) &&
+                cv::norm(chroma_i - chroma_j) > options.ball_chroma_distance) {
+              const size_t back =
+                  cv::norm(seeds[i] - origins[i]) >= cv::norm(seeds[j] - origins[j]) ? i : j;
+              // Unless another fit nearby has that colour: the seed started on a
+              // neighbouring ball's pixels (a blob of two touching balls and a shadow gives
+              // three seeds).
+              const cv::Point2d& own = back == i ? chroma_i : chroma_j;
+              bool explained = false;
+              for (size_t k = 0; k < seeds.size() && !explained; ++k) {
+                cv::Point2d chroma_k;
+                explained = k != back && cv::norm(seeds[k] - origins[back]) < 2.5 * r &&
+                            SeedColour(bgr, ballness_in_region, roi, pose, K, seeds[k], r,
+                                       cloth_sum, &chroma_k) &&
+                            cv::norm(chroma_k - own) <= options.ball_chroma_distance;
+              }
+              if (!explained) {
+                seeds[back] = origins[back];
+                origins[back] = {std::nan(""), std::nan("")};  // put back once only
+                merged = true;
+                continue;
+              }
+            }
             std::vector<cv::Point2d> others;
             for (size_t k = 0; k < seeds.size(); ++k)
               if (k != i && k != j) others.push_back(seeds[k]);
@@ -1500,6 +1565,7 @@ std::vector<PoolDetectedBall> DetectPoolBallsOnce(const cv::Mat& image, const cv
             SilhouetteScorer scorer(ballness_in_region, roi, claimed, K, pose, profile);
             const size_t drop = scorer.Score(seeds[i]) >= scorer.Score(seeds[j]) ? j : i;
             seeds.erase(seeds.begin() + static_cast<std::ptrdiff_t>(drop));
+            origins.erase(origins.begin() + static_cast<std::ptrdiff_t>(drop));
             merged = true;
           }
       }
@@ -1573,7 +1639,6 @@ std::vector<PoolDetectedBall> DetectPoolBallsOnce(const cv::Mat& image, const cv
       seeds[i] = scorer.Fit(seeds[i], 0.35 * r);
     }
   }
-  const float cloth_sum = cloth[0] + cloth[1] + cloth[2];
   // A ball seen behind another one along the line of sight is mostly hidden by it: the
   // pair's blob has about two balls' area for the pose, but the farther ball shows only a
   // crescent above the nearer one, with no distance maximum of its own, and the one seed's

@@ -758,6 +758,29 @@ TEST(PoolHardBalls, GreenSixOnGreenClothIsFittedOnItsRimNotItsShadow) {
   EXPECT_EQ(ExpectSeparatedBallFound(6, 50, 41, 10.0), 0);
 }
 
+// Two touching balls of different colours give a blob two seeds; the nearer ball, fitted
+// first with nothing claimed, can slide onto the other, and the two seeds, then closer than
+// seed_merge_distance, were merged. Benchmark seed 19's frame 2: the yellow 9 in front of
+// the cue ball was lost, and the separated yellow 1 was named the 9. Seeds that started
+// on clearly different colours are two balls: the one that moved goes back to its start
+// and is fitted again with the other claimed.
+TEST(PoolHardBalls, TouchingBallOfAnotherColourIsNotMergedIntoItsNeighbour) {
+  const auto [scene, view] = RenderBenchFrame(2, 19);
+  auto scored = AnalyzeAndScore(scene, view);
+  ASSERT_TRUE(scored.ok()) << scored.status();
+  bool seen = false;
+  for (const auto& m : scored->score.matches) {
+    if (m.truth_number != 9) continue;
+    seen = true;
+    EXPECT_GE(m.error_mm, 0) << "the 9 touching the cue ball not found";
+    EXPECT_LT(m.error_mm, 10.0);
+    EXPECT_EQ(m.estimated_number, 9);
+  }
+  EXPECT_TRUE(seen);
+  ExpectSeparatedBallNamed(scored->score, 1, 5.0);
+  EXPECT_EQ(scored->score.false_balls, 0);
+}
+
 // Separated balls that were not found, in benchmark frames (seed 7):
 // - frame 49's far dark green 6 on green cloth (radius 4.7 px): its dark rim is far from
 //   the cloth's chromaticity but was too dark for the chromaticity test, and its lit cap
