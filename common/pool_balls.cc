@@ -1758,6 +1758,8 @@ std::vector<PoolDetectedBall> DetectPoolBallsOnce(const cv::Mat& image, const cv
       hidden_behind[farther ? b : a] = static_cast<int>(farther ? a : b);
     }
   }
+  // Ball-ness by colour alone (a shadow stays cloth), made when a rim fit needs it.
+  cv::Mat colour_ballness_for_rims;
   // Sub-pixel pass on the edge: the ball's outline is where its colour distance from the
   // cloth around it falls fastest (for any symmetric blur, JPEG smear or shading of the
   // ball), so the silhouette's outline is moved to where that fall is steepest, on the
@@ -1966,8 +1968,24 @@ std::vector<PoolDetectedBall> DetectPoolBallsOnce(const cv::Mat& image, const cv
         if (used >= kMinRimPointsToKeep) {
           scorer.Score(on_rim, &rim_ballness);
           scorer.Score(seeds[i], &edge_ballness);
-          const bool little_lost = rim_ballness >= options.min_fit_ballness &&
-                                   rim_ballness >= edge_ballness - options.edge_max_ballness_drop;
+          bool little_lost = rim_ballness >= options.min_fit_ballness &&
+                             rim_ballness >= edge_ballness - options.edge_max_ballness_drop;
+          if (!little_lost && !dark_ball && rim_ballness >= options.min_fit_ballness) {
+            // A coloured ball darker than the cloth: the ball-ness above counts its shadow
+            // as ball, which favours the fit that slid into it. By colour alone, over the
+            // whole silhouette (as the final check refits such a ball), the shadow is
+            // cloth (seed 41's frame 43: a 6 on its rim 0.1 px from the truth, 0.46 ball
+            // against the edge fit's 0.68, 2.6 px down in its shadow).
+            if (colour_ballness_for_rims.empty())
+              colour_ballness_for_rims =
+                  in_playing_volume(BallnessMap(bgr, roi, cloth, options, /*dark_counts=*/false));
+            SilhouetteScorer by_colour(colour_ballness_for_rims, roi, claimed, K, pose, profile);
+            by_colour.CountShadowZone();
+            double rim_colour = 0, edge_colour = 0;
+            by_colour.Score(on_rim, &rim_colour);
+            by_colour.Score(seeds[i], &edge_colour);
+            little_lost = rim_colour >= edge_colour - options.edge_max_ballness_drop;
+          }
           if (rim_ballness >= 0.5 || edge_ballness < 0.5 || little_lost) seeds[i] = on_rim;
         }
       }
