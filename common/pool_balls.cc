@@ -1223,32 +1223,49 @@ constexpr double kMaxWhiteSaturation = 0.4;
 
 // One pass of DetectPoolBalls on the picture as given, whose pixels are valid (the ideal
 // image's) inside `valid` only.
-// Median chromaticity (opponent chroma over intensity) of the lit ball pixels within half a
-// ball's apparent radius of where a ball at table position `xy` projects: the colour a seed
-// started on. False for a position not given (NaN) or with fewer than 6 such pixels (a
-// shadow, the 8: dark pixels have no chromaticity to speak of). `ballness` covers `roi`.
+// Median chromaticity (opponent chroma over intensity) of a ball's lit pixels. Dark pixels
+// (under 0.45 of the cloth's brightness: a shadow, the 8) have no chromaticity to speak of
+// and are left out.
+class LitChromaMedian {
+ public:
+  explicit LitChromaMedian(float cloth_sum) : min_sum_(0.45f * cloth_sum) {}
+  void Add(const cv::Vec3b& p) {
+    const float sum = static_cast<float>(p[0] + p[1] + p[2]);
+    if (sum < min_sum_) return;
+    cx_.push_back((p[2] - 0.5f * (p[1] + p[0])) * 3 / sum);
+    cy_.push_back(0.8660254f * (p[1] - p[0]) * 3 / sum);
+  }
+  // False when fewer than `min_pixels` were lit.
+  bool Median(size_t min_pixels, cv::Point2d* chroma) {
+    if (cx_.size() < min_pixels) return false;
+    std::nth_element(cx_.begin(), cx_.begin() + cx_.size() / 2, cx_.end());
+    std::nth_element(cy_.begin(), cy_.begin() + cy_.size() / 2, cy_.end());
+    *chroma = {cx_[cx_.size() / 2], cy_[cy_.size() / 2]};
+    return true;
+  }
+
+ private:
+  float min_sum_;
+  std::vector<float> cx_, cy_;
+};
+
+// The chromaticity (LitChromaMedian) of the ball pixels within half a ball's apparent radius
+// of where a ball at table position `xy` projects: the colour a seed started on. False for a
+// position not given (NaN) or with fewer than 6 lit ball pixels. `ballness` covers `roi`.
 bool SeedColour(const cv::Mat& bgr, const cv::Mat& ballness, const cv::Rect& roi,
                 const PlanarPose& pose, const cv::Matx33d& K, const cv::Point2d& xy, double r,
                 float cloth_sum, cv::Point2d* chroma) {
   if (!std::isfinite(xy.x) || !std::isfinite(xy.y)) return false;
   const cv::Point2d at = ProjectIdeal(pose, K, {xy.x, xy.y, r});
   const double reach = 0.5 * ApparentRadiusPx(pose, K, xy, r);
-  std::vector<float> cx, cy;
+  LitChromaMedian lit(cloth_sum);
   for (int v = cvFloor(at.y - reach); v <= cvCeil(at.y + reach); ++v)
     for (int u = cvFloor(at.x - reach); u <= cvCeil(at.x + reach); ++u) {
       if (!roi.contains({u, v}) || std::hypot(u - at.x, v - at.y) > reach) continue;
       if (ballness.at<float>(v - roi.y, u - roi.x) < 0.5f) continue;
-      const cv::Vec3b& p = bgr.at<cv::Vec3b>(v, u);
-      const float sum = static_cast<float>(p[0] + p[1] + p[2]);
-      if (sum < 0.45f * cloth_sum) continue;
-      cx.push_back((p[2] - 0.5f * (p[1] + p[0])) * 3 / sum);
-      cy.push_back(0.8660254f * (p[1] - p[0]) * 3 / sum);
+      lit.Add(bgr.at<cv::Vec3b>(v, u));
     }
-  if (cx.size() < 6) return false;
-  std::nth_element(cx.begin(), cx.begin() + cx.size() / 2, cx.end());
-  std::nth_element(cy.begin(), cy.begin() + cy.size() / 2, cy.end());
-  *chroma = {cx[cx.size() / 2], cy[cy.size() / 2]};
-  return true;
+  return lit.Median(6, chroma);
 }
 
 std::vector<PoolDetectedBall> DetectPoolBallsOnce(const cv::Mat& image, const cv::Rect& valid,
@@ -2021,25 +2038,16 @@ std::vector<PoolDetectedBall> DetectPoolBallsOnce(const cv::Mat& image, const cv
     const cv::Matx33d Q = SphereSilhouetteConic(pose, K, centre, r);
     SilhouetteScorer boxer(ballness_in_region, roi, claimed, K, pose, profile);
     const cv::Rect box = boxer.Box(centre);
-    std::vector<float> cx, cy;
+    LitChromaMedian lit(cloth_sum);
     for (int v = box.y; v < box.y + box.height; ++v)
       for (int u = box.x; u < box.x + box.width; ++u) {
         if (SilhouetteScorer::Coverage(Q, u, v) < 0.99) continue;
         if (claimed.at<float>(v - roi.y, u - roi.x) > 0.5) continue;
         if (ballness_in_region.at<float>(v - roi.y, u - roi.x) < 0.5) continue;
-        const cv::Vec3b& p = bgr.at<cv::Vec3b>(v, u);
-        const float sum = static_cast<float>(p[0] + p[1] + p[2]);
-        // Dark pixels (a shadow, the 8) have no chromaticity to speak of.
-        if (sum < 0.45f * cloth_sum) continue;
-        cx.push_back((p[2] - 0.5f * (p[1] + p[0])) * 3 / sum);
-        cy.push_back(0.8660254f * (p[1] - p[0]) * 3 / sum);
+        lit.Add(bgr.at<cv::Vec3b>(v, u));
       }
     constexpr size_t kMinColoured = 8;
-    if (cx.size() < kMinColoured) return false;
-    std::nth_element(cx.begin(), cx.begin() + cx.size() / 2, cx.end());
-    std::nth_element(cy.begin(), cy.begin() + cy.size() / 2, cy.end());
-    *chroma = {cx[cx.size() / 2], cy[cy.size() / 2]};
-    return true;
+    return lit.Median(kMinColoured, chroma);
   };
   // Whether a fit is dark: the median brightness of its ball pixels inside the outline
   // (other balls as painted in `claimed`, the dark zone under it left out) is under half
