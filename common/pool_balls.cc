@@ -1221,8 +1221,6 @@ constexpr double kMinWhiteShare = 0.2;
 constexpr size_t kMinWhitePixels = 10;
 constexpr double kMaxWhiteSaturation = 0.4;
 
-// One pass of DetectPoolBalls on the picture as given, whose pixels are valid (the ideal
-// image's) inside `valid` only.
 // Median chromaticity (opponent chroma over intensity) of a ball's lit pixels. Dark pixels
 // (under 0.45 of the cloth's brightness: a shadow, the 8) have no chromaticity to speak of
 // and are left out.
@@ -1268,6 +1266,8 @@ bool SeedColour(const cv::Mat& bgr, const cv::Mat& ballness, const cv::Rect& roi
   return lit.Median(6, chroma);
 }
 
+// One pass of DetectPoolBalls on the picture as given, whose pixels are valid (the ideal
+// image's) inside `valid` only.
 std::vector<PoolDetectedBall> DetectPoolBallsOnce(const cv::Mat& image, const cv::Rect& valid,
                                                   const cv::Matx33d& K, const PlanarPose& pose,
                                                   const PoolTableProfile& profile,
@@ -1542,38 +1542,42 @@ std::vector<PoolDetectedBall> DetectPoolBallsOnce(const cv::Mat& image, const cv
       // the other (benchmark seed 19's frame 2: the yellow 9 in front of the cue ball,
       // lost): the one that moved farther goes back to where it started, and the second
       // pass fits each with the other claimed.
+      // Of seeds i and j, the one to put back where it started; seeds.size() for none.
+      const auto seed_to_put_back = [&](size_t i, size_t j) {
+        cv::Point2d chroma_i, chroma_j;
+        if (cv::norm(origins[i] - origins[j]) < options.seed_merge_distance * r ||
+            !SeedColour(bgr, ballness_in_region, roi, pose, K, origins[i], r, cloth_sum,
+                        &chroma_i) ||
+            !SeedColour(bgr, ballness_in_region, roi, pose, K, origins[j], r, cloth_sum,
+                        &chroma_j) ||
+            cv::norm(chroma_i - chroma_j) <= options.ball_chroma_distance)
+          return seeds.size();
+        const size_t back =
+            cv::norm(seeds[i] - origins[i]) >= cv::norm(seeds[j] - origins[j]) ? i : j;
+        // Unless another fit nearby has that colour: the seed started on a neighbouring
+        // ball's pixels (a blob of two touching balls and a shadow gives three seeds).
+        const cv::Point2d& own = back == i ? chroma_i : chroma_j;
+        for (size_t k = 0; k < seeds.size(); ++k) {
+          cv::Point2d chroma_k;
+          if (k != back && cv::norm(seeds[k] - origins[back]) < 2.5 * r &&
+              SeedColour(bgr, ballness_in_region, roi, pose, K, seeds[k], r, cloth_sum,
+                         &chroma_k) &&
+              cv::norm(chroma_k - own) <= options.ball_chroma_distance)
+            return seeds.size();
+        }
+        return back;
+      };
       for (bool merged = true; merged;) {
         merged = false;
         for (size_t i = 0; i < seeds.size() && !merged; ++i)
           for (size_t j = i + 1; j < seeds.size() && !merged; ++j) {
             if (cv::norm(seeds[i] - seeds[j]) >= options.seed_merge_distance * r) continue;
-            cv::Point2d chroma_i, chroma_j;
-            if (cv::norm(origins[i] - origins[j]) >= options.seed_merge_distance * r &&
-                SeedColour(bgr, ballness_in_region, roi, pose, K, origins[i], r, cloth_sum,
-                           &chroma_i) &&
-                SeedColour(bgr, ballness_in_region, roi, pose, K, origins[j], r, cloth_sum,
-                           &chroma_j) &&
-                cv::norm(chroma_i - chroma_j) > options.ball_chroma_distance) {
-              const size_t back =
-                  cv::norm(seeds[i] - origins[i]) >= cv::norm(seeds[j] - origins[j]) ? i : j;
-              // Unless another fit nearby has that colour: the seed started on a
-              // neighbouring ball's pixels (a blob of two touching balls and a shadow gives
-              // three seeds).
-              const cv::Point2d& own = back == i ? chroma_i : chroma_j;
-              bool explained = false;
-              for (size_t k = 0; k < seeds.size() && !explained; ++k) {
-                cv::Point2d chroma_k;
-                explained = k != back && cv::norm(seeds[k] - origins[back]) < 2.5 * r &&
-                            SeedColour(bgr, ballness_in_region, roi, pose, K, seeds[k], r,
-                                       cloth_sum, &chroma_k) &&
-                            cv::norm(chroma_k - own) <= options.ball_chroma_distance;
-              }
-              if (!explained) {
-                seeds[back] = origins[back];
-                origins[back] = {std::nan(""), std::nan("")};  // put back once only
-                merged = true;
-                continue;
-              }
+            const size_t back = seed_to_put_back(i, j);
+            if (back < seeds.size()) {
+              seeds[back] = origins[back];
+              origins[back] = {std::nan(""), std::nan("")};  // put back once only
+              merged = true;
+              continue;
             }
             std::vector<cv::Point2d> others;
             for (size_t k = 0; k < seeds.size(); ++k)
@@ -1775,8 +1779,15 @@ std::vector<PoolDetectedBall> DetectPoolBallsOnce(const cv::Mat& image, const cv
       hidden_behind[farther ? b : a] = static_cast<int>(farther ? a : b);
     }
   }
-  // Ball-ness by colour alone (a shadow stays cloth), made when a rim fit needs it.
-  cv::Mat colour_ballness_for_rims;
+  // Ball-ness by colour alone (a shadow stays cloth), made the first time a rim fit or the
+  // final check needs it.
+  cv::Mat colour_ballness;
+  const auto by_colour_alone = [&]() -> const cv::Mat& {
+    if (colour_ballness.empty())
+      colour_ballness =
+          in_playing_volume(BallnessMap(bgr, roi, cloth, options, /*dark_counts=*/false));
+    return colour_ballness;
+  };
   // Sub-pixel pass on the edge: the ball's outline is where its colour distance from the
   // cloth around it falls fastest (for any symmetric blur, JPEG smear or shading of the
   // ball), so the silhouette's outline is moved to where that fall is steepest, on the
@@ -1993,10 +2004,7 @@ std::vector<PoolDetectedBall> DetectPoolBallsOnce(const cv::Mat& image, const cv
             // whole silhouette (as the final check refits such a ball), the shadow is
             // cloth (seed 41's frame 43: a 6 on its rim 0.1 px from the truth, 0.46 ball
             // against the edge fit's 0.68, 2.6 px down in its shadow).
-            if (colour_ballness_for_rims.empty())
-              colour_ballness_for_rims =
-                  in_playing_volume(BallnessMap(bgr, roi, cloth, options, /*dark_counts=*/false));
-            SilhouetteScorer by_colour(colour_ballness_for_rims, roi, claimed, K, pose, profile);
+            SilhouetteScorer by_colour(by_colour_alone(), roi, claimed, K, pose, profile);
             by_colour.CountShadowZone();
             double rim_colour = 0, edge_colour = 0;
             by_colour.Score(on_rim, &rim_colour);
@@ -2139,7 +2147,6 @@ std::vector<PoolDetectedBall> DetectPoolBallsOnce(const cv::Mat& image, const cv
   double cloth_hue, unused_saturation, unused_intensity;  // for the dark reflection votes
   HueSaturation(cloth, &cloth_hue, &unused_saturation, &unused_intensity);
   std::vector<cv::Point2d> kept;
-  cv::Mat colour_ballness;  // by colour alone, made when a seed needs it
   for (size_t i = 0; i < seeds.size(); ++i) {
     if (seeds[i].x < -r / 2 || seeds[i].y < -r / 2 || seeds[i].x > L + r / 2 ||
         seeds[i].y > W + r / 2)
@@ -2167,10 +2174,7 @@ std::vector<PoolDetectedBall> DetectPoolBallsOnce(const cv::Mat& image, const cv
       // own shadow is as dark as a dark ball), so they slid up onto the cloth. By colour
       // alone a shadow stays cloth: the seed is fitted once more on that, over the whole
       // silhouette, and kept where it is then mostly ball.
-      if (colour_ballness.empty())
-        colour_ballness =
-            in_playing_volume(BallnessMap(bgr, roi, cloth, options, /*dark_counts=*/false));
-      SilhouetteScorer by_colour(colour_ballness, roi, claimed, K, pose, profile);
+      SilhouetteScorer by_colour(by_colour_alone(), roi, claimed, K, pose, profile);
       by_colour.CountShadowZone();
       const cv::Point2d refit = by_colour.Fit(xy, 0.35 * r);
       double colour_mean = 0;
