@@ -92,6 +92,9 @@ class LlahDescriber {
   const LlahOptions &options() const { return options_; }
   const InvariantQuantizer &quantizer() const { return quantizer_; }
   int descriptors_per_point() const { return static_cast<int>(subsets_m_.size()); }
+  // The positions, among a keypoint's n neighbours ordered by angle, of the m that
+  // descriptor `s` (0 <= s < descriptors_per_point()) is computed from.
+  const std::vector<int> &subset(int s) const { return subsets_m_[s]; }
 
  private:
   void DescribePoint(const std::vector<cv::Point2f> &points, int index, const NeighborGrid &grid,

@@ -3,6 +3,7 @@
 #include "common/llah_retriever.h"
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <cmath>
 #include <mutex>
@@ -94,6 +95,25 @@ absl::Status RetrievalOptions::Validate() const {
   if (deep_min_weak_inliers < 4 || deep_min_weak_inliers > min_weak_inliers)
     return absl::InvalidArgumentError(absl::StrCat(
         "deep_min_weak_inliers must be in [4, min_weak_inliers], got ", deep_min_weak_inliers));
+  if (neighbourhood_max_hypotheses < 0)
+    return absl::InvalidArgumentError(
+        absl::StrCat("neighbourhood_max_hypotheses must be >= 0 (0: no neighbourhood pass), got ",
+                     neighbourhood_max_hypotheses));
+  if (!(neighbourhood_max_residual > 0 && neighbourhood_max_residual <= 1))
+    return absl::InvalidArgumentError(absl::StrCat(
+        "neighbourhood_max_residual must be in (0, 1] (a share of the neighbourhood's radius), got ",
+        neighbourhood_max_residual));
+  if (!(neighbourhood_tight_gate > 0 && neighbourhood_tight_gate <= 1))
+    return absl::InvalidArgumentError(absl::StrCat(
+        "neighbourhood_tight_gate must be in (0, 1] (a share of the inlier threshold), got ",
+        neighbourhood_tight_gate));
+  if (neighbourhood_min_tight < 8)
+    return absl::InvalidArgumentError(absl::StrCat(
+        "neighbourhood_min_tight must be >= 8 (fewer matches align by chance), got ",
+        neighbourhood_min_tight));
+  if (!(neighbourhood_min_tight_share > 0 && neighbourhood_min_tight_share <= 1))
+    return absl::InvalidArgumentError(absl::StrCat(
+        "neighbourhood_min_tight_share must be in (0, 1], got ", neighbourhood_min_tight_share));
   if (rectify_perspective) {
     absl::Status status = perspective.Validate();
     if (!status.ok())
@@ -513,6 +533,128 @@ bool LayoutConfirms(const std::vector<cv::Point2f> &reference, size_t count, con
              std::log10(o.max_layout_tail);
 }
 
+// Guided matching: every reference keypoint (the first `count`) that h puts within `gate` of
+// a query keypoint not `used` (when given), each query keypoint taken by the nearest one:
+// (query, reference) pairs, and their points in gr and gq.
+void MatchProjected(const std::vector<cv::Point2f> &reference, size_t count, const cv::Matx33d &h,
+                    double gate, const std::vector<cv::Point2f> &query,
+                    const NeighborGrid &query_grid, const cv::Rect &query_box,
+                    const std::vector<char> *used, std::vector<std::pair<int, int>> *matched,
+                    std::vector<cv::Point2f> *gr, std::vector<cv::Point2f> *gq) {
+  thread_local std::vector<int> owner, nearest;
+  thread_local std::vector<float> owner_d;
+  owner.assign(query.size(), -1);
+  owner_d.assign(query.size(), 0.f);
+  for (int r = 0; r < static_cast<int>(std::min(count, reference.size())); ++r) {
+    const cv::Point2d p = ApplyHomography(h, reference[r]);
+    if (!std::isfinite(p.x) || !std::isfinite(p.y)) continue;
+    // Most of a page projects outside the view, where the grid's ring search is longest and
+    // finds nothing within the gate anyway.
+    if (p.x < query_box.x - gate || p.y < query_box.y - gate ||
+        p.x > query_box.x + query_box.width + gate || p.y > query_box.y + query_box.height + gate)
+      continue;
+    query_grid.NearestTo(cv::Point2f(static_cast<float>(p.x), static_cast<float>(p.y)), 1, -1,
+                         &nearest);
+    if (nearest.empty() || (used != nullptr && (*used)[nearest[0]])) continue;
+    const float d = static_cast<float>(cv::norm(cv::Point2d(query[nearest[0]]) - p));
+    if (d > gate) continue;
+    if (owner[nearest[0]] < 0 || d < owner_d[nearest[0]]) {
+      owner[nearest[0]] = r;
+      owner_d[nearest[0]] = d;
+    }
+  }
+  matched->clear();
+  gr->clear();
+  gq->clear();
+  for (int q = 0; q < static_cast<int>(query.size()); ++q) {
+    if (owner[q] < 0) continue;
+    matched->emplace_back(q, owner[q]);
+    gr->push_back(reference[owner[q]]);
+    gq->push_back(query[q]);
+  }
+}
+
+// Largest LlahOptions::n the neighbourhood pass handles.
+constexpr int kMaxNeighbourhood = 16;
+
+// ids (neighbours of `centre` in `points`) ordered by angle around it, as LLAH orders them.
+void OrderByAngle(const std::vector<cv::Point2f> &points, const cv::Point2f &centre,
+                  const std::vector<int> &ids, int *out) {
+  std::array<std::pair<float, int>, kMaxNeighbourhood> by_angle;
+  const int count = std::min<int>(static_cast<int>(ids.size()), kMaxNeighbourhood);
+  for (int i = 0; i < count; ++i) {
+    const cv::Point2f d = points[ids[i]] - centre;
+    by_angle[i] = {std::atan2(d.y, d.x), ids[i]};
+  }
+  std::sort(by_angle.begin(), by_angle.begin() + count);
+  for (int i = 0; i < count; ++i) out[i] = by_angle[i].second;
+}
+
+// The n points of points[begin, end) nearest to points[index] (which is among them),
+// ordered by angle around it: a registered keypoint's neighbourhood in its own layer.
+bool NearestByAngle(const std::vector<cv::Point2f> &points, size_t begin, size_t end,
+                    size_t index, int n, int *out) {
+  if (n > kMaxNeighbourhood || end - begin < static_cast<size_t>(n) + 1) return false;
+  std::array<std::pair<float, int>, kMaxNeighbourhood + 1> nearest;
+  int count = 0;
+  const cv::Point2f p = points[index];
+  for (size_t i = begin; i < end; ++i) {
+    if (i == index) continue;
+    const cv::Point2f d = points[i] - p;
+    const float d2 = d.dot(d);
+    if (count == n && d2 >= nearest[n - 1].first) continue;
+    int k = count < n ? count++ : n - 1;
+    while (k > 0 && nearest[k - 1].first > d2) {
+      nearest[k] = nearest[k - 1];
+      --k;
+    }
+    nearest[k] = {d2, static_cast<int>(i)};
+  }
+  std::vector<int> ids(n);
+  for (int i = 0; i < n; ++i) ids[i] = nearest[i].second;
+  OrderByAngle(points, p, ids, out);
+  return true;
+}
+
+// Least-squares affine map of src onto dst (count pairs) and its rms residual; false when
+// src is degenerate (collinear).
+bool FitAffine(const cv::Point2f *src, const cv::Point2f *dst, int count, cv::Matx23d *A,
+               double *rms) {
+  cv::Point2d cs(0, 0), cd(0, 0);
+  for (int i = 0; i < count; ++i) {
+    cs += cv::Point2d(src[i]);
+    cd += cv::Point2d(dst[i]);
+  }
+  cs *= 1.0 / count;
+  cd *= 1.0 / count;
+  double sxx = 0, sxy = 0, syy = 0, bxx = 0, bxy = 0, byx = 0, byy = 0;
+  for (int i = 0; i < count; ++i) {
+    const cv::Point2d a = cv::Point2d(src[i]) - cs, b = cv::Point2d(dst[i]) - cd;
+    sxx += a.x * a.x;
+    sxy += a.x * a.y;
+    syy += a.y * a.y;
+    bxx += a.x * b.x;
+    bxy += a.y * b.x;
+    byx += a.x * b.y;
+    byy += a.y * b.y;
+  }
+  const double det = sxx * syy - sxy * sxy;
+  if (!(det > 1e-9 * (sxx + syy) * (sxx + syy))) return false;
+  // [a11 a12] solves [sxx sxy; sxy syy] [a11; a12] = [bxx; bxy]; likewise the second row.
+  const double a11 = (syy * bxx - sxy * bxy) / det, a12 = (sxx * bxy - sxy * bxx) / det;
+  const double a21 = (syy * byx - sxy * byy) / det, a22 = (sxx * byy - sxy * byx) / det;
+  double sum = 0;
+  for (int i = 0; i < count; ++i) {
+    const cv::Point2d a = cv::Point2d(src[i]) - cs, b = cv::Point2d(dst[i]) - cd;
+    const double ex = a11 * a.x + a12 * a.y - b.x, ey = a21 * a.x + a22 * a.y - b.y;
+    sum += ex * ex + ey * ey;
+  }
+  *rms = std::sqrt(sum / count);
+  *A = cv::Matx23d(a11, a12, cd.x - a11 * cs.x - a12 * cs.y, a21, a22,
+                   cd.y - a21 * cs.x - a22 * cs.y);
+  return true;
+}
+
 }  // namespace
 
 double NeighboursLostToFrame(const cv::Point2f &p, float radius, int n, const cv::Size &frame) {
@@ -806,7 +948,6 @@ std::vector<DocumentHit> LlahRetriever::RetrieveDescribed(const std::vector<cv::
     std::vector<char> used(query.size(), 0);
     const cv::Rect query_box = cv::boundingRect(query);  // whole pixels around every point
     std::vector<cv::Point2f> query_hull;                 // computed when a layout check needs it
-    std::vector<int> nearest;
     for (const Candidate &candidate : ranked) {
       const uint32_t doc = candidate.document;
       auto mit = candidates_models.find(doc);
@@ -875,36 +1016,8 @@ std::vector<DocumentHit> LlahRetriever::RetrieveDescribed(const std::vector<cv::
       auto match_at = [&](const cv::Matx33d &h, double gate,
                           std::vector<std::pair<int, int>> *matched, std::vector<cv::Point2f> *gr,
                           std::vector<cv::Point2f> *gq) {
-        std::vector<int> owner(query.size(), -1);
-        std::vector<float> owner_d(query.size(), 0.f);
-        for (int r = 0; r < static_cast<int>(model.base); ++r) {
-          const cv::Point2d p = ApplyHomography(h, model.keypoints[r]);
-          if (!std::isfinite(p.x) || !std::isfinite(p.y)) continue;
-          // Most of a page projects outside the view, where the grid's ring search is
-          // longest and finds nothing within the gate anyway.
-          if (p.x < query_box.x - gate || p.y < query_box.y - gate ||
-              p.x > query_box.x + query_box.width + gate ||
-              p.y > query_box.y + query_box.height + gate)
-            continue;
-          query_grid.NearestTo(cv::Point2f(static_cast<float>(p.x), static_cast<float>(p.y)), 1, -1,
-                               &nearest);
-          if (nearest.empty() || used[nearest[0]]) continue;
-          const float d = static_cast<float>(cv::norm(cv::Point2d(query[nearest[0]]) - p));
-          if (d > gate) continue;
-          if (owner[nearest[0]] < 0 || d < owner_d[nearest[0]]) {
-            owner[nearest[0]] = r;
-            owner_d[nearest[0]] = d;
-          }
-        }
-        matched->clear();
-        gr->clear();
-        gq->clear();
-        for (int q = 0; q < static_cast<int>(query.size()); ++q) {
-          if (owner[q] < 0) continue;
-          matched->emplace_back(q, owner[q]);
-          gr->push_back(model.keypoints[owner[q]]);
-          gq->push_back(query[q]);
-        }
+        MatchProjected(model.keypoints, model.base, h, gate, query, query_grid, query_box, &used,
+                       matched, gr, gq);
       };
       // Guided refinement: every reference keypoint projected by H takes the
       // nearest free query keypoint within the threshold; the homography is
@@ -1172,6 +1285,226 @@ std::vector<DocumentHit> LlahRetriever::RetrieveDescribed(const std::vector<cv::
   }
   std::sort(results.begin(), results.end(),
             [](const DocumentHit &a, const DocumentHit &b) { return a.inliers > b.inliers; });
+  return results;
+}
+
+std::vector<DocumentHit> LlahRetriever::RetrieveByNeighbourhoods(
+    const std::vector<cv::Point2f> &query, double query_char_height, const RetrievalOptions &o,
+    RetrievalTrace *trace) const {
+  std::vector<DocumentHit> results;
+  const int n = describer_.options().n, m = describer_.options().m;
+  if (static_cast<int>(query.size()) <= n || o.neighbourhood_max_hypotheses <= 0) return results;
+  // Descriptors on the view rectified as Retrieve() rectifies it: by the text lines when
+  // asked to (refine_perspective), else by the keypoint spacing.
+  std::optional<cv::Matx33d> rectification;
+  if (o.rectify_perspective) rectification = EstimateTextPerspective(query, o.perspective);
+  if (o.refine_perspective && std::isfinite(o.text_angle_rad)) {
+    const auto refined = RefineTextPerspective(query, o.text_angle_rad, rectification, o.perspective);
+    if (refined) rectification = refined;
+  }
+  const std::vector<cv::Point2f> described =
+      rectification ? ApplyPerspective(*rectification, query) : query;
+  const cv::Matx33d to_query = rectification ? rectification->inv() : cv::Matx33d::eye();
+  NeighborGrid query_grid(query);
+  NeighborGrid described_grid(described);
+  std::vector<char> cut;
+  if (o.max_border_lost > 0 && !o.frame.empty())
+    cut = CutByFrame(query, query_grid, n, o.frame, o.max_border_lost);
+  std::vector<uint64_t> hashes;
+  describer_.DescribeWithProbes(described, o.query_probes, &hashes, cut.empty() ? nullptr : &cut);
+  const int per = static_cast<int>(hashes.size() / query.size());
+  const int variants = 1 << std::clamp(o.query_probes, 0, LlahDescriber::kMaxProbes);
+  // Each query keypoint's n neighbours (in the view rectified as described), by angle.
+  std::vector<int> query_neighbours(query.size() * n, -1);
+  {
+    std::vector<int> ids;
+    for (int q = 0; q < static_cast<int>(query.size()); ++q) {
+      described_grid.Nearest(q, n, &ids);
+      if (static_cast<int>(ids.size()) == n)
+        OrderByAngle(described, described[q], ids, &query_neighbours[q * n]);
+    }
+  }
+  struct Hypothesis {
+    uint32_t document;
+    uint16_t reference;
+    int query;
+    int subset;
+  };
+  std::vector<Hypothesis> hypotheses;
+  std::shared_lock lock(mutex_);
+  const int max_hits = std::max<int>(
+      o.max_hits_per_descriptor,
+      StopWordLimit(static_cast<int>(o.max_hits_per_1000_documents * models_.size() / 1000),
+                    static_cast<int>(query.size()), o.stop_word_keypoints));
+  for (size_t q = 0; q < query.size(); ++q)
+    for (int j = 0; j < per; ++j) {
+      const uint64_t h = hashes[q * per + j];
+      if (h == 0 || index_.LikelyExceeds(h, max_hits)) continue;
+      const size_t before = hypotheses.size();
+      const int found = index_.ForEachUpTo(h, max_hits, [&](uint32_t doc, uint16_t kp) {
+        hypotheses.push_back({doc, kp, static_cast<int>(q), j / variants});
+      });
+      if (found > max_hits) hypotheses.resize(before);
+    }
+  std::sort(hypotheses.begin(), hypotheses.end(), [](const Hypothesis &a, const Hypothesis &b) {
+    return std::tie(a.document, a.query, a.reference) < std::tie(b.document, b.query, b.reference);
+  });
+  hypotheses.erase(std::unique(hypotheses.begin(), hypotheses.end(),
+                               [](const Hypothesis &a, const Hypothesis &b) {
+                                 return a.document == b.document && a.query == b.query &&
+                                        a.reference == b.reference;
+                               }),
+                   hypotheses.end());
+  // Pages with most hits for their size first: chance hits grow with a page's keypoints
+  // (a long page collects them by the dozen), the right page's come from the
+  // neighbourhoods that survived. On the 10,000-page views the right page's hits came
+  // within the first 14-360 hypotheses of 7,000-69,000 in the passes that found it (behind
+  // 8,000-33,000 ranked by hits alone).
+  if (static_cast<int>(hypotheses.size()) > o.neighbourhood_max_hypotheses) {
+    struct Run {
+      double score;
+      size_t first, count;
+    };
+    std::vector<Run> runs;
+    for (size_t i = 0; i < hypotheses.size();) {
+      size_t j = i;
+      while (j < hypotheses.size() && hypotheses[j].document == hypotheses[i].document) ++j;
+      const Model *model = FindModel(hypotheses[i].document);
+      if (model != nullptr && !model->keypoints.empty())
+        runs.push_back({static_cast<double>(j - i) / model->keypoints.size(), i, j - i});
+      i = j;
+    }
+    std::stable_sort(runs.begin(), runs.end(),
+                     [](const Run &a, const Run &b) { return a.score > b.score; });
+    std::vector<Hypothesis> kept;
+    for (const Run &run : runs) {
+      if (kept.size() + run.count > static_cast<size_t>(o.neighbourhood_max_hypotheses)) break;
+      kept.insert(kept.end(), hypotheses.begin() + run.first,
+                  hypotheses.begin() + run.first + run.count);
+    }
+    hypotheses.swap(kept);
+  }
+  if (trace) trace->neighbourhood_hypotheses = static_cast<int>(hypotheses.size());
+  const double threshold = o.ransac_threshold_px > 0
+                               ? o.ransac_threshold_px
+                               : std::clamp(0.45 * query_char_height, 2.5, 12.0);
+  const cv::Rect query_box = cv::boundingRect(query);
+  std::vector<cv::Point2f> query_hull;
+  cv::convexHull(query, query_hull);
+  int best_tight = 0;
+  DocumentHit best_hit;
+  for (const Hypothesis &hyp : hypotheses) {
+    const int *qn = &query_neighbours[hyp.query * n];
+    if (qn[0] < 0) continue;
+    const Model *model = FindModel(hyp.document);
+    if (model == nullptr || hyp.reference >= model->keypoints.size()) continue;
+    // The reference keypoint's layer: its neighbours are those of its own cut.
+    size_t begin = 0, end = model->base, layer_index = 0;
+    while (hyp.reference >= end && layer_index < model->extra_layers.size()) {
+      begin = end;
+      end += model->extra_layers[layer_index++];
+    }
+    int rn[kMaxNeighbourhood];
+    if (!NearestByAngle(model->keypoints, begin, end, hyp.reference, n, rn)) continue;
+    // The query descriptor's m neighbours, in order; the page's keypoint lost one of its n
+    // (or none: then the query's m are n - 1 of them) and the cyclic start is unknown: the
+    // drop and the shift whose affine map fits best pair the two neighbourhoods.
+    const std::vector<int> &positions = describer_.subset(hyp.subset);
+    cv::Point2f dst[kMaxNeighbourhood + 1], src[kMaxNeighbourhood + 1];
+    dst[0] = described[hyp.query];
+    src[0] = model->keypoints[hyp.reference];
+    double spread = 0;
+    for (int i = 0; i < m; ++i) spread += cv::norm(described[qn[positions[i]]] - dst[0]);
+    spread /= m;
+    double best_rms = std::numeric_limits<double>::infinity();
+    cv::Matx23d best_affine;
+    cv::Point2f best_src[kMaxNeighbourhood + 1];
+    for (int drop = 0; drop < n; ++drop) {
+      for (int shift = 0; shift < m; ++shift) {
+        for (int i = 0, k = 0; i < n; ++i) {
+          if (i == drop && n > m) continue;
+          if (k < m) src[1 + (k + shift) % m] = model->keypoints[rn[i]];
+          ++k;
+        }
+        for (int i = 0; i < m; ++i) dst[1 + i] = described[qn[positions[i]]];
+        cv::Matx23d affine;
+        double rms;
+        if (!FitAffine(src, dst, m + 1, &affine, &rms)) continue;
+        if (rms < best_rms) {
+          best_rms = rms;
+          best_affine = affine;
+          std::copy(src, src + m + 1, best_src);
+        }
+      }
+      if (n == m) break;
+    }
+    if (!(best_rms <= o.neighbourhood_max_residual * spread)) continue;
+    const cv::Matx33d affine(best_affine(0, 0), best_affine(0, 1), best_affine(0, 2),
+                             best_affine(1, 0), best_affine(1, 1), best_affine(1, 2), 0, 0, 1);
+    cv::Matx33d H = to_query * affine;
+    const std::vector<cv::Point2f> ref_points(best_src, best_src + m + 1);
+    if (!MakePlausibleHomography(&H, ref_points)) continue;
+    // Guided matching on the page's base layer, then refits.
+    auto match_at = [&](const cv::Matx33d &h, double gate, std::vector<std::pair<int, int>> *matched,
+                        std::vector<cv::Point2f> *gr, std::vector<cv::Point2f> *gq) {
+      MatchProjected(model->keypoints, model->base, h, gate, query, query_grid, query_box, nullptr,
+                     matched, gr, gq);
+    };
+    std::vector<std::pair<int, int>> guided;
+    std::vector<cv::Point2f> gr, gq;
+    double gate = threshold;
+    size_t grown = 0;
+    bool ok = true;
+    for (int round = 0; round < 6; ++round) {
+      match_at(H, gate, &guided, &gr, &gq);
+      if (guided.size() < 8) {
+        ok = false;
+        break;
+      }
+      cv::Mat refined = round < 4 ? cv::findHomography(gr, gq, cv::RANSAC, gate, cv::noArray(), 200)
+                                  : cv::findHomography(gr, gq, 0);
+      if (refined.empty()) break;
+      cv::Matx33d rh(refined);
+      if (!MakePlausibleHomography(&rh, gr)) break;
+      H = rh;
+      if (round < 4 && guided.size() > grown) {
+        grown = guided.size();
+        continue;
+      }
+      std::vector<double> residuals(gr.size());
+      for (size_t i = 0; i < gr.size(); ++i)
+        residuals[i] = cv::norm(ApplyHomography(H, gr[i]) - cv::Point2d(gq[i]));
+      std::nth_element(residuals.begin(), residuals.begin() + residuals.size() / 2, residuals.end());
+      gate = std::clamp(3.0 * residuals[residuals.size() / 2], 1.0, threshold);
+    }
+    if (!ok) continue;
+    match_at(H, gate, &guided, &gr, &gq);
+    const int inside = InsideHull(model->keypoints, model->base, H, query_hull);
+    // A right page's matches sit within a pixel or so of the refit homography; a wrong page
+    // whose text happens to align leaves them spread over the gate.
+    int tight = 0;
+    for (size_t i = 0; i < gr.size(); ++i)
+      tight += cv::norm(ApplyHomography(H, gr[i]) - cv::Point2d(gq[i])) <=
+               o.neighbourhood_tight_gate * threshold;
+    if (trace) {
+      int &bm = hyp.document == trace->watch ? trace->neighbourhood_tight : trace->neighbourhood_other_tight;
+      int &bi = hyp.document == trace->watch ? trace->neighbourhood_inside : trace->neighbourhood_other_inside;
+      if (tight > bm) {
+        bm = tight;
+        bi = inside;
+      }
+    }
+    if (tight < o.neighbourhood_min_tight || tight < o.neighbourhood_min_tight_share * inside ||
+        tight <= best_tight)
+      continue;
+    best_tight = tight;
+    best_hit.document = hyp.document;
+    best_hit.homography = H * (1.0 / std::abs(H(2, 2)));
+    best_hit.inliers = tight;
+    best_hit.votes = 1;
+    best_hit.matches = guided;
+  }
+  if (best_tight > 0) results.push_back(std::move(best_hit));
   return results;
 }
 

@@ -171,6 +171,22 @@ struct RetrievalOptions {
   int deep_min_weak_inliers = 4;
   int deep_ransac_iterations = 250;
   double deep_min_layout_ratio = 0.6;
+  // The neighbourhood pass (LlahRetriever::RetrieveByNeighbourhoods): at most this many
+  // descriptor hits are each turned into a homography; 0 turns the pass off.
+  int neighbourhood_max_hypotheses = 4000;
+  // ...of which those whose m + 1 pairs an affine map fits within this share of the
+  // neighbourhood's mean radius are grown by guided matching (right hits measured
+  // 0.01-0.02; chance hits of regular text spread from 0 to past 0.3).
+  double neighbourhood_max_residual = 0.03;
+  // A page is found when its refit homography puts at least neighbourhood_min_tight of its
+  // keypoints, and neighbourhood_min_tight_share of those it projects inside the query's
+  // keypoints, within neighbourhood_tight_gate times the inlier threshold of a query
+  // keypoint. On the 10,000-page views: right pages 21-37 such keypoints at a median
+  // residual of 0.1 of the threshold; the best of thousands of wrong hypotheses 10 (median
+  // residuals 0.16-0.44).
+  double neighbourhood_tight_gate = 0.25;
+  int neighbourhood_min_tight = 16;
+  double neighbourhood_min_tight_share = 0.5;
 
   absl::Status Validate() const;
 };
@@ -228,6 +244,11 @@ struct RetrievalTrace {
   // Page keypoints the layout check projected into the query's hull (-1: none counted).
   int layout_inside = -1;
   bool accepted = false;
+  // The neighbourhood pass: hypotheses tried; the most tightly matched page keypoints of
+  // the watched page and of any other page, and how many each projected inside the query.
+  int neighbourhood_hypotheses = -1;
+  int neighbourhood_tight = -1, neighbourhood_inside = -1;
+  int neighbourhood_other_tight = -1, neighbourhood_other_inside = -1;
 };
 
 struct DocumentKeypoints {
@@ -274,6 +295,18 @@ class LlahRetriever {
                                     const RetrievalOptions &options,
                                     RetrievalTrace *trace = nullptr,
                                     std::optional<cv::Matx33d> *text_line_horizon = nullptr) const;
+
+  // The neighbourhood pass, for a view of few keypoints that Retrieve() found nothing in:
+  // a descriptor hit pairs the query keypoint's neighbourhood with the page keypoint's
+  // (m + 1 points each), so one hit is a homography, where voting needs several. The
+  // likeliest hits (neighbourhood_max_hypotheses) are each fitted (an affine map on the
+  // view rectified as Retrieve() rectifies it), grown by guided matching, and the page
+  // whose homography puts most of its keypoints tightly onto query keypoints is returned
+  // (neighbourhood_min_tight). At most one page.
+  std::vector<DocumentHit> RetrieveByNeighbourhoods(const std::vector<cv::Point2f> &query,
+                                                    double query_char_height,
+                                                    const RetrievalOptions &options,
+                                                    RetrievalTrace *trace = nullptr) const;
 
   // Reference keypoints of a document's base layer (empty if unknown): DocumentHit::matches
   // index them (guided matching is on the base layer).

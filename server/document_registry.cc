@@ -135,6 +135,9 @@ absl::Status DocumentRegistryOptions::Validate() const {
     return absl::InvalidArgumentError(absl::StrCat("min_keypoints must exceed LLAH n = ", llah.n));
   if (deep_pass_extractors < 0)
     return absl::InvalidArgumentError("deep_pass_extractors must be >= 0");
+  if (neighbourhood_pass_extractors < 0)
+    return absl::InvalidArgumentError(
+        "neighbourhood_pass_extractors must be >= 0 (0: no neighbourhood pass)");
   if (fallback_retry_max_keypoints < 0)
     return absl::InvalidArgumentError("fallback_retry_max_keypoints must be >= 0");
   if (rectified_picture_rounds < 1)
@@ -600,6 +603,8 @@ absl::StatusOr<RetrievalResult> DocumentRegistry::RetrieveAsGiven(
   std::vector<cv::Point2f> tried;  // the previous extractor's keypoints
   // The first keypoints' text-line horizon, when the retriever's last try fitted it.
   std::optional<cv::Matx33d> text_line_horizon;
+  // The keypoints the neighbourhood pass takes when nothing else finds a page.
+  std::vector<WordKeypoints> small_views;
   for (size_t attempt = 0; attempt <= fallback_extractors_.size(); ++attempt) {
     auto t = Clock::now();
     if (attempt == 0) {
@@ -617,6 +622,9 @@ absl::StatusOr<RetrievalResult> DocumentRegistry::RetrieveAsGiven(
     // heights agree on clearly spaced text): the same keypoints would find the same.
     if (attempt > 0 && kp.points == tried) continue;
     tried = kp.points;
+    if (static_cast<int>(attempt) < options_.neighbourhood_pass_extractors &&
+        static_cast<int>(kp.points.size()) <= options_.retrieval.deep_max_keypoints)
+      small_views.push_back(kp);
     t = Clock::now();
     // The fallbacks' keypoints are retried unrectified only in small views: a large view
     // that finds nothing would otherwise pay for six retrievals.
@@ -667,6 +675,17 @@ absl::StatusOr<RetrievalResult> DocumentRegistry::RetrieveAsGiven(
       RetrieveRectifiedPicture(gray, *horizon, measured.text_angle_rad, *retriever, ro, &hits,
                                &hits_kp, &extract_ms, &match_ms);
     }
+  }
+  // Last of all, for a picture of few keypoints: single descriptor hits, each a homography.
+  for (size_t i = 0; hits.empty() && retriever && i < small_views.size(); ++i) {
+    auto t = Clock::now();
+    RetrievalOptions no = ro;
+    no.text_angle_rad = measured.text_angle_rad;
+    no.refine_perspective = options_.retrieval.refine_perspective && i == 0;
+    hits = retriever->RetrieveByNeighbourhoods(small_views[i].points, small_views[i].char_height,
+                                               no);
+    match_ms += MillisecondsSince(t);
+    if (!hits.empty()) hits_kp = small_views[i];
   }
   kp = std::move(hits_kp);
   result.timings.Add("extract", extract_ms);

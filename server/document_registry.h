@@ -63,6 +63,11 @@ struct DocumentRegistryOptions {
   // each pass costs a view of an unregistered page ~4 ms at 10,000 pages, and the views it
   // found were found with the first two.
   int deep_pass_extractors = 2;
+  // The neighbourhood pass (LlahRetriever::RetrieveByNeighbourhoods) is the last try of a
+  // picture no other try found a page in: on the keypoints of this many extractors (the
+  // registration one, then the fallbacks) when they cut at most
+  // RetrievalOptions::deep_max_keypoints. 0: never.
+  int neighbourhood_pass_extractors = 3;
   // The unrectified retry (RetrievalOptions::retry_unrectified) runs for the registration
   // extractor, and for the fallbacks when they cut at most this many keypoints (0: never).
   // The perspective fit from few keypoints is the one a layout's spacing fools most (a

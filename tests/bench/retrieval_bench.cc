@@ -202,7 +202,7 @@ std::string RepeatStats(const std::vector<cv::Point2f> &points, double char_heig
       if (same) ++equal;
     }
   }
-  char line[200];
+  char line[300];
   std::snprintf(line, sizeof(line),
                 "kp %zu h %.1f: %d/%d found (%.0f%%), %d keep %d/%d nn, %d desc", points.size(),
                 char_height, found, in_view, in_view ? 100.0 * found / in_view : 0.0, kept_m, m, n,
@@ -245,6 +245,20 @@ void PrintMiss(const DocumentRegistry &registry, const Query &q, const cv::Mat &
       return std::string(line);
     };
     stats += gates(t);
+    if (static_cast<int>(kp.points.size()) <= ro.deep_max_keypoints) {
+      texfree::RetrievalTrace nb;
+      nb.watch = record->index_id;
+      texfree::RetrievalOptions no = ro;
+      no.text_angle_rad = kp.text_angle_rad;
+      registry.retriever()->RetrieveByNeighbourhoods(kp.points, kp.char_height, no, &nb);
+      char line[160];
+      std::snprintf(line, sizeof(line),
+                    " [neighbourhoods: %d hypotheses, page %d tight of %d inside, best other %d "
+                    "of %d]",
+                    nb.neighbourhood_hypotheses, nb.neighbourhood_tight, nb.neighbourhood_inside, nb.neighbourhood_other_tight,
+                    nb.neighbourhood_other_inside);
+      stats += line;
+    }
     // A rectified query's trace is the rectified attempt's: the unrectified one is traced
     // apart (with the few-keypoint pass the registry would allow it first).
     if (t.rectified) {
@@ -437,6 +451,11 @@ int main(int argc, char **argv) {
   app.add_option("--max-layout-tail", registry_options.retrieval.max_layout_tail,
                  "below min_layout_matches, the layout confirms a page when chance would match "
                  "that share with at most this probability (0: off)");
+  app.add_option("--neighbourhood-hypotheses",
+                 registry_options.retrieval.neighbourhood_max_hypotheses,
+                 "hits turned into homographies by the neighbourhood pass (0: off)");
+  app.add_option("--neighbourhood-extractors", registry_options.neighbourhood_pass_extractors,
+                 "extractors whose keypoints the neighbourhood pass takes (0: none)");
   app.add_option("--deep-max-keypoints", registry_options.retrieval.deep_max_keypoints,
                  "queries of at most this many keypoints that found nothing vote again on "
                  "their hits (the few-keypoint pass; 0: off)");
@@ -756,7 +775,11 @@ int main(int argc, char **argv) {
       }
       if (result.ok()) {
         for (const auto &d : result->documents)
-          if (d.document.id != id_of_page[q.page]) ++false_matches;
+          if (d.document.id != id_of_page[q.page]) {
+            ++false_matches;
+            std::fprintf(stderr, "wrong page for the view of page %d: %s (%d inliers)\n", q.page,
+                         d.document.title.c_str(), d.inliers);
+          }
       }
       bin_correct[bin] += correct - correct_before;
     }
