@@ -1506,11 +1506,19 @@ std::vector<DocumentHit> LlahRetriever::RetrieveByNeighbourhoods(
     best_tight = tight;
     best_hit.document = hyp.document;
     best_hit.homography = H * (1.0 / std::abs(H(2, 2)));
-    best_hit.inliers = tight;
-    best_hit.votes = 1;
+    best_hit.inliers = tight;  // the tightly matched keypoints: the evidence here
     best_hit.matches = guided;
   }
-  if (best_tight > 0) results.push_back(std::move(best_hit));
+  if (best_tight > 0) {
+    // Votes: the query keypoints whose descriptors hit the page.
+    std::vector<int> voters;
+    for (const Hypothesis &hyp : hypotheses)
+      if (hyp.document == best_hit.document) voters.push_back(hyp.query);
+    std::sort(voters.begin(), voters.end());
+    best_hit.votes =
+        static_cast<int>(std::unique(voters.begin(), voters.end()) - voters.begin());
+    results.push_back(std::move(best_hit));
+  }
   return results;
 }
 
