@@ -1465,10 +1465,9 @@ std::vector<DocumentHit> LlahRetriever::RetrieveByNeighbourhoods(
         ok = false;
         break;
       }
-      cv::Mat refined =
-          round < 4 ? cv::findHomography(gr, gq, cv::RANSAC, gate, cv::noArray(),
-                                         kNeighbourhoodRansacIterations)
-                    : cv::findHomography(gr, gq, 0);
+      cv::Mat refined = round < 4 ? cv::findHomography(gr, gq, cv::RANSAC, gate, cv::noArray(),
+                                                       kNeighbourhoodRansacIterations)
+                                  : cv::findHomography(gr, gq, 0);
       if (refined.empty()) break;
       cv::Matx33d rh(refined);
       if (!MakePlausibleHomography(&rh, gr)) break;
@@ -1515,8 +1514,7 @@ std::vector<DocumentHit> LlahRetriever::RetrieveByNeighbourhoods(
     for (const Hypothesis &hyp : hypotheses)
       if (hyp.document == best_hit.document) voters.push_back(hyp.query);
     std::sort(voters.begin(), voters.end());
-    best_hit.votes =
-        static_cast<int>(std::unique(voters.begin(), voters.end()) - voters.begin());
+    best_hit.votes = static_cast<int>(std::unique(voters.begin(), voters.end()) - voters.begin());
     results.push_back(std::move(best_hit));
   }
   return results;
