@@ -100,17 +100,18 @@ absl::Status RetrievalOptions::Validate() const {
         absl::StrCat("neighbourhood_max_hypotheses must be >= 0 (0: no neighbourhood pass), got ",
                      neighbourhood_max_hypotheses));
   if (!(neighbourhood_max_residual > 0 && neighbourhood_max_residual <= 1))
-    return absl::InvalidArgumentError(absl::StrCat(
-        "neighbourhood_max_residual must be in (0, 1] (a share of the neighbourhood's radius), got ",
-        neighbourhood_max_residual));
+    return absl::InvalidArgumentError(
+        absl::StrCat("neighbourhood_max_residual must be in (0, 1] (a share of the neighbourhood's "
+                     "radius), got ",
+                     neighbourhood_max_residual));
   if (!(neighbourhood_tight_gate > 0 && neighbourhood_tight_gate <= 1))
     return absl::InvalidArgumentError(absl::StrCat(
         "neighbourhood_tight_gate must be in (0, 1] (a share of the inlier threshold), got ",
         neighbourhood_tight_gate));
   if (neighbourhood_min_tight < 8)
-    return absl::InvalidArgumentError(absl::StrCat(
-        "neighbourhood_min_tight must be >= 8 (fewer matches align by chance), got ",
-        neighbourhood_min_tight));
+    return absl::InvalidArgumentError(
+        absl::StrCat("neighbourhood_min_tight must be >= 8 (fewer matches align by chance), got ",
+                     neighbourhood_min_tight));
   if (!(neighbourhood_min_tight_share > 0 && neighbourhood_min_tight_share <= 1))
     return absl::InvalidArgumentError(absl::StrCat(
         "neighbourhood_min_tight_share must be in (0, 1], got ", neighbourhood_min_tight_share));
@@ -596,8 +597,8 @@ void OrderByAngle(const std::vector<cv::Point2f> &points, const cv::Point2f &cen
 
 // The n points of points[begin, end) nearest to points[index] (which is among them),
 // ordered by angle around it: a registered keypoint's neighbourhood in its own layer.
-bool NearestByAngle(const std::vector<cv::Point2f> &points, size_t begin, size_t end,
-                    size_t index, int n, int *out) {
+bool NearestByAngle(const std::vector<cv::Point2f> &points, size_t begin, size_t end, size_t index,
+                    int n, int *out) {
   if (n > kMaxNeighbourhood || end - begin < static_cast<size_t>(n) + 1) return false;
   std::array<std::pair<float, int>, kMaxNeighbourhood + 1> nearest;
   int count = 0;
@@ -1303,7 +1304,8 @@ std::vector<DocumentHit> LlahRetriever::RetrieveByNeighbourhoods(
   std::optional<cv::Matx33d> rectification;
   if (o.rectify_perspective) rectification = EstimateTextPerspective(query, o.perspective);
   if (o.refine_perspective && std::isfinite(o.text_angle_rad)) {
-    const auto refined = RefineTextPerspective(query, o.text_angle_rad, rectification, o.perspective);
+    const auto refined =
+        RefineTextPerspective(query, o.text_angle_rad, rectification, o.perspective);
     if (refined) rectification = refined;
   }
   const std::vector<cv::Point2f> described =
@@ -1449,8 +1451,9 @@ std::vector<DocumentHit> LlahRetriever::RetrieveByNeighbourhoods(
     const std::vector<cv::Point2f> ref_points(best_src, best_src + m + 1);
     if (!MakePlausibleHomography(&H, ref_points)) continue;
     // Guided matching on the page's base layer, then refits.
-    auto match_at = [&](const cv::Matx33d &h, double gate, std::vector<std::pair<int, int>> *matched,
-                        std::vector<cv::Point2f> *gr, std::vector<cv::Point2f> *gq) {
+    auto match_at = [&](const cv::Matx33d &h, double gate,
+                        std::vector<std::pair<int, int>> *matched, std::vector<cv::Point2f> *gr,
+                        std::vector<cv::Point2f> *gq) {
       MatchProjected(model->keypoints, model->base, h, gate, query, query_grid, query_box, nullptr,
                      matched, gr, gq);
     };
@@ -1479,7 +1482,8 @@ std::vector<DocumentHit> LlahRetriever::RetrieveByNeighbourhoods(
       std::vector<double> residuals(gr.size());
       for (size_t i = 0; i < gr.size(); ++i)
         residuals[i] = cv::norm(ApplyHomography(H, gr[i]) - cv::Point2d(gq[i]));
-      std::nth_element(residuals.begin(), residuals.begin() + residuals.size() / 2, residuals.end());
+      std::nth_element(residuals.begin(), residuals.begin() + residuals.size() / 2,
+                       residuals.end());
       gate = std::clamp(3.0 * residuals[residuals.size() / 2], 1.0, threshold);
     }
     if (!ok) continue;
@@ -1492,8 +1496,10 @@ std::vector<DocumentHit> LlahRetriever::RetrieveByNeighbourhoods(
       tight += cv::norm(ApplyHomography(H, gr[i]) - cv::Point2d(gq[i])) <=
                o.neighbourhood_tight_gate * threshold;
     if (trace) {
-      int &bm = hyp.document == trace->watch ? trace->neighbourhood_tight : trace->neighbourhood_other_tight;
-      int &bi = hyp.document == trace->watch ? trace->neighbourhood_inside : trace->neighbourhood_other_inside;
+      int &bm = hyp.document == trace->watch ? trace->neighbourhood_tight
+                                             : trace->neighbourhood_other_tight;
+      int &bi = hyp.document == trace->watch ? trace->neighbourhood_inside
+                                             : trace->neighbourhood_other_inside;
       if (tight > bm) {
         bm = tight;
         bi = inside;

@@ -682,8 +682,8 @@ absl::StatusOr<RetrievalResult> DocumentRegistry::RetrieveAsGiven(
     RetrievalOptions no = ro;
     no.text_angle_rad = measured.text_angle_rad;
     no.refine_perspective = options_.retrieval.refine_perspective && i == 0;
-    hits = retriever->RetrieveByNeighbourhoods(small_views[i].points, small_views[i].char_height,
-                                               no);
+    hits =
+        retriever->RetrieveByNeighbourhoods(small_views[i].points, small_views[i].char_height, no);
     match_ms += MillisecondsSince(t);
     if (!hits.empty()) hits_kp = small_views[i];
   }

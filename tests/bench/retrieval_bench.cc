@@ -255,8 +255,8 @@ void PrintMiss(const DocumentRegistry &registry, const Query &q, const cv::Mat &
       std::snprintf(line, sizeof(line),
                     " [neighbourhoods: %d hypotheses, page %d tight of %d inside, best other %d "
                     "of %d]",
-                    nb.neighbourhood_hypotheses, nb.neighbourhood_tight, nb.neighbourhood_inside, nb.neighbourhood_other_tight,
-                    nb.neighbourhood_other_inside);
+                    nb.neighbourhood_hypotheses, nb.neighbourhood_tight, nb.neighbourhood_inside,
+                    nb.neighbourhood_other_tight, nb.neighbourhood_other_inside);
       stats += line;
     }
     // A rectified query's trace is the rectified attempt's: the unrectified one is traced
