@@ -534,6 +534,26 @@ bool LayoutConfirms(const std::vector<cv::Point2f> &reference, size_t count, con
              std::log10(o.max_layout_tail);
 }
 
+// The inlier distance in query pixels: RetrievalOptions::ransac_threshold_px, or derived from
+// the query's character height.
+double InlierThreshold(const RetrievalOptions &o, double query_char_height) {
+  return o.ransac_threshold_px > 0 ? o.ransac_threshold_px
+                                   : std::clamp(0.45 * query_char_height, 2.5, 12.0);
+}
+
+// The gate of guided matching once the matches stop growing: a few times the median
+// residual of the pairs (gr, gq) under H, so that extra keypoints a few pixels from a projected
+// word stop pulling the least-squares refit; within [1, threshold].
+double ShrunkGate(const cv::Matx33d &H, const std::vector<cv::Point2f> &gr,
+                  const std::vector<cv::Point2f> &gq, double threshold) {
+  std::vector<double> residuals(gr.size());
+  for (size_t i = 0; i < gr.size(); ++i)
+    residuals[i] = cv::norm(ApplyHomography(H, gr[i]) - cv::Point2d(gq[i]));
+  if (residuals.empty()) return threshold;
+  std::nth_element(residuals.begin(), residuals.begin() + residuals.size() / 2, residuals.end());
+  return std::clamp(3.0 * residuals[residuals.size() / 2], 1.0, threshold);
+}
+
 // Guided matching: every reference keypoint (the first `count`) that h puts within `gate` of
 // a query keypoint not `used` (when given), each query keypoint taken by the nearest one:
 // (query, reference) pairs, and their points in gr and gq.
@@ -688,6 +708,13 @@ std::vector<char> CutByFrame(const std::vector<cv::Point2f> &points, const Neigh
   return cut;
 }
 
+int LlahRetriever::MaxHitsPerDescriptor(const RetrievalOptions &o, size_t query_keypoints) const {
+  return std::max<int>(
+      o.max_hits_per_descriptor,
+      StopWordLimit(static_cast<int>(o.max_hits_per_1000_documents * models_.size() / 1000),
+                    static_cast<int>(query_keypoints), o.stop_word_keypoints));
+}
+
 std::vector<DocumentHit> LlahRetriever::Retrieve(
     const std::vector<cv::Point2f> &query, double query_char_height, const RetrievalOptions &o,
     RetrievalTrace *trace, std::optional<cv::Matx33d> *text_line_horizon) const {
@@ -783,10 +810,7 @@ std::vector<DocumentHit> LlahRetriever::RetrieveDescribed(const std::vector<cv::
     {
       std::shared_lock lock(mutex_);
       if (pass == 0) {
-        const int max_hits = std::max<int>(
-            o.max_hits_per_descriptor,
-            StopWordLimit(static_cast<int>(o.max_hits_per_1000_documents * models_.size() / 1000),
-                          static_cast<int>(query.size()), o.stop_word_keypoints));
+        const int max_hits = MaxHitsPerDescriptor(o, query.size());
         for (size_t q = 0; q < query.size(); ++q) {
           hit_begin[q] = hit_count;
           for (int j = 0; j < per; ++j) {
@@ -946,9 +970,7 @@ std::vector<DocumentHit> LlahRetriever::RetrieveDescribed(const std::vector<cv::
           break;
         }
 
-    const double threshold = o.ransac_threshold_px > 0
-                                 ? o.ransac_threshold_px
-                                 : std::clamp(0.45 * query_char_height, 2.5, 12.0);
+    const double threshold = InlierThreshold(o, query_char_height);
     const int min_weak = deep ? o.deep_min_weak_inliers : o.min_weak_inliers;
     std::vector<char> used(query.size(), 0);
     const cv::Rect query_box = cv::boundingRect(query);  // whole pixels around every point
@@ -1068,9 +1090,6 @@ std::vector<DocumentHit> LlahRetriever::RetrieveDescribed(const std::vector<cv::
             }
           }
           *h = refined_h;
-          std::vector<double> residuals(gr.size());
-          for (size_t i = 0; i < gr.size(); ++i)
-            residuals[i] = cv::norm(ApplyHomography(*h, gr[i]) - cv::Point2d(gq[i]));
           // While the matches still grow at the full gate, the refit homography reaches
           // further from the consensus it started from: keep growing. Then shrink.
           if (shrunk == 0 && guided.size() > grown &&
@@ -1080,9 +1099,7 @@ std::vector<DocumentHit> LlahRetriever::RetrieveDescribed(const std::vector<cv::
             continue;
           }
           if (++shrunk > 2) break;  // two refits at the shrunk gate
-          std::nth_element(residuals.begin(), residuals.begin() + residuals.size() / 2,
-                           residuals.end());
-          gate = std::clamp(3.0 * residuals[residuals.size() / 2], 1.0, threshold);
+          gate = ShrunkGate(*h, gr, gq, threshold);
         }
         return guided;
       };
@@ -1338,10 +1355,7 @@ std::vector<DocumentHit> LlahRetriever::RetrieveByNeighbourhoods(
   };
   std::vector<Hypothesis> hypotheses;
   std::shared_lock lock(mutex_);
-  const int max_hits = std::max<int>(
-      o.max_hits_per_descriptor,
-      StopWordLimit(static_cast<int>(o.max_hits_per_1000_documents * models_.size() / 1000),
-                    static_cast<int>(query.size()), o.stop_word_keypoints));
+  const int max_hits = MaxHitsPerDescriptor(o, query.size());
   for (size_t q = 0; q < query.size(); ++q)
     for (int j = 0; j < per; ++j) {
       const uint64_t h = hashes[q * per + j];
@@ -1391,9 +1405,7 @@ std::vector<DocumentHit> LlahRetriever::RetrieveByNeighbourhoods(
     hypotheses.swap(kept);
   }
   if (trace) trace->neighbourhood_hypotheses = static_cast<int>(hypotheses.size());
-  const double threshold = o.ransac_threshold_px > 0
-                               ? o.ransac_threshold_px
-                               : std::clamp(0.45 * query_char_height, 2.5, 12.0);
+  const double threshold = InlierThreshold(o, query_char_height);
   const cv::Rect query_box = cv::boundingRect(query);
   std::vector<cv::Point2f> query_hull;
   cv::convexHull(query, query_hull);
@@ -1420,7 +1432,10 @@ std::vector<DocumentHit> LlahRetriever::RetrieveByNeighbourhoods(
     dst[0] = described[hyp.query];
     src[0] = model->keypoints[hyp.reference];
     double spread = 0;
-    for (int i = 0; i < m; ++i) spread += cv::norm(described[qn[positions[i]]] - dst[0]);
+    for (int i = 0; i < m; ++i) {
+      dst[1 + i] = described[qn[positions[i]]];
+      spread += cv::norm(dst[1 + i] - dst[0]);
+    }
     spread /= m;
     double best_rms = std::numeric_limits<double>::infinity();
     cv::Matx23d best_affine;
@@ -1432,7 +1447,6 @@ std::vector<DocumentHit> LlahRetriever::RetrieveByNeighbourhoods(
           if (k < m) src[1 + (k + shift) % m] = model->keypoints[rn[i]];
           ++k;
         }
-        for (int i = 0; i < m; ++i) dst[1 + i] = described[qn[positions[i]]];
         cv::Matx23d affine;
         double rms;
         if (!FitAffine(src, dst, m + 1, &affine, &rms)) continue;
@@ -1479,22 +1493,19 @@ std::vector<DocumentHit> LlahRetriever::RetrieveByNeighbourhoods(
         grown = guided.size();
         continue;
       }
-      std::vector<double> residuals(gr.size());
-      for (size_t i = 0; i < gr.size(); ++i)
-        residuals[i] = cv::norm(ApplyHomography(H, gr[i]) - cv::Point2d(gq[i]));
-      std::nth_element(residuals.begin(), residuals.begin() + residuals.size() / 2,
-                       residuals.end());
-      gate = std::clamp(3.0 * residuals[residuals.size() / 2], 1.0, threshold);
+      gate = ShrunkGate(H, gr, gq, threshold);
     }
     if (!ok) continue;
     match_at(H, gate, &guided, &gr, &gq);
-    const int inside = InsideHull(model->keypoints, model->base, H, query_hull);
     // A right page's matches sit within a pixel or so of the refit homography; a wrong page
     // whose text happens to align leaves them spread over the gate.
     int tight = 0;
     for (size_t i = 0; i < gr.size(); ++i)
       tight += cv::norm(ApplyHomography(H, gr[i]) - cv::Point2d(gq[i])) <=
                o.neighbourhood_tight_gate * threshold;
+    if (trace == nullptr && (tight < o.neighbourhood_min_tight || tight <= best_tight)) continue;
+    // The page's keypoints the homography puts among the query's (the share's denominator).
+    const int inside = InsideHull(model->keypoints, model->base, H, query_hull);
     if (trace) {
       int &bm = hyp.document == trace->watch ? trace->neighbourhood_tight
                                              : trace->neighbourhood_other_tight;

@@ -348,6 +348,10 @@ class LlahRetriever {
                                              const std::vector<cv::Point2f> &described,
                                              double query_char_height, const RetrievalOptions &o,
                                              RetrievalTrace *trace, bool allow_deep = false) const;
+  // The index entries a query descriptor may have before it is a stop word (its hits are
+  // dropped): RetrievalOptions::max_hits_per_descriptor, max_hits_per_1000_documents and
+  // stop_word_keypoints. Under a lock.
+  int MaxHitsPerDescriptor(const RetrievalOptions &o, size_t query_keypoints) const;
   // Ids below kDenseIds (the registry's are dense from 1) also find their model through
   // dense_models_, without hashing: the coherence check looks up thousands per query.
   static constexpr uint32_t kDenseIds = 1u << 24;
