@@ -187,6 +187,9 @@ int main(int argc, char** argv) {
                  "Keep rendered views (lossless) in this folder and reuse them on later runs "
                  "with the same options: the ray caster is most of a run's time");
   app.add_flag("--verbose", verbose, "One line per frame");
+  double verbose_over_mm = 8;
+  app.add_option("--verbose-over", verbose_over_mm,
+                 "With --verbose: print every ball off by more than this (mm; 8)");
   int only = -1;
   app.add_option("--only", only, "Analyse only this frame of the set (to look into one case)");
   bool clean = false;
@@ -365,7 +368,7 @@ int main(int argc, char** argv) {
     }
     if (verbose) {
       for (const auto& m : score.matches)
-        if (m.estimated_number != m.truth_number || m.error_mm > 8 || m.error_mm < 0) {
+        if (m.estimated_number != m.truth_number || m.error_mm > verbose_over_mm || m.error_mm < 0) {
           // The error along the camera's line of sight on the table (+ = farther away).
           const cv::Vec3d c = -(view.rotation.t() * view.translation);
           const PoolBallTruth* truth = nullptr;
