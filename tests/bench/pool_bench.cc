@@ -251,6 +251,13 @@ int main(int argc, char** argv) {
                  "Of two overlapping fits within this many degrees of the line of sight, the "
                  "nearer is moved out (0: the worse fit is)")
       ->capture_default_str();
+  app.add_option("--edge-point-reach", analyzer_options.balls.edge_point_reach,
+                 "Edge points of a ball not darker than the cloth are sought this many apparent "
+                 "radii either side of its outline (0: no edge fit)")
+      ->capture_default_str();
+  app.add_option("--edge-point-prior", analyzer_options.balls.edge_point_prior,
+                 "The edge fit's start counts as this many points on its outline")
+      ->capture_default_str();
   app.add_option("--max-working-pixels", analyzer_options.max_working_pixels,
                  "Larger images are analysed reduced to this many pixels (0: never)")
       ->capture_default_str();
