@@ -680,6 +680,79 @@ bool FitAffine(const cv::Point2f *src, const cv::Point2f *dst, int count, cv::Ma
   return true;
 }
 
+// The homography that a descriptor hit makes of two neighbourhoods. `dst`: the query
+// keypoint then its m descriptor neighbours in order (on the view as described); `page`:
+// the page keypoint then its n nearest in its own layer, ordered by angle. The page's
+// keypoint lost one of its n (or none: then the query's m are n - 1 of them) and the
+// cyclic start is unknown: the drop and the shift whose affine map fits best pair the two.
+// False when that fit's rms is over max_residual times the query neighbourhood's mean
+// radius, or its homography (to_query times the affine map) is not a plausible view.
+bool PairNeighbourhoods(const cv::Point2f *dst, const cv::Point2f *page, int n, int m,
+                        double max_residual, const cv::Matx33d &to_query, cv::Matx33d *H) {
+  double spread = 0;
+  for (int i = 1; i <= m; ++i) spread += cv::norm(dst[i] - dst[0]);
+  spread /= m;
+  cv::Point2f src[kMaxNeighbourhood + 1], best_src[kMaxNeighbourhood + 1];
+  src[0] = page[0];
+  double best_rms = std::numeric_limits<double>::infinity();
+  cv::Matx23d best_affine;
+  for (int drop = 0; drop < n; ++drop) {
+    for (int shift = 0; shift < m; ++shift) {
+      for (int i = 0, k = 0; i < n; ++i) {
+        if (i == drop && n > m) continue;
+        if (k < m) src[1 + (k + shift) % m] = page[1 + i];
+        ++k;
+      }
+      cv::Matx23d affine;
+      double rms;
+      if (!FitAffine(src, dst, m + 1, &affine, &rms)) continue;
+      if (rms < best_rms) {
+        best_rms = rms;
+        best_affine = affine;
+        std::copy(src, src + m + 1, best_src);
+      }
+    }
+    if (n == m) break;
+  }
+  if (!(best_rms <= max_residual * spread)) return false;
+  const cv::Matx33d affine(best_affine(0, 0), best_affine(0, 1), best_affine(0, 2),
+                           best_affine(1, 0), best_affine(1, 1), best_affine(1, 2), 0, 0, 1);
+  *H = to_query * affine;
+  return MakePlausibleHomography(H, std::vector<cv::Point2f>(best_src, best_src + m + 1));
+}
+
+// Grows a paired neighbourhood's homography H by guided matching of the page's base layer
+// (its first `base` keypoints) within `threshold`: RANSAC refits while the matches grow
+// (four rounds at most), then least-squares refits within a gate shrunk to the matches'
+// spread. False when a round matches fewer than 8 keypoints; else `guided`, `gr` and `gq`
+// are the matches of the final homography and gate (MatchProjected).
+bool GrowNeighbourhood(const std::vector<cv::Point2f> &page, size_t base,
+                       const std::vector<cv::Point2f> &query, const NeighborGrid &query_grid,
+                       const cv::Rect &query_box, double threshold, cv::Matx33d *H,
+                       std::vector<std::pair<int, int>> *guided, std::vector<cv::Point2f> *gr,
+                       std::vector<cv::Point2f> *gq) {
+  double gate = threshold;
+  size_t grown = 0;
+  for (int round = 0; round < 6; ++round) {
+    MatchProjected(page, base, *H, gate, query, query_grid, query_box, nullptr, guided, gr, gq);
+    if (guided->size() < 8) return false;
+    cv::Mat refined = round < 4 ? cv::findHomography(*gr, *gq, cv::RANSAC, gate, cv::noArray(),
+                                                     kNeighbourhoodRansacIterations)
+                                : cv::findHomography(*gr, *gq, 0);
+    if (refined.empty()) break;
+    cv::Matx33d rh(refined);
+    if (!MakePlausibleHomography(&rh, *gr)) break;
+    *H = rh;
+    if (round < 4 && guided->size() > grown) {
+      grown = guided->size();
+      continue;
+    }
+    gate = ShrunkGate(*H, *gr, *gq, threshold);
+  }
+  MatchProjected(page, base, *H, gate, query, query_grid, query_box, nullptr, guided, gr, gq);
+  return true;
+}
+
 }  // namespace
 
 double NeighboursLostToFrame(const cv::Point2f &p, float radius, int n, const cv::Size &frame) {
@@ -1310,6 +1383,66 @@ std::vector<DocumentHit> LlahRetriever::RetrieveDescribed(const std::vector<cv::
   return results;
 }
 
+std::vector<LlahRetriever::NeighbourhoodHypothesis> LlahRetriever::NeighbourhoodHypotheses(
+    const std::vector<uint64_t> &hashes, size_t query_keypoints, int variants,
+    const RetrievalOptions &o) const {
+  const int per = static_cast<int>(hashes.size() / query_keypoints);
+  std::vector<NeighbourhoodHypothesis> hypotheses;
+  const int max_hits = MaxHitsPerDescriptor(o, query_keypoints);
+  for (size_t q = 0; q < query_keypoints; ++q)
+    for (int j = 0; j < per; ++j) {
+      const uint64_t h = hashes[q * per + j];
+      if (h == 0 || index_.LikelyExceeds(h, max_hits)) continue;
+      const size_t before = hypotheses.size();
+      const int found = index_.ForEachUpTo(h, max_hits, [&](uint32_t doc, uint16_t kp) {
+        hypotheses.push_back({doc, kp, static_cast<int>(q), j / variants});
+      });
+      if (found > max_hits) hypotheses.resize(before);
+    }
+  std::sort(hypotheses.begin(), hypotheses.end(),
+            [](const NeighbourhoodHypothesis &a, const NeighbourhoodHypothesis &b) {
+              return std::tie(a.document, a.query, a.reference) <
+                     std::tie(b.document, b.query, b.reference);
+            });
+  hypotheses.erase(
+      std::unique(hypotheses.begin(), hypotheses.end(),
+                  [](const NeighbourhoodHypothesis &a, const NeighbourhoodHypothesis &b) {
+                    return a.document == b.document && a.query == b.query &&
+                           a.reference == b.reference;
+                  }),
+      hypotheses.end());
+  // Pages with most hits for their size first: chance hits grow with a page's keypoints
+  // (a long page collects them by the dozen), the right page's come from the
+  // neighbourhoods that survived. On the 10,000-page views the right page's hits came
+  // within the first 14-360 hypotheses of 7,000-69,000 in the passes that found it (behind
+  // 8,000-33,000 ranked by hits alone), but for page 3787, lost with a cap of 1,000.
+  if (static_cast<int>(hypotheses.size()) > o.neighbourhood_max_hypotheses) {
+    struct Run {
+      double score;
+      size_t first, count;
+    };
+    std::vector<Run> runs;
+    for (size_t i = 0; i < hypotheses.size();) {
+      size_t j = i;
+      while (j < hypotheses.size() && hypotheses[j].document == hypotheses[i].document) ++j;
+      const Model *model = FindModel(hypotheses[i].document);
+      if (model != nullptr && !model->keypoints.empty())
+        runs.push_back({static_cast<double>(j - i) / model->keypoints.size(), i, j - i});
+      i = j;
+    }
+    std::stable_sort(runs.begin(), runs.end(),
+                     [](const Run &a, const Run &b) { return a.score > b.score; });
+    std::vector<NeighbourhoodHypothesis> kept;
+    for (const Run &run : runs) {
+      if (kept.size() + run.count > static_cast<size_t>(o.neighbourhood_max_hypotheses)) break;
+      kept.insert(kept.end(), hypotheses.begin() + run.first,
+                  hypotheses.begin() + run.first + run.count);
+    }
+    hypotheses.swap(kept);
+  }
+  return hypotheses;
+}
+
 std::vector<DocumentHit> LlahRetriever::RetrieveByNeighbourhoods(
     const std::vector<cv::Point2f> &query, double query_char_height, const RetrievalOptions &o,
     RetrievalTrace *trace) const {
@@ -1335,7 +1468,6 @@ std::vector<DocumentHit> LlahRetriever::RetrieveByNeighbourhoods(
     cut = CutByFrame(query, query_grid, n, o.frame, o.max_border_lost);
   std::vector<uint64_t> hashes;
   describer_.DescribeWithProbes(described, o.query_probes, &hashes, cut.empty() ? nullptr : &cut);
-  const int per = static_cast<int>(hashes.size() / query.size());
   const int variants = 1 << std::clamp(o.query_probes, 0, LlahDescriber::kMaxProbes);
   // Each query keypoint's n neighbours (in the view rectified as described), by angle.
   std::vector<int> query_neighbours(query.size() * n, -1);
@@ -1347,63 +1479,9 @@ std::vector<DocumentHit> LlahRetriever::RetrieveByNeighbourhoods(
         OrderByAngle(described, described[q], ids, &query_neighbours[q * n]);
     }
   }
-  struct Hypothesis {
-    uint32_t document;
-    uint16_t reference;
-    int query;
-    int subset;
-  };
-  std::vector<Hypothesis> hypotheses;
   std::shared_lock lock(mutex_);
-  const int max_hits = MaxHitsPerDescriptor(o, query.size());
-  for (size_t q = 0; q < query.size(); ++q)
-    for (int j = 0; j < per; ++j) {
-      const uint64_t h = hashes[q * per + j];
-      if (h == 0 || index_.LikelyExceeds(h, max_hits)) continue;
-      const size_t before = hypotheses.size();
-      const int found = index_.ForEachUpTo(h, max_hits, [&](uint32_t doc, uint16_t kp) {
-        hypotheses.push_back({doc, kp, static_cast<int>(q), j / variants});
-      });
-      if (found > max_hits) hypotheses.resize(before);
-    }
-  std::sort(hypotheses.begin(), hypotheses.end(), [](const Hypothesis &a, const Hypothesis &b) {
-    return std::tie(a.document, a.query, a.reference) < std::tie(b.document, b.query, b.reference);
-  });
-  hypotheses.erase(std::unique(hypotheses.begin(), hypotheses.end(),
-                               [](const Hypothesis &a, const Hypothesis &b) {
-                                 return a.document == b.document && a.query == b.query &&
-                                        a.reference == b.reference;
-                               }),
-                   hypotheses.end());
-  // Pages with most hits for their size first: chance hits grow with a page's keypoints
-  // (a long page collects them by the dozen), the right page's come from the
-  // neighbourhoods that survived. On the 10,000-page views the right page's hits came
-  // within the first 14-360 hypotheses of 7,000-69,000 in the passes that found it (behind
-  // 8,000-33,000 ranked by hits alone).
-  if (static_cast<int>(hypotheses.size()) > o.neighbourhood_max_hypotheses) {
-    struct Run {
-      double score;
-      size_t first, count;
-    };
-    std::vector<Run> runs;
-    for (size_t i = 0; i < hypotheses.size();) {
-      size_t j = i;
-      while (j < hypotheses.size() && hypotheses[j].document == hypotheses[i].document) ++j;
-      const Model *model = FindModel(hypotheses[i].document);
-      if (model != nullptr && !model->keypoints.empty())
-        runs.push_back({static_cast<double>(j - i) / model->keypoints.size(), i, j - i});
-      i = j;
-    }
-    std::stable_sort(runs.begin(), runs.end(),
-                     [](const Run &a, const Run &b) { return a.score > b.score; });
-    std::vector<Hypothesis> kept;
-    for (const Run &run : runs) {
-      if (kept.size() + run.count > static_cast<size_t>(o.neighbourhood_max_hypotheses)) break;
-      kept.insert(kept.end(), hypotheses.begin() + run.first,
-                  hypotheses.begin() + run.first + run.count);
-    }
-    hypotheses.swap(kept);
-  }
+  const std::vector<NeighbourhoodHypothesis> hypotheses =
+      NeighbourhoodHypotheses(hashes, query.size(), variants, o);
   if (trace) trace->neighbourhood_hypotheses = static_cast<int>(hypotheses.size());
   const double threshold = InlierThreshold(o, query_char_height);
   const cv::Rect query_box = cv::boundingRect(query);
@@ -1411,7 +1489,7 @@ std::vector<DocumentHit> LlahRetriever::RetrieveByNeighbourhoods(
   cv::convexHull(query, query_hull);
   int best_tight = 0;
   DocumentHit best_hit;
-  for (const Hypothesis &hyp : hypotheses) {
+  for (const NeighbourhoodHypothesis &hyp : hypotheses) {
     const int *qn = &query_neighbours[hyp.query * n];
     if (qn[0] < 0) continue;
     const Model *model = FindModel(hyp.document);
@@ -1424,79 +1502,19 @@ std::vector<DocumentHit> LlahRetriever::RetrieveByNeighbourhoods(
     }
     int rn[kMaxNeighbourhood];
     if (!NearestByAngle(model->keypoints, begin, end, hyp.reference, n, rn)) continue;
-    // The query descriptor's m neighbours, in order; the page's keypoint lost one of its n
-    // (or none: then the query's m are n - 1 of them) and the cyclic start is unknown: the
-    // drop and the shift whose affine map fits best pair the two neighbourhoods.
+    cv::Point2f dst[kMaxNeighbourhood + 1], page[kMaxNeighbourhood + 1];
     const std::vector<int> &positions = describer_.subset(hyp.subset);
-    cv::Point2f dst[kMaxNeighbourhood + 1], src[kMaxNeighbourhood + 1];
     dst[0] = described[hyp.query];
-    src[0] = model->keypoints[hyp.reference];
-    double spread = 0;
-    for (int i = 0; i < m; ++i) {
-      dst[1 + i] = described[qn[positions[i]]];
-      spread += cv::norm(dst[1 + i] - dst[0]);
-    }
-    spread /= m;
-    double best_rms = std::numeric_limits<double>::infinity();
-    cv::Matx23d best_affine;
-    cv::Point2f best_src[kMaxNeighbourhood + 1];
-    for (int drop = 0; drop < n; ++drop) {
-      for (int shift = 0; shift < m; ++shift) {
-        for (int i = 0, k = 0; i < n; ++i) {
-          if (i == drop && n > m) continue;
-          if (k < m) src[1 + (k + shift) % m] = model->keypoints[rn[i]];
-          ++k;
-        }
-        cv::Matx23d affine;
-        double rms;
-        if (!FitAffine(src, dst, m + 1, &affine, &rms)) continue;
-        if (rms < best_rms) {
-          best_rms = rms;
-          best_affine = affine;
-          std::copy(src, src + m + 1, best_src);
-        }
-      }
-      if (n == m) break;
-    }
-    if (!(best_rms <= o.neighbourhood_max_residual * spread)) continue;
-    const cv::Matx33d affine(best_affine(0, 0), best_affine(0, 1), best_affine(0, 2),
-                             best_affine(1, 0), best_affine(1, 1), best_affine(1, 2), 0, 0, 1);
-    cv::Matx33d H = to_query * affine;
-    const std::vector<cv::Point2f> ref_points(best_src, best_src + m + 1);
-    if (!MakePlausibleHomography(&H, ref_points)) continue;
-    // Guided matching on the page's base layer, then refits.
-    auto match_at = [&](const cv::Matx33d &h, double gate,
-                        std::vector<std::pair<int, int>> *matched, std::vector<cv::Point2f> *gr,
-                        std::vector<cv::Point2f> *gq) {
-      MatchProjected(model->keypoints, model->base, h, gate, query, query_grid, query_box, nullptr,
-                     matched, gr, gq);
-    };
+    for (int i = 0; i < m; ++i) dst[1 + i] = described[qn[positions[i]]];
+    page[0] = model->keypoints[hyp.reference];
+    for (int i = 0; i < n; ++i) page[1 + i] = model->keypoints[rn[i]];
+    cv::Matx33d H;
+    if (!PairNeighbourhoods(dst, page, n, m, o.neighbourhood_max_residual, to_query, &H)) continue;
     std::vector<std::pair<int, int>> guided;
     std::vector<cv::Point2f> gr, gq;
-    double gate = threshold;
-    size_t grown = 0;
-    bool ok = true;
-    for (int round = 0; round < 6; ++round) {
-      match_at(H, gate, &guided, &gr, &gq);
-      if (guided.size() < 8) {
-        ok = false;
-        break;
-      }
-      cv::Mat refined = round < 4 ? cv::findHomography(gr, gq, cv::RANSAC, gate, cv::noArray(),
-                                                       kNeighbourhoodRansacIterations)
-                                  : cv::findHomography(gr, gq, 0);
-      if (refined.empty()) break;
-      cv::Matx33d rh(refined);
-      if (!MakePlausibleHomography(&rh, gr)) break;
-      H = rh;
-      if (round < 4 && guided.size() > grown) {
-        grown = guided.size();
-        continue;
-      }
-      gate = ShrunkGate(H, gr, gq, threshold);
-    }
-    if (!ok) continue;
-    match_at(H, gate, &guided, &gr, &gq);
+    if (!GrowNeighbourhood(model->keypoints, model->base, query, query_grid, query_box, threshold,
+                           &H, &guided, &gr, &gq))
+      continue;
     // A right page's matches sit within a pixel or so of the refit homography; a wrong page
     // whose text happens to align leaves them spread over the gate.
     int tight = 0;
@@ -1528,7 +1546,7 @@ std::vector<DocumentHit> LlahRetriever::RetrieveByNeighbourhoods(
   if (best_tight > 0) {
     // Votes: the query keypoints whose descriptors hit the page.
     std::vector<int> voters;
-    for (const Hypothesis &hyp : hypotheses)
+    for (const NeighbourhoodHypothesis &hyp : hypotheses)
       if (hyp.document == best_hit.document) voters.push_back(hyp.query);
     std::sort(voters.begin(), voters.end());
     best_hit.votes = static_cast<int>(std::unique(voters.begin(), voters.end()) - voters.begin());

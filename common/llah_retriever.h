@@ -348,6 +348,21 @@ class LlahRetriever {
                                              const std::vector<cv::Point2f> &described,
                                              double query_char_height, const RetrievalOptions &o,
                                              RetrievalTrace *trace, bool allow_deep = false) const;
+  // One descriptor hit of the neighbourhood pass: the page keypoint `reference` of
+  // `document` for query keypoint `query`, by its descriptor subset `subset`.
+  struct NeighbourhoodHypothesis {
+    uint32_t document;
+    uint16_t reference;
+    int query;
+    int subset;
+  };
+  // The neighbourhood pass's hits for the query's descriptor hashes (`variants` probes per
+  // subset, every keypoint alike), stop words dropped, each hit once, ranked by page:
+  // pages with most hits per keypoint first, whole pages up to
+  // RetrievalOptions::neighbourhood_max_hypotheses. Under a lock.
+  std::vector<NeighbourhoodHypothesis> NeighbourhoodHypotheses(const std::vector<uint64_t> &hashes,
+                                                               size_t query_keypoints, int variants,
+                                                               const RetrievalOptions &o) const;
   // The index entries a query descriptor may have before it is a stop word (its hits are
   // dropped): RetrievalOptions::max_hits_per_descriptor, max_hits_per_1000_documents and
   // stop_word_keypoints. Under a lock.
