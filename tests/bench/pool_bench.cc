@@ -232,32 +232,29 @@ int main(int argc, char** argv) {
                "A cue stick in every frame, aimed through the cue ball at another ball as a "
                "player holds it (the same scenes otherwise)");
   PoolAnalyzerOptions analyzer_options;
-  app.add_option("--stick-opening-radius", analyzer_options.balls.stick_opening_radius,
-                 "Cue-stick strips are what an opening with a disc of this many ball radii "
-                 "removes (0: nothing is a stick)")
-      ->capture_default_str();
-  app.add_option("--stick-bridge-length", analyzer_options.balls.stick_bridge_length,
-                 "Over the cloth the stick's line is followed this many ball radii past each "
-                 "strip found")
-      ->capture_default_str();
-  app.add_option("--seed-merge-distance", analyzer_options.balls.seed_merge_distance,
-                 "Seeds closer than this many ball radii after the first fits are one ball")
-      ->capture_default_str();
-  app.add_option("--white-balance-min-cast", analyzer_options.balls.white_balance_min_cast,
-                 "The balls are read again white-balanced when their white and the cloth show a "
-                 "light cast over this share (0: never)")
-      ->capture_default_str();
-  app.add_option("--line-of-sight-pair-deg", analyzer_options.balls.line_of_sight_pair_deg,
-                 "Of two overlapping fits within this many degrees of the line of sight, the "
-                 "nearer is moved out (0: the worse fit is)")
-      ->capture_default_str();
-  app.add_option("--edge-point-reach", analyzer_options.balls.edge_point_reach,
-                 "Edge points of a ball not darker than the cloth are sought this many apparent "
-                 "radii either side of its outline (0: no edge fit)")
-      ->capture_default_str();
-  app.add_option("--edge-point-prior", analyzer_options.balls.edge_point_prior,
-                 "The edge fit's start counts as this many points on its outline")
-      ->capture_default_str();
+  // The ball finder's options, each shown with its default.
+  const auto ball_option = [&app](const char* name, double* value, const std::string& help) {
+    app.add_option(name, *value, help)->capture_default_str();
+  };
+  ball_option("--stick-opening-radius", &analyzer_options.balls.stick_opening_radius,
+              "Cue-stick strips are what an opening with a disc of this many ball radii "
+              "removes (0: nothing is a stick)");
+  ball_option("--stick-bridge-length", &analyzer_options.balls.stick_bridge_length,
+              "Over the cloth the stick's line is followed this many ball radii past each "
+              "strip found");
+  ball_option("--seed-merge-distance", &analyzer_options.balls.seed_merge_distance,
+              "Seeds closer than this many ball radii after the first fits are one ball");
+  ball_option("--white-balance-min-cast", &analyzer_options.balls.white_balance_min_cast,
+              "The balls are read again white-balanced when their white and the cloth show a "
+              "light cast over this share (0: never)");
+  ball_option("--line-of-sight-pair-deg", &analyzer_options.balls.line_of_sight_pair_deg,
+              "Of two overlapping fits within this many degrees of the line of sight, the "
+              "nearer is moved out (0: the worse fit is)");
+  ball_option("--edge-point-reach", &analyzer_options.balls.edge_point_reach,
+              "Edge points of a ball not darker than the cloth are sought this many apparent "
+              "radii either side of its outline (0: no edge fit)");
+  ball_option("--edge-point-prior", &analyzer_options.balls.edge_point_prior,
+              "The edge fit's start counts as this many points on its outline");
   app.add_option("--max-working-pixels", analyzer_options.max_working_pixels,
                  "Larger images are analysed reduced to this many pixels (0: never)")
       ->capture_default_str();
@@ -375,7 +372,8 @@ int main(int argc, char** argv) {
     }
     if (verbose) {
       for (const auto& m : score.matches)
-        if (m.estimated_number != m.truth_number || m.error_mm > verbose_over_mm || m.error_mm < 0) {
+        if (m.estimated_number != m.truth_number || m.error_mm > verbose_over_mm ||
+            m.error_mm < 0) {
           // The error along the camera's line of sight on the table (+ = farther away).
           const cv::Vec3d c = -(view.rotation.t() * view.translation);
           const PoolBallTruth* truth = nullptr;
