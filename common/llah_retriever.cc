@@ -14,6 +14,7 @@
 #include <unordered_set>
 
 #include "absl/strings/str_cat.h"
+#include "common/homography_fit.h"
 #include "common/neighbor_grid.h"
 #include "common/planar_pose.h"
 #include "common/text_perspective.h"
@@ -736,11 +737,13 @@ bool GrowNeighbourhood(const std::vector<cv::Point2f> &page, size_t base,
   for (int round = 0; round < 6; ++round) {
     MatchProjected(page, base, *H, gate, query, query_grid, query_box, nullptr, guided, gr, gq);
     if (guided->size() < 8) return false;
-    cv::Mat refined = round < 4 ? cv::findHomography(*gr, *gq, cv::RANSAC, gate, cv::noArray(),
-                                                     kNeighbourhoodRansacIterations)
-                                : cv::findHomography(*gr, *gq, 0);
-    if (refined.empty()) break;
-    cv::Matx33d rh(refined);
+    // FitHomography's least squares converge where cv::findHomography's ten
+    // Levenberg-Marquardt steps stop short, at a third of its time (round 32).
+    cv::Matx33d rh;
+    const bool fitted =
+        round < 4 ? FitHomographyRansac(*gr, *gq, gate, kNeighbourhoodRansacIterations, &rh)
+                  : FitHomography(*gr, *gq, &rh);
+    if (!fitted) break;
     if (!MakePlausibleHomography(&rh, *gr)) break;
     *H = rh;
     if (round < 4 && guided->size() > grown) {
