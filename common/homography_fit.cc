@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cfloat>
 #include <cmath>
+#include <limits>
 
 namespace texfree {
 namespace {
@@ -241,8 +242,8 @@ bool FitHomographyRansac(const std::vector<cv::Point2f> &src, const std::vector<
   }
   const double gate2 = threshold * nd.scale * threshold * nd.scale;
   // The samples are drawn as cv::findHomography draws them (its generator and seed, the
-  // same tests), so that both find the same consensus: a page found at exactly the
-  // retrieval's bar is not lost or won by another draw.
+  // same tests), so that both find the same consensus and a caller moving from it keeps
+  // its inliers.
   cv::RNG rng(0xffffffffffffffffULL);
   std::vector<char> mask(count), best_mask;
   int best = 0;
@@ -283,8 +284,8 @@ bool FitHomographyRansac(const std::vector<cv::Point2f> &src, const std::vector<
     if (found > std::max(best, 3)) {
       best = found;
       best_mask = mask;
-      iterations = std::min(iterations, UpdateIterations(0.995, double(count - found) / count,
-                                                         max_iterations));
+      iterations = std::min(iterations,
+                            UpdateIterations(0.995, double(count - found) / count, max_iterations));
     }
   }
   if (best < 4) return false;

@@ -16,11 +16,11 @@ namespace texfree {
 bool FitHomography(const std::vector<cv::Point2f> &src, const std::vector<cv::Point2f> &dst,
                    cv::Matx33d *H, int max_refine_iterations = 10);
 
-// RANSAC (as cv::findHomography's cv::RANSAC): minimal samples of four pairs, drawn by a
-// generator with a fixed seed (the same input gives the same answer), that keep their
-// orientation and have no three points collinear; the consensus is the pairs that the
-// sample's homography maps within `threshold` pixels of their dst. The number of samples
-// adapts to 99.5% confidence, up to `max_iterations`. The largest consensus is refitted by
+// RANSAC (as cv::findHomography's cv::RANSAC, drawing the same samples): minimal samples of
+// four pairs, drawn by a generator with a fixed seed (the same input gives the same
+// answer), that keep their orientation and have no three points collinear; the consensus is the
+// pairs that the sample's homography maps within `threshold` pixels of their dst. The number of
+// samples adapts to 99.5% confidence, up to `max_iterations`. The largest consensus is refitted by
 // FitHomography. False when no sample gives a homography of at least 4 pairs. `inliers`
 // (optional) receives the final consensus, one flag per pair.
 bool FitHomographyRansac(const std::vector<cv::Point2f> &src, const std::vector<cv::Point2f> &dst,
