@@ -448,13 +448,11 @@ cv::Matx33d UprightText(const cv::Matx33d &rectification, double text_angle_rad,
 
 }  // namespace
 
-void DocumentRegistry::RetrieveRectifiedPicture(const cv::Mat &gray, const cv::Matx33d &horizon,
-                                                double text_angle_rad,
-                                                const LlahRetriever &retriever,
-                                                const RetrievalOptions &ro,
-                                                std::vector<DocumentHit> *hits,
-                                                WordKeypoints *hits_kp, double *extract_ms,
-                                                double *match_ms) const {
+void DocumentRegistry::RetrieveRectifiedPicture(
+    const cv::Mat &gray, const cv::Matx33d &horizon, double text_angle_rad,
+    const LlahRetriever &retriever, const RetrievalOptions &ro, std::vector<DocumentHit> *hits,
+    WordKeypoints *hits_kp, double *extract_ms, double *match_ms,
+    std::vector<WarpedKeypoints> *small_warped) const {
   // The text lines turned horizontal, as on the registered page: the extractors cut
   // upright lines as they cut the page (at 10,000 pages, 976 -> 978 of 1,000 views).
   std::optional<cv::Matx33d> rectification = horizon;
@@ -521,9 +519,13 @@ void DocumentRegistry::RetrieveRectifiedPicture(const cv::Mat &gray, const cv::M
                         cv::INTER_LINEAR, cv::BORDER_CONSTANT, cv::Scalar(255));
     WordKeypoints wkp = extractor_.Extract(warped);
     *extract_ms += MillisecondsSince(t);
+    if (small_warped != nullptr && small_warped->empty() && wkp.char_height > 0 &&
+        static_cast<int>(wkp.points.size()) <= options_.retrieval.deep_max_keypoints)
+      small_warped->push_back({wkp, to_warped, warped.size()});
     warped_options.frame = warped.size();
     t = Clock::now();
-    std::vector<DocumentHit> found = retriever.Retrieve(wkp.points, wkp.char_height, warped_options);
+    std::vector<DocumentHit> found =
+        retriever.Retrieve(wkp.points, wkp.char_height, warped_options);
     *match_ms += MillisecondsSince(t);
     // The fallback extractors cut the warped picture too, as they would the picture.
     if (found.empty() && options_.rectified_picture_fallbacks && wkp.char_height > 0) {
@@ -560,7 +562,8 @@ void DocumentRegistry::RetrieveRectifiedPicture(const cv::Mat &gray, const cv::M
       // The warped picture's foreshortening is already undone: the horizon alone.
       TextPerspectiveOptions affine = ro.perspective;
       affine.focal_px = 0;
-      const auto again = RefineTextPerspective(wkp.points, wkp.text_angle_rad, std::nullopt, affine);
+      const auto again =
+          RefineTextPerspective(wkp.points, wkp.text_angle_rad, std::nullopt, affine);
       // Most pictures of unregistered pages refit within 2%, which cuts the words alike and
       // only costs another round.
       if (again && DepthRatio(*again, wkp.points) >= options_.rectified_picture_min_refit_ratio)
@@ -605,6 +608,8 @@ absl::StatusOr<RetrievalResult> DocumentRegistry::RetrieveAsGiven(
   std::optional<cv::Matx33d> text_line_horizon;
   // The keypoints the neighbourhood pass takes when nothing else finds a page.
   std::vector<WordKeypoints> small_views;
+  // The rectified picture's keypoints for the same pass.
+  std::vector<WarpedKeypoints> small_warped;
   for (size_t attempt = 0; attempt <= fallback_extractors_.size(); ++attempt) {
     auto t = Clock::now();
     if (attempt == 0) {
@@ -672,8 +677,12 @@ absl::StatusOr<RetrievalResult> DocumentRegistry::RetrieveAsGiven(
                                       ro.perspective);
     }
     if (horizon) {
-      RetrieveRectifiedPicture(gray, *horizon, measured.text_angle_rad, *retriever, ro, &hits,
-                               &hits_kp, &extract_ms, &match_ms);
+      RetrieveRectifiedPicture(
+          gray, *horizon, measured.text_angle_rad, *retriever, ro, &hits, &hits_kp, &extract_ms,
+          &match_ms,
+          options_.neighbourhood_pass_rectified && options_.neighbourhood_pass_extractors > 0
+              ? &small_warped
+              : nullptr);
     }
   }
   // Last of all, for a picture of few keypoints: single descriptor hits, each a homography.
@@ -686,6 +695,25 @@ absl::StatusOr<RetrievalResult> DocumentRegistry::RetrieveAsGiven(
         retriever->RetrieveByNeighbourhoods(small_views[i].points, small_views[i].char_height, no);
     match_ms += MillisecondsSince(t);
     if (!hits.empty()) hits_kp = small_views[i];
+  }
+  // Then on the rectified picture's: its homographies and keypoints back in the picture's
+  // pixels.
+  for (size_t i = 0; hits.empty() && retriever && i < small_warped.size(); ++i) {
+    const WarpedKeypoints &warped = small_warped[i];
+    auto t = Clock::now();
+    RetrievalOptions no = ro;
+    no.text_angle_rad = warped.keypoints.text_angle_rad;
+    no.refine_perspective = false;
+    no.frame = warped.size;
+    hits = retriever->RetrieveByNeighbourhoods(warped.keypoints.points,
+                                               warped.keypoints.char_height, no);
+    match_ms += MillisecondsSince(t);
+    if (!hits.empty()) {
+      const cv::Matx33d back = warped.to_warped.inv();
+      for (DocumentHit &h : hits) h.homography = back * h.homography;
+      hits_kp = warped.keypoints;
+      hits_kp.points = ApplyPerspective(back, hits_kp.points);
+    }
   }
   kp = std::move(hits_kp);
   result.timings.Add("extract", extract_ms);

@@ -60,7 +60,7 @@ long RssKiB() {
 
 struct Query {
   std::string jpeg;
-  int page;  // -1: never registered
+  int page;            // -1: never registered
   cv::Matx33d truth;   // registered-image pixels -> view (nominal when the page curls)
   cv::Size page_size;  // of the rendered page
   texfree::testdata::CameraViewOptions view;
@@ -456,6 +456,8 @@ int main(int argc, char **argv) {
                  "hits turned into homographies by the neighbourhood pass (0: off)");
   app.add_option("--neighbourhood-extractors", registry_options.neighbourhood_pass_extractors,
                  "extractors whose keypoints the neighbourhood pass takes (0: none)");
+  app.add_option("--neighbourhood-rectified", registry_options.neighbourhood_pass_rectified,
+                 "the neighbourhood pass on the rectified picture's keypoints too (0 or 1)");
   app.add_option("--deep-max-keypoints", registry_options.retrieval.deep_max_keypoints,
                  "queries of at most this many keypoints that found nothing vote again on "
                  "their hits (the few-keypoint pass; 0: off)");
