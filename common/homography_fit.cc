@@ -39,6 +39,20 @@ Normalisation Normalise(const std::vector<cv::Point2f> &points) {
   return n;
 }
 
+// The pairs in the coordinates of their own set's normalisation.
+void NormalisePairs(const std::vector<cv::Point2f> &src, const std::vector<cv::Point2f> &dst,
+                    Normalisation *ns, Normalisation *nd, std::vector<cv::Point2d> *s,
+                    std::vector<cv::Point2d> *d) {
+  *ns = Normalise(src);
+  *nd = Normalise(dst);
+  s->resize(src.size());
+  d->resize(dst.size());
+  for (size_t i = 0; i < src.size(); ++i) {
+    (*s)[i] = ns->Apply(src[i]);
+    (*d)[i] = nd->Apply(dst[i]);
+  }
+}
+
 // Projection of p by the 8 parameters of a homography with H(2, 2) = 1.
 inline bool Project(const Vec8 &h, const cv::Point2d &p, cv::Point2d *out, double *w) {
   *w = h[6] * p.x + h[7] * p.y + 1;
@@ -212,12 +226,9 @@ int UpdateIterations(double confidence, double outliers, int max_iterations) {
 bool FitHomography(const std::vector<cv::Point2f> &src, const std::vector<cv::Point2f> &dst,
                    cv::Matx33d *H, int max_refine_iterations) {
   if (src.size() != dst.size() || src.size() < 4) return false;
-  const Normalisation ns = Normalise(src), nd = Normalise(dst);
-  std::vector<cv::Point2d> s(src.size()), d(dst.size());
-  for (size_t i = 0; i < src.size(); ++i) {
-    s[i] = ns.Apply(src[i]);
-    d[i] = nd.Apply(dst[i]);
-  }
+  Normalisation ns, nd;
+  std::vector<cv::Point2d> s, d;
+  NormalisePairs(src, dst, &ns, &nd, &s, &d);
   cv::Matx33d Hn;
   if (!FitNormalised(s, d, max_refine_iterations, &Hn)) return false;
   *H = Denormalise(Hn, ns, nd);
@@ -234,12 +245,9 @@ bool FitHomographyRansac(const std::vector<cv::Point2f> &src, const std::vector<
     if (inliers) inliers->assign(4, 1);
     return true;
   }
-  const Normalisation ns = Normalise(src), nd = Normalise(dst);
-  std::vector<cv::Point2d> s(count), d(count);
-  for (size_t i = 0; i < count; ++i) {
-    s[i] = ns.Apply(src[i]);
-    d[i] = nd.Apply(dst[i]);
-  }
+  Normalisation ns, nd;
+  std::vector<cv::Point2d> s, d;
+  NormalisePairs(src, dst, &ns, &nd, &s, &d);
   const double gate2 = threshold * nd.scale * threshold * nd.scale;
   // The samples are drawn as cv::findHomography draws them (its generator and seed, the
   // same tests), so that both find the same consensus and a caller moving from it keeps

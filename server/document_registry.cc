@@ -452,7 +452,7 @@ void DocumentRegistry::RetrieveRectifiedPicture(
     const cv::Mat &gray, const cv::Matx33d &horizon, double text_angle_rad,
     const LlahRetriever &retriever, const RetrievalOptions &ro, std::vector<DocumentHit> *hits,
     WordKeypoints *hits_kp, double *extract_ms, double *match_ms,
-    std::vector<WarpedKeypoints> *small_warped) const {
+    std::vector<NeighbourhoodView> *small_views) const {
   // The text lines turned horizontal, as on the registered page: the extractors cut
   // upright lines as they cut the page (at 10,000 pages, 976 -> 978 of 1,000 views).
   std::optional<cv::Matx33d> rectification = horizon;
@@ -519,9 +519,11 @@ void DocumentRegistry::RetrieveRectifiedPicture(
                         cv::INTER_LINEAR, cv::BORDER_CONSTANT, cv::Scalar(255));
     WordKeypoints wkp = extractor_.Extract(warped);
     *extract_ms += MillisecondsSince(t);
-    if (small_warped != nullptr && small_warped->empty() && wkp.char_height > 0 &&
+    // The first round's cut is also the neighbourhood pass's (its warp is the horizon's).
+    if (small_views != nullptr && wkp.char_height > 0 &&
         static_cast<int>(wkp.points.size()) <= options_.retrieval.deep_max_keypoints)
-      small_warped->push_back({wkp, to_warped, warped.size()});
+      small_views->push_back({wkp, to_warped, warped.size(), wkp.text_angle_rad, false});
+    small_views = nullptr;
     warped_options.frame = warped.size();
     t = Clock::now();
     std::vector<DocumentHit> found =
@@ -607,9 +609,7 @@ absl::StatusOr<RetrievalResult> DocumentRegistry::RetrieveAsGiven(
   // The first keypoints' text-line horizon, when the retriever's last try fitted it.
   std::optional<cv::Matx33d> text_line_horizon;
   // The keypoints the neighbourhood pass takes when nothing else finds a page.
-  std::vector<WordKeypoints> small_views;
-  // The rectified picture's keypoints for the same pass.
-  std::vector<WarpedKeypoints> small_warped;
+  std::vector<NeighbourhoodView> small_views;
   for (size_t attempt = 0; attempt <= fallback_extractors_.size(); ++attempt) {
     auto t = Clock::now();
     if (attempt == 0) {
@@ -629,7 +629,8 @@ absl::StatusOr<RetrievalResult> DocumentRegistry::RetrieveAsGiven(
     tried = kp.points;
     if (static_cast<int>(attempt) < options_.neighbourhood_pass_extractors &&
         static_cast<int>(kp.points.size()) <= options_.retrieval.deep_max_keypoints)
-      small_views.push_back(kp);
+      small_views.push_back({kp, cv::Matx33d::eye(), ro.frame, measured.text_angle_rad,
+                             options_.retrieval.refine_perspective && small_views.empty()});
     t = Clock::now();
     // The fallbacks' keypoints are retried unrectified only in small views: a large view
     // that finds nothing would otherwise pay for six retrievals.
@@ -681,37 +682,27 @@ absl::StatusOr<RetrievalResult> DocumentRegistry::RetrieveAsGiven(
           gray, *horizon, measured.text_angle_rad, *retriever, ro, &hits, &hits_kp, &extract_ms,
           &match_ms,
           options_.neighbourhood_pass_rectified && options_.neighbourhood_pass_extractors > 0
-              ? &small_warped
+              ? &small_views
               : nullptr);
     }
   }
-  // Last of all, for a picture of few keypoints: single descriptor hits, each a homography.
-  for (size_t i = 0; hits.empty() && retriever && i < small_views.size(); ++i) {
-    auto t = Clock::now();
-    RetrievalOptions no = ro;
-    no.text_angle_rad = measured.text_angle_rad;
-    no.refine_perspective = options_.retrieval.refine_perspective && i == 0;
-    hits =
-        retriever->RetrieveByNeighbourhoods(small_views[i].points, small_views[i].char_height, no);
-    match_ms += MillisecondsSince(t);
-    if (!hits.empty()) hits_kp = small_views[i];
-  }
-  // Then on the rectified picture's: its homographies and keypoints back in the picture's
+  // Last of all, for a picture of few keypoints: single descriptor hits, each a homography
+  // (the extractors' cuts first, then the rectified picture's), found in the picture's
   // pixels.
-  for (size_t i = 0; hits.empty() && retriever && i < small_warped.size(); ++i) {
-    const WarpedKeypoints &warped = small_warped[i];
+  for (size_t i = 0; hits.empty() && retriever && i < small_views.size(); ++i) {
+    const NeighbourhoodView &view = small_views[i];
     auto t = Clock::now();
     RetrievalOptions no = ro;
-    no.text_angle_rad = warped.keypoints.text_angle_rad;
-    no.refine_perspective = false;
-    no.frame = warped.size;
-    hits = retriever->RetrieveByNeighbourhoods(warped.keypoints.points,
-                                               warped.keypoints.char_height, no);
+    no.text_angle_rad = view.text_angle_rad;
+    no.refine_perspective = view.refine_perspective;
+    no.frame = view.frame;
+    hits =
+        retriever->RetrieveByNeighbourhoods(view.keypoints.points, view.keypoints.char_height, no);
     match_ms += MillisecondsSince(t);
     if (!hits.empty()) {
-      const cv::Matx33d back = warped.to_warped.inv();
+      const cv::Matx33d back = view.to_view.inv();
       for (DocumentHit &h : hits) h.homography = back * h.homography;
-      hits_kp = warped.keypoints;
+      hits_kp = view.keypoints;
       hits_kp.points = ApplyPerspective(back, hits_kp.points);
     }
   }

@@ -211,15 +211,18 @@ class DocumentRegistry {
   size_t index_entries() const;
   const DocumentRegistryOptions &options() const { return options_; }
 
-  // A rectified picture's keypoints: its first cut, the warp from the picture to it and
-  // its size.
-  struct WarpedKeypoints {
-    WordKeypoints keypoints;
-    cv::Matx33d to_warped;
-    cv::Size size;
-  };
-
  private:
+  // Keypoints the neighbourhood pass takes when nothing else finds a page: an extractor's
+  // cut of the picture, or the rectified picture's first cut (`to_view` the warp from the
+  // picture to it, identity for the picture itself), with the frame they lie in and how the
+  // pass rectifies them.
+  struct NeighbourhoodView {
+    WordKeypoints keypoints;
+    cv::Matx33d to_view = cv::Matx33d::eye();
+    cv::Size frame;
+    double text_angle_rad = 0;
+    bool refine_perspective = false;
+  };
   DocumentRegistry(std::unique_ptr<DocumentStore> store, DocumentRegistryOptions options);
   absl::Status LoadIndex();
   // The extra keypoint layers of a page (options_.registration_layers) into `record`.
@@ -238,7 +241,7 @@ class DocumentRegistry {
                                 double text_angle_rad, const LlahRetriever &retriever,
                                 const RetrievalOptions &ro, std::vector<DocumentHit> *hits,
                                 WordKeypoints *hits_kp, double *extract_ms, double *match_ms,
-                                std::vector<WarpedKeypoints> *small_warped = nullptr) const;
+                                std::vector<NeighbourhoodView> *small_views = nullptr) const;
   // Retrieve() on the picture at the size given (Retrieve reduces large pictures first).
   absl::StatusOr<RetrievalResult> RetrieveAsGiven(const cv::Mat &gray,
                                                   const std::optional<CameraModel> &camera,
