@@ -113,6 +113,17 @@ absl::Status RetrievalOptions::Validate() const {
     return absl::InvalidArgumentError(
         absl::StrCat("neighbourhood_min_tight must be >= 8 (fewer matches align by chance), got ",
                      neighbourhood_min_tight));
+  if (neighbourhood_min_tight_agreeing < 0 ||
+      (neighbourhood_min_tight_agreeing > 0 && neighbourhood_min_tight_agreeing < 8))
+    return absl::InvalidArgumentError(absl::StrCat(
+        "neighbourhood_min_tight_agreeing must be 0 (off) or >= 8 (fewer matches align by "
+        "chance), got ",
+        neighbourhood_min_tight_agreeing));
+  if (neighbourhood_min_agreeing_hits < 2)
+    return absl::InvalidArgumentError(
+        absl::StrCat("neighbourhood_min_agreeing_hits must be >= 2 (one hit is the hypothesis "
+                     "itself), got ",
+                     neighbourhood_min_agreeing_hits));
   if (!(neighbourhood_min_tight_share > 0 && neighbourhood_min_tight_share <= 1))
     return absl::InvalidArgumentError(absl::StrCat(
         "neighbourhood_min_tight_share must be in (0, 1], got ", neighbourhood_min_tight_share));
@@ -1446,6 +1457,19 @@ std::vector<LlahRetriever::NeighbourhoodHypothesis> LlahRetriever::Neighbourhood
   return hypotheses;
 }
 
+int LlahRetriever::AgreeingHits(const std::vector<NeighbourhoodHypothesis> &hypotheses,
+                 uint32_t document, const std::vector<cv::Point2f> &page, const cv::Matx33d &H,
+                 const std::vector<cv::Point2f> &query, double threshold) {
+  std::vector<int> agreeing;
+  for (const NeighbourhoodHypothesis &h : hypotheses) {
+    if (h.document != document || h.reference >= page.size()) continue;
+    if (cv::norm(ApplyHomography(H, page[h.reference]) - cv::Point2d(query[h.query])) <= threshold)
+      agreeing.push_back(static_cast<int>(h.query));
+  }
+  std::sort(agreeing.begin(), agreeing.end());
+  return static_cast<int>(std::unique(agreeing.begin(), agreeing.end()) - agreeing.begin());
+}
+
 std::vector<DocumentHit> LlahRetriever::RetrieveByNeighbourhoods(
     const std::vector<cv::Point2f> &query, double query_char_height, const RetrievalOptions &o,
     RetrievalTrace *trace) const {
@@ -1492,6 +1516,10 @@ std::vector<DocumentHit> LlahRetriever::RetrieveByNeighbourhoods(
   cv::convexHull(query, query_hull);
   int best_tight = 0;
   DocumentHit best_hit;
+  // The fewest tight matches that may find a page (with agreeing hits).
+  const int min_tight = o.neighbourhood_min_tight_agreeing > 0
+                            ? std::min(o.neighbourhood_min_tight, o.neighbourhood_min_tight_agreeing)
+                            : o.neighbourhood_min_tight;
   for (const NeighbourhoodHypothesis &hyp : hypotheses) {
     const int *qn = &query_neighbours[hyp.query * n];
     if (qn[0] < 0) continue;
@@ -1524,21 +1552,28 @@ std::vector<DocumentHit> LlahRetriever::RetrieveByNeighbourhoods(
     for (size_t i = 0; i < gr.size(); ++i)
       tight += cv::norm(ApplyHomography(H, gr[i]) - cv::Point2d(gq[i])) <=
                o.neighbourhood_tight_gate * threshold;
-    if (trace == nullptr && (tight < o.neighbourhood_min_tight || tight <= best_tight)) continue;
+    if (trace == nullptr && (tight < min_tight || tight <= best_tight)) continue;
     // The page's keypoints the homography puts among the query's (the share's denominator).
     const int inside = InsideHull(model->keypoints, model->base, H, query_hull);
+    // Agreeing hits are counted only where they can decide (or for the trace).
+    int agreeing = -1;
+    if (trace || (tight < o.neighbourhood_min_tight && tight >= min_tight &&
+                  tight >= o.neighbourhood_min_tight_share * inside))
+      agreeing = AgreeingHits(hypotheses, hyp.document, model->keypoints, H, query, threshold);
     if (trace) {
-      int &bm = hyp.document == trace->watch ? trace->neighbourhood_tight
-                                             : trace->neighbourhood_other_tight;
-      int &bi = hyp.document == trace->watch ? trace->neighbourhood_inside
-                                             : trace->neighbourhood_other_inside;
+      const bool watched = hyp.document == trace->watch;
+      int &bm = watched ? trace->neighbourhood_tight : trace->neighbourhood_other_tight;
+      int &bi = watched ? trace->neighbourhood_inside : trace->neighbourhood_other_inside;
+      int &ba = watched ? trace->neighbourhood_agreeing : trace->neighbourhood_other_agreeing;
       if (tight > bm) {
         bm = tight;
         bi = inside;
+        ba = agreeing;
       }
     }
-    if (tight < o.neighbourhood_min_tight || tight < o.neighbourhood_min_tight_share * inside ||
-        tight <= best_tight)
+    const bool enough = tight >= o.neighbourhood_min_tight ||
+                        (tight >= min_tight && agreeing >= o.neighbourhood_min_agreeing_hits);
+    if (!enough || tight < o.neighbourhood_min_tight_share * inside || tight <= best_tight)
       continue;
     best_tight = tight;
     best_hit.document = hyp.document;

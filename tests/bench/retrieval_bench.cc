@@ -251,12 +251,13 @@ void PrintMiss(const DocumentRegistry &registry, const Query &q, const cv::Mat &
       texfree::RetrievalOptions no = ro;
       no.text_angle_rad = kp.text_angle_rad;
       registry.retriever()->RetrieveByNeighbourhoods(kp.points, kp.char_height, no, &nb);
-      char line[160];
+      char line[200];
       std::snprintf(line, sizeof(line),
-                    " [neighbourhoods: %d hypotheses, page %d tight of %d inside, best other %d "
-                    "of %d]",
+                    " [neighbourhoods: %d hypotheses, page %d tight of %d inside (%d agreeing), "
+                    "best other %d of %d (%d agreeing)]",
                     nb.neighbourhood_hypotheses, nb.neighbourhood_tight, nb.neighbourhood_inside,
-                    nb.neighbourhood_other_tight, nb.neighbourhood_other_inside);
+                    nb.neighbourhood_agreeing, nb.neighbourhood_other_tight,
+                    nb.neighbourhood_other_inside, nb.neighbourhood_other_agreeing);
       stats += line;
     }
     // A rectified query's trace is the rectified attempt's: the unrectified one is traced
@@ -454,6 +455,12 @@ int main(int argc, char **argv) {
   app.add_option("--neighbourhood-hypotheses",
                  registry_options.retrieval.neighbourhood_max_hypotheses,
                  "hits turned into homographies by the neighbourhood pass (0: off)");
+  app.add_option("--neighbourhood-agreeing", registry_options.retrieval.neighbourhood_min_tight_agreeing,
+                 "tight matches from which agreeing descriptor hits may confirm a page in the "
+                 "neighbourhood pass (0: off)");
+  app.add_option("--neighbourhood-agreeing-hits",
+                 registry_options.retrieval.neighbourhood_min_agreeing_hits,
+                 "agreeing descriptor hits that confirm a page below the tight-match bar");
   app.add_option("--neighbourhood-extractors", registry_options.neighbourhood_pass_extractors,
                  "extractors whose keypoints the neighbourhood pass takes (0: none)");
   app.add_option("--neighbourhood-rectified", registry_options.neighbourhood_pass_rectified,
