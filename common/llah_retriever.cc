@@ -1458,8 +1458,9 @@ std::vector<LlahRetriever::NeighbourhoodHypothesis> LlahRetriever::Neighbourhood
 }
 
 int LlahRetriever::AgreeingHits(const std::vector<NeighbourhoodHypothesis> &hypotheses,
-                 uint32_t document, const std::vector<cv::Point2f> &page, const cv::Matx33d &H,
-                 const std::vector<cv::Point2f> &query, double threshold) {
+                                uint32_t document, const std::vector<cv::Point2f> &page,
+                                const cv::Matx33d &H, const std::vector<cv::Point2f> &query,
+                                double threshold) {
   std::vector<int> agreeing;
   for (const NeighbourhoodHypothesis &h : hypotheses) {
     if (h.document != document || h.reference >= page.size()) continue;
@@ -1517,9 +1518,10 @@ std::vector<DocumentHit> LlahRetriever::RetrieveByNeighbourhoods(
   int best_tight = 0;
   DocumentHit best_hit;
   // The fewest tight matches that may find a page (with agreeing hits).
-  const int min_tight = o.neighbourhood_min_tight_agreeing > 0
-                            ? std::min(o.neighbourhood_min_tight, o.neighbourhood_min_tight_agreeing)
-                            : o.neighbourhood_min_tight;
+  const int min_tight =
+      o.neighbourhood_min_tight_agreeing > 0
+          ? std::min(o.neighbourhood_min_tight, o.neighbourhood_min_tight_agreeing)
+          : o.neighbourhood_min_tight;
   for (const NeighbourhoodHypothesis &hyp : hypotheses) {
     const int *qn = &query_neighbours[hyp.query * n];
     if (qn[0] < 0) continue;

@@ -379,10 +379,9 @@ class LlahRetriever {
   // Distinct query keypoints with a hypothesis on `document` whose reference keypoint (of
   // any layer; all are in page coordinates) H projects within `threshold` of them
   // (RetrievalOptions::neighbourhood_min_agreeing_hits).
-  static int AgreeingHits(const std::vector<NeighbourhoodHypothesis> &hypotheses,
-                          uint32_t document, const std::vector<cv::Point2f> &page,
-                          const cv::Matx33d &H, const std::vector<cv::Point2f> &query,
-                          double threshold);
+  static int AgreeingHits(const std::vector<NeighbourhoodHypothesis> &hypotheses, uint32_t document,
+                          const std::vector<cv::Point2f> &page, const cv::Matx33d &H,
+                          const std::vector<cv::Point2f> &query, double threshold);
   // The index entries a query descriptor may have before it is a stop word (its hits are
   // dropped): RetrievalOptions::max_hits_per_descriptor, max_hits_per_1000_documents and
   // stop_word_keypoints. Under a lock.

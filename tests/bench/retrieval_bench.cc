@@ -455,7 +455,8 @@ int main(int argc, char **argv) {
   app.add_option("--neighbourhood-hypotheses",
                  registry_options.retrieval.neighbourhood_max_hypotheses,
                  "hits turned into homographies by the neighbourhood pass (0: off)");
-  app.add_option("--neighbourhood-agreeing", registry_options.retrieval.neighbourhood_min_tight_agreeing,
+  app.add_option("--neighbourhood-agreeing",
+                 registry_options.retrieval.neighbourhood_min_tight_agreeing,
                  "tight matches from which agreeing descriptor hits may confirm a page in the "
                  "neighbourhood pass (0: off)");
   app.add_option("--neighbourhood-agreeing-hits",
