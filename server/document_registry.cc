@@ -30,6 +30,9 @@ constexpr const char *kHashVersion = "1";
 // How the database's pages were cut into words. Absent in databases built before it was
 // stored, which all used the line closing.
 constexpr const char *kGroupingKey = "keypoints.grouping";
+constexpr const char *kFigureLlahKey = "figures.llah.options";
+// The figures' index holds a few dozen corners of the pages with figures: a smaller table.
+constexpr int kFigureLog2Buckets = 19;
 
 const char *GroupingName(WordGrouping g) {
   return g == WordGrouping::kLetterGraph ? "letter_graph" : "line_closing";
@@ -155,6 +158,26 @@ absl::Status DocumentRegistryOptions::Validate() const {
   if (rectified_picture_max_keypoints < 0)
     return absl::InvalidArgumentError(absl::StrCat(
         "rectified_picture_max_keypoints must be >= 0, got ", rectified_picture_max_keypoints));
+  if (absl::Status s = figure_keypoints.Validate(); !s.ok())
+    return absl::InvalidArgumentError(absl::StrCat("figure_keypoints: ", s.message()));
+  {
+    LlahOptions figure_llah = llah;
+    figure_llah.n = figure_llah_n;
+    figure_llah.m = figure_llah_m;
+    if (absl::Status s = figure_llah.Validate(); !s.ok())
+      return absl::InvalidArgumentError(
+          absl::StrCat("figure_llah_n, figure_llah_m: ", s.message()));
+  }
+  if (figure_min_keypoints < figure_llah_n + 1)
+    return absl::InvalidArgumentError(absl::StrCat("figure_min_keypoints must exceed figure_llah_n = ",
+                                                   figure_llah_n, ", got ", figure_min_keypoints));
+  if (figure_query_probes < 0 || figure_query_probes > LlahDescriber::kMaxProbes)
+    return absl::InvalidArgumentError(absl::StrCat("figure_query_probes must be in [0, ",
+                                                   LlahDescriber::kMaxProbes, "], got ",
+                                                   figure_query_probes));
+  if (!(figure_inlier_px > 0 && figure_inlier_px <= 50))
+    return absl::InvalidArgumentError(
+        absl::StrCat("figure_inlier_px must be in (0, 50] pixels, got ", figure_inlier_px));
   if (duplicate_min_inliers < retrieval.min_inliers)
     return absl::InvalidArgumentError("duplicate_min_inliers must be >= retrieval.min_inliers");
   if (log2_buckets < 10 || log2_buckets > 30)
@@ -169,7 +192,10 @@ absl::Status DocumentRegistryOptions::Validate() const {
 
 DocumentRegistry::DocumentRegistry(std::unique_ptr<DocumentStore> store,
                                    DocumentRegistryOptions options)
-    : options_(std::move(options)), store_(std::move(store)), extractor_(options_.keypoints) {
+    : options_(std::move(options)),
+      store_(std::move(store)),
+      extractor_(options_.keypoints),
+      figure_extractor_(options_.figure_keypoints) {
   for (const WordKeypointOptions &o : options_.fallback_keypoints)
     fallback_extractors_.emplace_back(o);
   for (const RegistrationLayer &layer : options_.registration_layers)
@@ -219,15 +245,22 @@ absl::Status DocumentRegistry::LoadIndex() {
     UseRegistrationGrouping(grouping);
   }
   ASSIGN_OR_RETURN(InvariantQuantizer quantizer, ParseThresholds(*stored_thresholds, llah.k));
+  std::shared_ptr<LlahRetriever> figures;
+  if (options_.index_figures) {
+    ASSIGN_OR_RETURN(const LlahOptions figure_llah, FigureLlahOptions(llah));
+    figures = std::make_shared<LlahRetriever>(figure_llah, quantizer, kFigureLog2Buckets);
+  }
   auto retriever =
       std::make_shared<LlahRetriever>(llah, std::move(quantizer), options_.log2_buckets);
 
   ASSIGN_OR_RETURN(auto stored_hash_version, store_->GetSetting(kHashVersionKey));
   const bool hashes_valid = stored_hash_version && *stored_hash_version == kHashVersion;
-  std::vector<DocumentKeypoints> documents;
+  std::vector<DocumentKeypoints> documents, figure_documents;
   RETURN_IF_ERROR(
       store_->ForEachKeypoints([&](const DocumentSummary &s, DocumentStore::StoredKeypoints k) {
         summaries_[s.index_id] = s;
+        if (figures && !k.figure_keypoints.empty())
+          figure_documents.push_back({s.index_id, std::move(k.figure_keypoints), s.size, {}, {}});
         if (!hashes_valid) k.hashes.clear();
         k.keypoints.insert(k.keypoints.end(), k.layer_keypoints.begin(), k.layer_keypoints.end());
         documents.push_back({s.index_id, std::move(k.keypoints), s.size, std::move(k.layer_sizes),
@@ -250,11 +283,16 @@ absl::Status DocumentRegistry::LoadIndex() {
     spdlog::info("document index: stored descriptors of {} pages", computed.size());
   }
   RETURN_IF_ERROR(store_->PutSetting(kHashVersionKey, kHashVersion));
+  const size_t figure_pages = figure_documents.size();
+  if (figures)
+    RETURN_IF_ERROR(figures->AddDocuments(std::move(figure_documents), options_.rebuild_threads));
   retriever_ = std::move(retriever);
+  figure_retriever_ = std::move(figures);
   spdlog::info(
-      "document index: {} pages, {} entries, {:.1f} MiB, read {:.0f} "
-      "ms, rebuilt in {:.0f} ms",
-      n, retriever_->entries(), retriever_->MemoryBytes() / 1048576.0, read_ms,
+      "document index: {} pages, {} entries, {:.1f} MiB ({} pages with figures, {:.1f} MiB), "
+      "read {:.0f} ms, rebuilt in {:.0f} ms",
+      n, retriever_->entries(), retriever_->MemoryBytes() / 1048576.0, figure_pages,
+      figure_retriever_ ? figure_retriever_->MemoryBytes() / 1048576.0 : 0.0, read_ms,
       MillisecondsSince(t0));
   return absl::OkStatus();
 }
@@ -273,10 +311,33 @@ absl::Status DocumentRegistry::CreateRetriever(const std::vector<cv::Point2f> &t
   RETURN_IF_ERROR(store_->PutSetting(kGroupingKey, GroupingName(options_.keypoints.grouping)));
   spdlog::info("document index: learned {} quantisation levels: {}", options_.llah.k,
                FormatThresholds(quantizer.thresholds()));
+  std::shared_ptr<LlahRetriever> figures;
+  if (options_.index_figures) {
+    ASSIGN_OR_RETURN(const LlahOptions figure_llah, FigureLlahOptions(options_.llah));
+    figures = std::make_shared<LlahRetriever>(figure_llah, quantizer, kFigureLog2Buckets);
+  }
   std::unique_lock lock(mutex_);
+  figure_retriever_ = std::move(figures);
   retriever_ =
       std::make_shared<LlahRetriever>(options_.llah, std::move(quantizer), options_.log2_buckets);
   return absl::OkStatus();
+}
+
+absl::StatusOr<LlahOptions> DocumentRegistry::FigureLlahOptions(const LlahOptions &words) {
+  ASSIGN_OR_RETURN(auto stored, store_->GetSetting(kFigureLlahKey));
+  if (stored) {
+    ASSIGN_OR_RETURN(LlahOptions figure_llah, ParseOptions(*stored));
+    if (figure_llah.k != words.k)
+      return absl::DataLossError(absl::StrCat("stored figure LLAH settings '", *stored,
+                                              "' do not share the words' k = ", words.k));
+    return figure_llah;
+  }
+  LlahOptions figure_llah = words;
+  figure_llah.n = options_.figure_llah_n;
+  figure_llah.m = options_.figure_llah_m;
+  RETURN_IF_ERROR(figure_llah.Validate());
+  RETURN_IF_ERROR(store_->PutSetting(kFigureLlahKey, FormatOptions(figure_llah)));
+  return figure_llah;
 }
 
 std::optional<DocumentSummary> DocumentRegistry::Summary(uint32_t index_id) const {
@@ -301,10 +362,17 @@ absl::StatusOr<DocumentRecord> DocumentRegistry::Register(
                      gray.rows, " image, at least ", options_.min_keypoints,
                      " are needed: register a page of text, in focus, seen from above"));
   }
+
+  std::vector<cv::Point2f> figure_points;
+  if (options_.index_figures) {
+    figure_points = figure_extractor_.Extract(gray, kp.points, kp.char_height);
+    if (static_cast<int>(figure_points.size()) < options_.figure_min_keypoints)
+      figure_points.clear();
+  }
   const double extract_ms = MillisecondsSince(t0);
 
   std::lock_guard registering(register_mutex_);
-  std::shared_ptr<LlahRetriever> retriever;
+  std::shared_ptr<LlahRetriever> retriever, figures;
   {
     std::shared_lock lock(mutex_);
     retriever = retriever_;
@@ -325,6 +393,10 @@ absl::StatusOr<DocumentRecord> DocumentRegistry::Register(
     std::shared_lock lock(mutex_);
     retriever = retriever_;
   }
+  {
+    std::shared_lock lock(mutex_);
+    figures = figure_retriever_;
+  }
 
   DocumentRecord record;
   record.title = std::move(title);
@@ -334,13 +406,18 @@ absl::StatusOr<DocumentRecord> DocumentRegistry::Register(
   std::vector<cv::Point2f> all = kp.points;
   all.insert(all.end(), record.layer_keypoints.begin(), record.layer_keypoints.end());
   retriever->DescribeLayers(all, record.layer_sizes, &record.hashes);
+  if (figures) record.figure_keypoints = std::move(figure_points);
   record.annotations = std::move(annotations);
   ASSIGN_OR_RETURN(record, store_->Insert(std::move(record)));
-  if (absl::Status s = retriever->AddDocument(
-          {record.index_id, std::move(all), gray.size(), record.layer_sizes, record.hashes});
-      !s.ok()) {
+  absl::Status added = retriever->AddDocument(
+      {record.index_id, std::move(all), gray.size(), record.layer_sizes, record.hashes});
+  if (added.ok() && figures && !record.figure_keypoints.empty()) {
+    added = figures->AddDocument({record.index_id, record.figure_keypoints, gray.size(), {}, {}});
+    if (!added.ok()) retriever->RemoveDocument(record.index_id);
+  }
+  if (!added.ok()) {
     store_->Delete(record.id).IgnoreError();  // keep database and index in step
-    return s;
+    return added;
   }
   {
     std::unique_lock lock(mutex_);
@@ -352,9 +429,10 @@ absl::StatusOr<DocumentRecord> DocumentRegistry::Register(
                                    record.created_unix_ms};
   }
   spdlog::info(
-      "registered document {} \"{}\": {}x{}, {} keypoints, {} annotations "
+      "registered document {} \"{}\": {}x{}, {} keypoints, {} figure keypoints, {} annotations "
       "(extract {:.1f} ms, total {:.1f} ms)",
       record.id, record.title, gray.cols, gray.rows, record.keypoints.size(),
+      record.figure_keypoints.size(),
       record.annotations.size(), extract_ms, MillisecondsSince(t0));
   return record;
 }
@@ -393,13 +471,15 @@ absl::Status DocumentRegistry::Delete(const std::string &id) {
   const auto t0 = Clock::now();
   std::lock_guard registering(register_mutex_);
   ASSIGN_OR_RETURN(uint32_t index_id, store_->Delete(id));
-  std::shared_ptr<LlahRetriever> retriever;
+  std::shared_ptr<LlahRetriever> retriever, figures;
   {
     std::unique_lock lock(mutex_);
     summaries_.erase(index_id);
     retriever = retriever_;
+    figures = figure_retriever_;
   }
   if (retriever) retriever->RemoveDocument(index_id);
+  if (figures) figures->RemoveDocument(index_id);
   spdlog::info("deleted document {} in {:.1f} ms", id, MillisecondsSince(t0));
   return absl::OkStatus();
 }
@@ -577,10 +657,11 @@ void DocumentRegistry::RetrieveRectifiedPicture(
 absl::StatusOr<RetrievalResult> DocumentRegistry::RetrieveAsGiven(
     const cv::Mat &gray, const std::optional<CameraModel> &camera, int max_results) const {
   RetrievalResult result;
-  std::shared_ptr<LlahRetriever> retriever;
+  std::shared_ptr<LlahRetriever> retriever, figures;
   {
     std::shared_lock lock(mutex_);
     retriever = retriever_;
+    figures = figure_retriever_;
   }
   RetrievalOptions ro = options_.retrieval;
   ro.max_results = max_results;
@@ -706,6 +787,27 @@ absl::StatusOr<RetrievalResult> DocumentRegistry::RetrieveAsGiven(
       hits_kp.points = ApplyPerspective(back, hits_kp.points);
     }
   }
+  // Last: the figures' corners, for a view of a chart or a photograph.
+  const LlahRetriever *hits_index = retriever.get();
+  if (hits.empty() && figures && figures->documents() > 0) {
+    auto t = Clock::now();
+    WordKeypoints corners;
+    corners.points = figure_extractor_.Extract(gray, first_points, measured.char_height);
+    extract_ms += MillisecondsSince(t);
+    if (static_cast<int>(corners.points.size()) > figures->describer().options().n) {
+      t = Clock::now();
+      const RetrievalOptions fo = FigureRetrievalOptions(ro);
+      hits = figures->Retrieve(corners.points, 0, fo);
+      if (hits.empty() && options_.neighbourhood_pass_extractors > 0 &&
+          static_cast<int>(corners.points.size()) <= options_.retrieval.deep_max_keypoints)
+        hits = figures->RetrieveByNeighbourhoods(corners.points, 0, fo);
+      match_ms += MillisecondsSince(t);
+      if (!hits.empty()) {
+        hits_kp = std::move(corners);
+        hits_index = figures.get();
+      }
+    }
+  }
   kp = std::move(hits_kp);
   result.timings.Add("extract", extract_ms);
   if (!retriever) return result;
@@ -721,7 +823,7 @@ absl::StatusOr<RetrievalResult> DocumentRegistry::RetrieveAsGiven(
     doc.inliers = hit.inliers;
     doc.votes = hit.votes;
     if (camera) {
-      const std::vector<cv::Point2f> reference = retriever->Keypoints(hit.document);
+      const std::vector<cv::Point2f> reference = hits_index->Keypoints(hit.document);
       std::vector<cv::Point2f> plane, pixels;
       for (const auto &[q, r] : hit.matches) {
         if (r < static_cast<int>(reference.size())) {
@@ -760,6 +862,22 @@ absl::StatusOr<AnnotationRecord> DocumentRegistry::AddAnnotation(const std::stri
 absl::Status DocumentRegistry::DeleteAnnotation(const std::string &id,
                                                 const std::string &annotation_id) {
   return store_->DeleteAnnotation(id, annotation_id);
+}
+
+RetrievalOptions DocumentRegistry::FigureRetrievalOptions(RetrievalOptions ro) const {
+  // Corners are not text: no text-line rectification, no spacing gradient to undo.
+  ro.rectify_perspective = false;
+  ro.refine_perspective = false;
+  ro.text_angle_rad = std::numeric_limits<double>::quiet_NaN();
+  ro.ransac_threshold_px = options_.figure_inlier_px;
+  ro.query_probes = options_.figure_query_probes;
+  ro.deep_max_keypoints = options_.retrieval.deep_max_keypoints;
+  return ro;
+}
+
+std::shared_ptr<const LlahRetriever> DocumentRegistry::figure_retriever() const {
+  std::shared_lock lock(mutex_);
+  return figure_retriever_;
 }
 
 std::shared_ptr<const LlahRetriever> DocumentRegistry::retriever() const {

@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "absl/status/statusor.h"
+#include "common/figure_keypoints.h"
 #include "common/llah.h"
 #include "common/llah_retriever.h"
 #include "common/planar_pose.h"
@@ -145,6 +146,25 @@ struct DocumentRegistryOptions {
   // Extra keypoint layers of every page registered (pages registered earlier keep the
   // layers they were registered with). Empty: the page as given only.
   std::vector<RegistrationLayer> registration_layers = DefaultRegistrationLayers();
+  // Figures (charts, diagrams, photographs): their corners (FigureKeypointExtractor) are
+  // indexed apart from the words, with the words' LLAH settings and quantisation, for pages
+  // with at least figure_min_keypoints of them. A picture in which no word try found a page
+  // is retrieved on its figure corners last, with RANSAC's inlier distance at
+  // figure_inlier_px (corners are located to a pixel or two, whatever the text's size).
+  // Views of a chart or a photograph hold a handful of words (tick labels) or none; at
+  // 10,000 pages they were most of the views the words did not find.
+  bool index_figures = true;
+  FigureKeypointOptions figure_keypoints;
+  int figure_min_keypoints = 12;
+  double figure_inlier_px = 4.0;
+  // Query-side multi-probe of the figures' descriptors (RetrievalOptions::query_probes).
+  int figure_query_probes = 1;
+  // LLAH neighbourhoods of the figures' index (k and the quantisation are the words'): a
+  // figure's corners repeat less surely than words (a marker or a bar's corner is missed or
+  // a speck of text is taken), so their neighbourhoods forgive more. Used for a new
+  // database; an existing one keeps the ones it was built with.
+  int figure_llah_n = 7;
+  int figure_llah_m = 6;
   // A page with fewer word keypoints cannot be recognised reliably.
   int min_keypoints = 30;
   // Registering a page that retrieves a registered one with this many inliers
@@ -202,10 +222,20 @@ class DocumentRegistry {
   // registered; read-only for sessions), a document's summary by index id (nullopt once
   // deleted) and its annotations.
   std::shared_ptr<const LlahRetriever> retriever() const;
+  // The figures' index (null until the first page is registered, or with index_figures off).
+  std::shared_ptr<const LlahRetriever> figure_retriever() const;
   std::optional<DocumentSummary> FindByIndexId(uint32_t index_id) const {
     return Summary(index_id);
   }
   absl::StatusOr<std::vector<AnnotationRecord>> AnnotationsByIndexId(uint32_t index_id) const;
+
+  // The figure corners of a picture as retrieval takes them (for diagnosis), and the options
+  // their retrieval runs with, from `ro` as the word tries had it.
+  std::vector<cv::Point2f> FigureKeypoints(const cv::Mat &gray) const {
+    const WordKeypoints words = extractor_.Extract(gray);
+    return figure_extractor_.Extract(gray, words.points, words.char_height);
+  }
+  RetrievalOptions FigureRetrievalOptions(RetrievalOptions ro) const;
 
   size_t index_memory_bytes() const;
   size_t index_entries() const;
@@ -230,6 +260,8 @@ class DocumentRegistry {
   // Makes `grouping` the registration and first query extractor (the database's own).
   void UseRegistrationGrouping(WordGrouping grouping);
   absl::Status CreateRetriever(const std::vector<cv::Point2f> &training_points);
+  // The figures' LLAH settings: stored ones, else options_'s (stored now).
+  absl::StatusOr<LlahOptions> FigureLlahOptions(const LlahOptions &words);
   std::optional<DocumentSummary> Summary(uint32_t index_id) const;
   // The last try of RetrieveAsGiven: the picture warped by the text-line `horizon` (turned
   // so that the text lines are horizontal), cut anew and retrieved, in up to
@@ -255,6 +287,9 @@ class DocumentRegistry {
   std::mutex register_mutex_;
   mutable std::shared_mutex mutex_;  // guards retriever_ (pointer) and summaries_
   std::shared_ptr<LlahRetriever> retriever_;
+  // The figures' index (index_figures), created with retriever_ and guarded alike.
+  std::shared_ptr<LlahRetriever> figure_retriever_;
+  FigureKeypointExtractor figure_extractor_;
   std::unordered_map<uint32_t, DocumentSummary> summaries_;
 };
 

@@ -56,6 +56,11 @@ ALTER TABLE documents ADD COLUMN hashes BLOB;
     R"sql(
 ALTER TABLE documents ADD COLUMN layers BLOB;
 )sql",
+    // v4: the keypoints of the page's figures (FigureKeypointExtractor; NULL: none, or the
+    // page was registered before they were).
+    R"sql(
+ALTER TABLE documents ADD COLUMN figures BLOB;
+)sql",
 };
 
 int64_t NowUnixMs() {
@@ -206,7 +211,7 @@ absl::StatusOr<DocumentRecord> DocumentStore::Insert(DocumentRecord record) {
   {
     ASSIGN_OR_RETURN(auto s, db_->Prepare("INSERT INTO documents (public_id, title, width, height, "
                                           "created_unix_ms, keypoint_count, keypoints, hashes, "
-                                          "layers) VALUES (?,?,?,?,?,?,?,?,?)"));
+                                          "layers, figures) VALUES (?,?,?,?,?,?,?,?,?,?)"));
     const std::string blob = PackPoints(record.keypoints);
     const std::string hashes = PackHashes(record.hashes);
     RETURN_IF_ERROR(s.BindText(1, record.id));
@@ -226,6 +231,12 @@ absl::StatusOr<DocumentRecord> DocumentStore::Insert(DocumentRecord record) {
     } else {
       const std::string layers = PackLayers(record.layer_keypoints, record.layer_sizes);
       RETURN_IF_ERROR(s.BindBlob(9, layers.data(), layers.size()));
+    }
+    if (record.figure_keypoints.empty()) {
+      RETURN_IF_ERROR(s.BindNull(10));
+    } else {
+      const std::string figures = PackPoints(record.figure_keypoints);
+      RETURN_IF_ERROR(s.BindBlob(10, figures.data(), figures.size()));
     }
     RETURN_IF_ERROR(s.Run());
   }
@@ -365,7 +376,7 @@ absl::Status DocumentStore::ForEachKeypoints(
   std::lock_guard lock(mutex_);
   ASSIGN_OR_RETURN(auto s, db_->Prepare("SELECT index_id, public_id, title, width, height, "
                                         "keypoint_count, created_unix_ms, keypoints, hashes, "
-                                        "layers FROM documents ORDER BY index_id"));
+                                        "layers, figures FROM documents ORDER BY index_id"));
   while (true) {
     ASSIGN_OR_RETURN(auto row, s.Step());
     if (!row) break;
@@ -381,6 +392,7 @@ absl::Status DocumentStore::ForEachKeypoints(
     if (absl::Status status = UnpackLayers(s.ColumnBlob(9), &k.layer_keypoints, &k.layer_sizes);
         !status.ok())
       return absl::DataLossError(absl::StrCat("document ", d.id, ": ", status.message()));
+    k.figure_keypoints = UnpackPoints(s.ColumnBlob(10));
     f(d, std::move(k));
   }
   return absl::OkStatus();

@@ -49,6 +49,10 @@ struct DocumentRecord {
   // LLAH descriptor hashes of keypoints then layer_keypoints (LlahRetriever::DescribeLayers
   // layout); stored so that start-up need not recompute them. May be empty.
   std::vector<uint64_t> hashes;
+  // Keypoints of the page's figures (FigureKeypointExtractor), in registration-image pixels,
+  // indexed apart from the words. Empty when the page has too few (or was registered
+  // before figures were indexed).
+  std::vector<cv::Point2f> figure_keypoints;
   std::vector<AnnotationRecord> annotations;
 };
 

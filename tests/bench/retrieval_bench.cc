@@ -270,6 +270,33 @@ void PrintMiss(const DocumentRegistry &registry, const Query &q, const cv::Mat &
       stats += " as seen" + gates(seen);
     }
   }
+  // The figures' corners, as the registry's last try takes them.
+  if (const auto figures = registry.figure_retriever()) {
+    const auto corners = registry.FigureKeypoints(gray);
+    const auto figure_ref = figures->Keypoints(record->index_id);
+    stats += " | figures: page " + std::to_string(figure_ref.size()) + ", " +
+             RepeatStats(corners, 9.0, figure_ref, q.truth, gray.size(), figures->describer());
+    texfree::RetrievalOptions ro = registry.options().retrieval;
+    ro.frame = gray.size();
+    ro = registry.FigureRetrievalOptions(ro);
+    texfree::RetrievalTrace t;
+    t.watch = record->index_id;
+    figures->Retrieve(corners, 0, ro, &t);
+    texfree::RetrievalTrace nb;
+    nb.watch = record->index_id;
+    figures->RetrieveByNeighbourhoods(corners, 0, ro, &nb);
+    char line[300];
+    std::snprintf(line, sizeof(line),
+                  " [stop %d, hits %d/%d, votes %d/%d/%d rank %d, candidate %d of %d, ransac %d "
+                  "final %d guided %d inside %d%s; neighbourhoods %d tight of %d (%d agreeing), "
+                  "other %d of %d]",
+                  t.stop_word_lookups, t.hits, t.total_hits, t.coherent, t.strong, t.votes,
+                  t.rank_by_score, t.rank, t.candidates, t.ransac_inliers, t.final_inliers,
+                  t.guided, t.layout_inside, t.accepted ? " accepted" : "", nb.neighbourhood_tight,
+                  nb.neighbourhood_inside, nb.neighbourhood_agreeing, nb.neighbourhood_other_tight,
+                  nb.neighbourhood_other_inside);
+    stats += line;
+  }
   std::fprintf(
       stderr,
       "miss page %d: tilt %.0f scale %.2f blur %.1f noise %.1f light %.2f (roll %.1f azimuth %.1f "
@@ -406,6 +433,16 @@ int main(int argc, char **argv) {
   app.add_option("--probes", registry_options.retrieval.query_probes,
                  "query-side multi-probe: invariants per descriptor allowed "
                  "across a boundary");
+  app.add_option("--figure-probes", registry_options.figure_query_probes,
+                 "query-side multi-probe of the figures' descriptors");
+  app.add_option("--figure-llah-n", registry_options.figure_llah_n,
+                 "LLAH neighbours of the figures' index (new database only)");
+  app.add_option("--figure-llah-m", registry_options.figure_llah_m,
+                 "LLAH neighbours per descriptor of the figures' index (new database only)");
+  app.add_option("--figure-inlier-px", registry_options.figure_inlier_px,
+                 "RANSAC inlier distance of the figures' corners (px)");
+  app.add_flag("!--no-figures", registry_options.index_figures,
+               "no figure index (new database), no figure retrieval");
   app.add_option("--max-hits", registry_options.retrieval.max_hits_per_descriptor,
                  "descriptors with more index entries than this do not vote");
   app.add_option("--max-hits-per-1000", registry_options.retrieval.max_hits_per_1000_documents,

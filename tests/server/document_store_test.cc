@@ -157,6 +157,33 @@ TEST_F(DocumentStoreTest, KeypointLayersAreStored) {
   EXPECT_EQ(seen, 1);
 }
 
+// A page's figure keypoints are stored apart from its words and read back bit for bit; a page
+// without them (or from before schema version 4) reads back none.
+TEST_F(DocumentStoreTest, FigureKeypointsAreStored) {
+  {
+    auto store = DocumentStore::Open(path_);
+    ASSERT_TRUE(store.ok());
+    DocumentRecord chart = MakeRecord("chart", 3);
+    chart.figure_keypoints = {{10.25f, 20.5f}, {30.f, 40.75f}};
+    ASSERT_TRUE((*store)->Insert(chart).ok());
+    ASSERT_TRUE((*store)->Insert(MakeRecord("text only", 3)).ok());
+  }
+  auto store = DocumentStore::Open(path_);
+  ASSERT_TRUE(store.ok());
+  std::map<std::string, std::vector<cv::Point2f>> figures;
+  ASSERT_TRUE((*store)
+                  ->ForEachKeypoints([&](const DocumentSummary& s, DocumentStore::StoredKeypoints k) {
+                    EXPECT_EQ(k.keypoints.size(), 3u);
+                    figures[s.title] = k.figure_keypoints;
+                  })
+                  .ok());
+  ASSERT_EQ(figures.size(), 2u);
+  ASSERT_EQ(figures["chart"].size(), 2u);
+  EXPECT_FLOAT_EQ(figures["chart"][0].x, 10.25f);
+  EXPECT_FLOAT_EQ(figures["chart"][1].y, 40.75f);
+  EXPECT_TRUE(figures["text only"].empty());
+}
+
 // A database written by schema version 1 (before hashes were stored) is migrated in place
 // and keeps its pages.
 TEST_F(DocumentStoreTest, MigratesVersionOneDatabase) {
