@@ -30,7 +30,8 @@ absl::Status FigureKeypointOptions::Validate() const {
   if (!(min_distance_px >= 1))
     return bad(absl::StrCat("min_distance_px must be >= 1, got ", min_distance_px));
   if (!(border_margin_px >= 0)) return bad("border_margin_px must be >= 0");
-  if (max_keypoints < 1) return bad(absl::StrCat("max_keypoints must be >= 1, got ", max_keypoints));
+  if (max_keypoints < 1)
+    return bad(absl::StrCat("max_keypoints must be >= 1, got ", max_keypoints));
   return absl::OkStatus();
 }
 
@@ -51,7 +52,9 @@ std::vector<cv::Point2f> FigureKeypointExtractor::Extract(const cv::Mat &gray,
 
   // Figure ink: components too large to be letters or words.
   const int block =
-      std::max(15, static_cast<int>(std::lround(std::min(gray.cols, gray.rows) * o.ink_window_share))) | 1;
+      std::max(15,
+               static_cast<int>(std::lround(std::min(gray.cols, gray.rows) * o.ink_window_share))) |
+      1;
   const cv::Mat ink = InkMask(smooth, block, o.threshold_offset);
   cv::Mat labels, stats, centroids;
   const int n = ConnectedComponentsWithStats(ink, 8, &labels, &stats, &centroids);

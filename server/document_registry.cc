@@ -169,8 +169,9 @@ absl::Status DocumentRegistryOptions::Validate() const {
           absl::StrCat("figure_llah_n, figure_llah_m: ", s.message()));
   }
   if (figure_min_keypoints < figure_llah_n + 1)
-    return absl::InvalidArgumentError(absl::StrCat("figure_min_keypoints must exceed figure_llah_n = ",
-                                                   figure_llah_n, ", got ", figure_min_keypoints));
+    return absl::InvalidArgumentError(
+        absl::StrCat("figure_min_keypoints must exceed figure_llah_n = ", figure_llah_n, ", got ",
+                     figure_min_keypoints));
   if (figure_query_probes < 0 || figure_query_probes > LlahDescriber::kMaxProbes)
     return absl::InvalidArgumentError(absl::StrCat("figure_query_probes must be in [0, ",
                                                    LlahDescriber::kMaxProbes, "], got ",
@@ -432,8 +433,7 @@ absl::StatusOr<DocumentRecord> DocumentRegistry::Register(
       "registered document {} \"{}\": {}x{}, {} keypoints, {} figure keypoints, {} annotations "
       "(extract {:.1f} ms, total {:.1f} ms)",
       record.id, record.title, gray.cols, gray.rows, record.keypoints.size(),
-      record.figure_keypoints.size(),
-      record.annotations.size(), extract_ms, MillisecondsSince(t0));
+      record.figure_keypoints.size(), record.annotations.size(), extract_ms, MillisecondsSince(t0));
   return record;
 }
 

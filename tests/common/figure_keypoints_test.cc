@@ -4,8 +4,8 @@
 
 #include <gtest/gtest.h>
 
-#include <opencv2/imgproc.hpp>
 #include <algorithm>
+#include <opencv2/imgproc.hpp>
 #include <random>
 
 #include "common/planar_pose.h"

@@ -710,9 +710,9 @@ TEST_F(DocumentRegistryTest, FigureViewsAreFoundByTheFiguresCorners) {
     ASSERT_NE(figures_index, nullptr);
     const size_t documents = figures_index->documents();
     // Every page with a figure, and pages with a few corners elsewhere (a table's rules).
-    EXPECT_GE(documents, static_cast<size_t>(std::count_if(
-                             centres.begin(), centres.end(),
-                             [](const cv::Point2f& c) { return !std::isnan(c.x); })));
+    EXPECT_GE(documents, static_cast<size_t>(
+                             std::count_if(centres.begin(), centres.end(),
+                                           [](const cv::Point2f& c) { return !std::isnan(c.x); })));
     const size_t first_chart = std::find_if(centres.begin(), centres.end(),
                                             [](const cv::Point2f& c) { return !std::isnan(c.x); }) -
                                centres.begin();

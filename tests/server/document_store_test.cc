@@ -171,12 +171,13 @@ TEST_F(DocumentStoreTest, FigureKeypointsAreStored) {
   auto store = DocumentStore::Open(path_);
   ASSERT_TRUE(store.ok());
   std::map<std::string, std::vector<cv::Point2f>> figures;
-  ASSERT_TRUE((*store)
-                  ->ForEachKeypoints([&](const DocumentSummary& s, DocumentStore::StoredKeypoints k) {
-                    EXPECT_EQ(k.keypoints.size(), 3u);
-                    figures[s.title] = k.figure_keypoints;
-                  })
-                  .ok());
+  ASSERT_TRUE(
+      (*store)
+          ->ForEachKeypoints([&](const DocumentSummary& s, DocumentStore::StoredKeypoints k) {
+            EXPECT_EQ(k.keypoints.size(), 3u);
+            figures[s.title] = k.figure_keypoints;
+          })
+          .ok());
   ASSERT_EQ(figures.size(), 2u);
   ASSERT_EQ(figures["chart"].size(), 2u);
   EXPECT_FLOAT_EQ(figures["chart"][0].x, 10.25f);
