@@ -47,8 +47,13 @@ std::vector<cv::Point2f> FigureKeypointExtractor::Extract(const cv::Mat &gray,
   const int margin = static_cast<int>(std::ceil(o.border_margin_px));
   if (gray.cols <= 2 * margin + o.block_size || gray.rows <= 2 * margin + o.block_size)
     return corners;
-  cv::Mat smooth = gray;
-  if (o.smoothing_sigma > 0) cv::GaussianBlur(gray, smooth, cv::Size(0, 0), o.smoothing_sigma);
+  // A new image: blurring into a header of `gray` would blur the caller's picture.
+  cv::Mat smooth;
+  if (o.smoothing_sigma > 0) {
+    cv::GaussianBlur(gray, smooth, cv::Size(0, 0), o.smoothing_sigma);
+  } else {
+    smooth = gray;
+  }
 
   // Figure ink: components too large to be letters or words.
   const int block =
