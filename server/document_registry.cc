@@ -892,7 +892,8 @@ absl::StatusOr<std::vector<AnnotationRecord>> DocumentRegistry::AnnotationsByInd
 
 size_t DocumentRegistry::index_memory_bytes() const {
   std::shared_lock lock(mutex_);
-  return retriever_ ? retriever_->MemoryBytes() : 0;
+  return (retriever_ ? retriever_->MemoryBytes() : 0) +
+         (figure_retriever_ ? figure_retriever_->MemoryBytes() : 0);
 }
 
 size_t DocumentRegistry::index_entries() const {

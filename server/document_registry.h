@@ -237,6 +237,7 @@ class DocumentRegistry {
   }
   RetrievalOptions FigureRetrievalOptions(RetrievalOptions ro) const;
 
+  // Both indexes' memory (words and figures).
   size_t index_memory_bytes() const;
   size_t index_entries() const;
   const DocumentRegistryOptions &options() const { return options_; }
