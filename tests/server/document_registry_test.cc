@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <filesystem>
+#include <functional>
 #include <iterator>
 #include <map>
 #include <opencv2/imgcodecs.hpp>
@@ -419,6 +420,26 @@ TEST(DocumentRegistryOptionsTest, RectifiedPictureLimitsAreValidated) {
   EXPECT_EQ(s.code(), absl::StatusCode::kInvalidArgument);
   EXPECT_NE(s.message().find("rectified_picture_projective_min_slope"), absl::string_view::npos)
       << s;
+}
+
+TEST(DocumentRegistryOptionsTest, FigureOptionsAreValidated) {
+  const auto message = [](const std::function<void(DocumentRegistryOptions*)>& change) {
+    DocumentRegistryOptions options;
+    change(&options);
+    const absl::Status s = options.Validate();
+    EXPECT_EQ(s.code(), absl::StatusCode::kInvalidArgument) << s;
+    return std::string(s.message());
+  };
+  EXPECT_NE(message([](auto* o) { o->figure_inlier_px = 0; }).find("figure_inlier_px"),
+            std::string::npos);
+  EXPECT_NE(message([](auto* o) { o->figure_min_keypoints = 5; }).find("figure_min_keypoints"),
+            std::string::npos);
+  EXPECT_NE(message([](auto* o) { o->figure_llah_m = 9; }).find("figure_llah"),
+            std::string::npos);
+  EXPECT_NE(message([](auto* o) { o->figure_query_probes = 9; }).find("figure_query_probes"),
+            std::string::npos);
+  EXPECT_NE(message([](auto* o) { o->figure_keypoints.block_size = 4; }).find("figure_keypoints"),
+            std::string::npos);
 }
 
 TEST(DocumentRegistryOptionsTest, RegistrationLayersAreValidated) {
