@@ -434,8 +434,7 @@ TEST(DocumentRegistryOptionsTest, FigureOptionsAreValidated) {
             std::string::npos);
   EXPECT_NE(message([](auto* o) { o->figure_min_keypoints = 5; }).find("figure_min_keypoints"),
             std::string::npos);
-  EXPECT_NE(message([](auto* o) { o->figure_llah_m = 9; }).find("figure_llah"),
-            std::string::npos);
+  EXPECT_NE(message([](auto* o) { o->figure_llah_m = 9; }).find("figure_llah"), std::string::npos);
   EXPECT_NE(message([](auto* o) { o->figure_query_probes = 9; }).find("figure_query_probes"),
             std::string::npos);
   EXPECT_NE(message([](auto* o) { o->figure_keypoints.block_size = 4; }).find("figure_keypoints"),
