@@ -100,7 +100,9 @@ std::vector<cv::Point2f> FigureKeypointExtractor::Extract(const cv::Mat &gray,
   const double floor = std::max(o.min_eigenvalue, o.min_quality * strongest);
   if (strongest < floor) return corners;
 
-  // Local maxima (3x3) above the floor, strongest first, then spaced min_distance_px apart.
+  // Local maxima (3x3) above the floor, strongest first, then spaced min_distance_px apart:
+  // cv::goodFeaturesToTrack's selection, which takes only a floor relative to the strongest
+  // corner and would compute the eigenvalue map a second time for the absolute one.
   cv::Mat dilated;
   cv::dilate(eigen, dilated, cv::Mat());
   struct Candidate {

@@ -391,11 +391,10 @@ absl::StatusOr<DocumentRecord> DocumentRegistry::Register(
     }
   } else {
     RETURN_IF_ERROR(CreateRetriever(kp.points));
-    std::shared_lock lock(mutex_);
-    retriever = retriever_;
   }
   {
     std::shared_lock lock(mutex_);
+    retriever = retriever_;
     figures = figure_retriever_;
   }
 
@@ -407,7 +406,7 @@ absl::StatusOr<DocumentRecord> DocumentRegistry::Register(
   std::vector<cv::Point2f> all = kp.points;
   all.insert(all.end(), record.layer_keypoints.begin(), record.layer_keypoints.end());
   retriever->DescribeLayers(all, record.layer_sizes, &record.hashes);
-  if (figures) record.figure_keypoints = std::move(figure_points);
+  record.figure_keypoints = std::move(figure_points);  // empty unless index_figures
   record.annotations = std::move(annotations);
   ASSIGN_OR_RETURN(record, store_->Insert(std::move(record)));
   absl::Status added = retriever->AddDocument(
