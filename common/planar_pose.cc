@@ -271,7 +271,18 @@ bool MakePlausibleHomography(cv::Matx33d *H_inout, const std::vector<cv::Point2f
   const double det = ex.x * ey.y - ex.y * ey.x;
   if (!(det > 0)) return false;
   const double scale = std::sqrt(det);
-  return scale > 1.0 / 40 && scale < 40;
+  if (!(scale > 1.0 / 40 && scale < 40)) return false;
+  // The local map's singular values s1 >= s2: s1 s2 = det, s1^2 + s2^2 = |ex|^2 + |ey|^2.
+  // A plane tilted by t from the camera axis is shortened by cos t along the tilt, so a map
+  // squeezing one way kMaxAnisotropy times more than the other sees the page nearly edge-on
+  // (83 degrees): such a fit collapses the page towards a line, along which chance
+  // alignments with the view's keypoints are many (a heading and a polyline matched a
+  // three-column page's words that way at 10,000 pages).
+  constexpr double kMaxAnisotropy = 8.0;
+  const double sum = ex.dot(ex) + ey.dot(ey);
+  const double root = std::sqrt(std::max(0.0, sum * sum - 4 * det * det));
+  const double s1 = std::sqrt((sum + root) / 2), s2 = std::sqrt(std::max(0.0, (sum - root) / 2));
+  return s1 <= kMaxAnisotropy * s2;
 }
 
 }  // namespace texfree

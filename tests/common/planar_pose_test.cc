@@ -129,6 +129,34 @@ TEST(PlanarPoseTest, PoseFromHomographyRejectsDegenerate) {
   EXPECT_FALSE(PoseFromHomography(nan, kK).ok());
 }
 
+TEST(PlanarPoseTest, PlausibleHomographiesAreCameraViewsOfThePage) {
+  // Page points around the point on the optical axis, as a view sees them.
+  std::vector<cv::Point2f> seen;
+  for (int y = 100; y <= 300; y += 50)
+    for (int x = 150; x <= 450; x += 75) seen.emplace_back(x, y);
+  // Every camera up to 75 degrees of tilt, any roll and azimuth; H's sign does not matter.
+  for (double tilt : {0.0, 15.0, 40.0, 60.0, 75.0})
+    for (double roll : {0.0, 35.0, -70.0, 170.0}) {
+      cv::Matx33d H = HomographyFromPose(Camera(tilt, roll * 0.7 + 20, roll, 900), kK);
+      EXPECT_TRUE(MakePlausibleHomography(&H, seen)) << "tilt " << tilt << " roll " << roll;
+      cv::Matx33d negated = H * -1.0;
+      EXPECT_TRUE(MakePlausibleHomography(&negated, seen));
+      EXPECT_GT(negated(2, 2), 0);
+    }
+  // A mirrored page, and one shrunk to a dot.
+  cv::Matx33d mirrored(-1, 0, 640, 0, 1, 0, 0, 0, 1);
+  EXPECT_FALSE(MakePlausibleHomography(&mirrored, seen));
+  cv::Matx33d dot(0.01, 0, 0, 0, 0.01, 0, 0, 0, 1);
+  EXPECT_FALSE(MakePlausibleHomography(&dot, seen));
+  // A fit that collapsed a three-column page onto a line (singular values 0.51 and 0.002,
+  // the neighbourhood pass's false match at 10,000 pages), and a page seen at 85 degrees.
+  cv::Matx33d collapsed(-0.187229, 0.0428901, 75.5405, 0.460142, -0.110664, 69.8822,
+                        8.70967e-05, -1.9952e-05, 1);
+  EXPECT_FALSE(MakePlausibleHomography(&collapsed, seen));
+  cv::Matx33d edge_on = HomographyFromPose(Camera(85, 20, 0, 900), kK);
+  EXPECT_FALSE(MakePlausibleHomography(&edge_on, seen));
+}
+
 TEST(PlanarPoseTest, ApplyHomographyDividesByW) {
   const cv::Matx33d H(2, 0, 1, 0, 3, -2, 0.5, 0, 2);
   const cv::Point2d p = ApplyHomography(H, {2, 4});
