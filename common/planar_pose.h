@@ -70,8 +70,9 @@ cv::Point2d ApplyHomography(const cv::Matx33d &H, const cv::Point2d &p);
 // Checks a page homography against the plane points seen in the image: finite, every seen
 // point on the same side of the horizon, the page not mirrored, its local scale in
 // (1/40, 40) at their centre and not stretched 8 times more one way than the other there
-// (a page seen nearly edge-on, 83 degrees or more). H is known up to scale, sign included: it is negated if need
-// be so that w > 0 at the seen points (in front of the camera). False for no points.
+// (a page seen nearly edge-on, 83 degrees or more). H is known up to scale, sign included: it is
+// negated if need be so that w > 0 at the seen points (in front of the camera). False for no
+// points.
 bool MakePlausibleHomography(cv::Matx33d *H, const std::vector<cv::Point2f> &seen);
 
 }  // namespace texfree

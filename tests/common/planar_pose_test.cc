@@ -150,8 +150,8 @@ TEST(PlanarPoseTest, PlausibleHomographiesAreCameraViewsOfThePage) {
   EXPECT_FALSE(MakePlausibleHomography(&dot, seen));
   // A fit that collapsed a three-column page onto a line (singular values 0.51 and 0.002,
   // the neighbourhood pass's false match at 10,000 pages), and a page seen at 85 degrees.
-  cv::Matx33d collapsed(-0.187229, 0.0428901, 75.5405, 0.460142, -0.110664, 69.8822,
-                        8.70967e-05, -1.9952e-05, 1);
+  cv::Matx33d collapsed(-0.187229, 0.0428901, 75.5405, 0.460142, -0.110664, 69.8822, 8.70967e-05,
+                        -1.9952e-05, 1);
   EXPECT_FALSE(MakePlausibleHomography(&collapsed, seen));
   cv::Matx33d edge_on = HomographyFromPose(Camera(85, 20, 0, 900), kK);
   EXPECT_FALSE(MakePlausibleHomography(&edge_on, seen));
