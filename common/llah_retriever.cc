@@ -127,6 +127,17 @@ absl::Status RetrievalOptions::Validate() const {
   if (!(neighbourhood_min_tight_share > 0 && neighbourhood_min_tight_share <= 1))
     return absl::InvalidArgumentError(absl::StrCat(
         "neighbourhood_min_tight_share must be in (0, 1], got ", neighbourhood_min_tight_share));
+  if (neighbourhood_min_tight_wide < neighbourhood_min_tight)
+    return absl::InvalidArgumentError(absl::StrCat(
+        "neighbourhood_min_tight_wide must be >= neighbourhood_min_tight (",
+        neighbourhood_min_tight, "), got ", neighbourhood_min_tight_wide));
+  if (!(neighbourhood_min_tight_share_close >= neighbourhood_min_tight_share &&
+        neighbourhood_min_tight_share_close <= 1))
+    return absl::InvalidArgumentError(
+        absl::StrCat("neighbourhood_min_tight_share_close must be in [neighbourhood_min_tight_"
+                     "share (",
+                     neighbourhood_min_tight_share, "), 1], got ",
+                     neighbourhood_min_tight_share_close));
   if (rectify_perspective) {
     absl::Status status = perspective.Validate();
     if (!status.ok())
@@ -1557,10 +1568,14 @@ std::vector<DocumentHit> LlahRetriever::RetrieveByNeighbourhoods(
     if (trace == nullptr && (tight < min_tight || tight <= best_tight)) continue;
     // The page's keypoints the homography puts among the query's (the share's denominator).
     const int inside = InsideHull(model->keypoints, model->base, H, query_hull);
+    // Enough tight matches on their own: many, or fewer over most of the view.
+    const bool alone = tight >= o.neighbourhood_min_tight_wide ||
+                       (tight >= o.neighbourhood_min_tight &&
+                        tight >= o.neighbourhood_min_tight_share_close * inside);
     // Agreeing hits are counted only where they can decide (or for the trace).
     int agreeing = -1;
-    if (trace || (tight < o.neighbourhood_min_tight && tight >= min_tight &&
-                  tight >= o.neighbourhood_min_tight_share * inside))
+    if (trace ||
+        (!alone && tight >= min_tight && tight >= o.neighbourhood_min_tight_share * inside))
       agreeing = AgreeingHits(hypotheses, hyp.document, model->keypoints, H, query, threshold);
     if (trace) {
       const bool watched = hyp.document == trace->watch;
@@ -1573,8 +1588,8 @@ std::vector<DocumentHit> LlahRetriever::RetrieveByNeighbourhoods(
         ba = agreeing;
       }
     }
-    const bool enough = tight >= o.neighbourhood_min_tight ||
-                        (tight >= min_tight && agreeing >= o.neighbourhood_min_agreeing_hits);
+    const bool enough =
+        alone || (tight >= min_tight && agreeing >= o.neighbourhood_min_agreeing_hits);
     if (!enough || tight < o.neighbourhood_min_tight_share * inside || tight <= best_tight)
       continue;
     best_tight = tight;

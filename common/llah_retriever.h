@@ -187,6 +187,14 @@ struct RetrievalOptions {
   double neighbourhood_tight_gate = 0.25;
   int neighbourhood_min_tight = 16;
   double neighbourhood_min_tight_share = 0.6;
+  // ...but under neighbourhood_min_tight_wide tight matches the share must reach
+  // neighbourhood_min_tight_share_close (or agreeing hits confirm the page, below). At 300
+  // dpi (pages of 2,480 px) a wrong page grown onto one corner of a view of text lines had
+  // 17 tight matches over 0.68 of the view (2 agreeing hits); of 37 right pages found by the
+  // pass over ten sets of 1,000 views (10,000 pages and 300 dpi), those under 0.75 of the
+  // view with fewer than 3 agreeing hits had 23-33 tight matches.
+  int neighbourhood_min_tight_wide = 20;
+  double neighbourhood_min_tight_share_close = 0.75;
   // ...or, from neighbourhood_min_tight_agreeing tight matches up (with the same share),
   // when at least neighbourhood_min_agreeing_hits distinct query keypoints have descriptor
   // hits on the page that the homography confirms (their reference keypoint projected
