@@ -128,16 +128,15 @@ absl::Status RetrievalOptions::Validate() const {
     return absl::InvalidArgumentError(absl::StrCat(
         "neighbourhood_min_tight_share must be in (0, 1], got ", neighbourhood_min_tight_share));
   if (neighbourhood_min_tight_wide < neighbourhood_min_tight)
-    return absl::InvalidArgumentError(absl::StrCat(
-        "neighbourhood_min_tight_wide must be >= neighbourhood_min_tight (",
-        neighbourhood_min_tight, "), got ", neighbourhood_min_tight_wide));
+    return absl::InvalidArgumentError(
+        absl::StrCat("neighbourhood_min_tight_wide must be >= neighbourhood_min_tight (",
+                     neighbourhood_min_tight, "), got ", neighbourhood_min_tight_wide));
   if (!(neighbourhood_min_tight_share_close >= neighbourhood_min_tight_share &&
         neighbourhood_min_tight_share_close <= 1))
-    return absl::InvalidArgumentError(
-        absl::StrCat("neighbourhood_min_tight_share_close must be in [neighbourhood_min_tight_"
-                     "share (",
-                     neighbourhood_min_tight_share, "), 1], got ",
-                     neighbourhood_min_tight_share_close));
+    return absl::InvalidArgumentError(absl::StrCat(
+        "neighbourhood_min_tight_share_close must be in [neighbourhood_min_tight_"
+        "share (",
+        neighbourhood_min_tight_share, "), 1], got ", neighbourhood_min_tight_share_close));
   if (rectify_perspective) {
     absl::Status status = perspective.Validate();
     if (!status.ok())
