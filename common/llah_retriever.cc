@@ -134,9 +134,8 @@ absl::Status RetrievalOptions::Validate() const {
   if (!(neighbourhood_min_tight_share_close >= neighbourhood_min_tight_share &&
         neighbourhood_min_tight_share_close <= 1))
     return absl::InvalidArgumentError(absl::StrCat(
-        "neighbourhood_min_tight_share_close must be in [neighbourhood_min_tight_"
-        "share (",
-        neighbourhood_min_tight_share, "), 1], got ", neighbourhood_min_tight_share_close));
+        "neighbourhood_min_tight_share_close must be in [", neighbourhood_min_tight_share,
+        " (neighbourhood_min_tight_share), 1], got ", neighbourhood_min_tight_share_close));
   if (rectify_perspective) {
     absl::Status status = perspective.Validate();
     if (!status.ok())

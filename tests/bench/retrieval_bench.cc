@@ -849,8 +849,8 @@ int main(int argc, char **argv) {
       cpu_times.push_back(texfree::ThreadCpuMilliseconds() - c0);
       unreg_cpu_times.push_back(cpu_times.back());
       report_slow(q, result, times.back());
-      if (result.ok()) unreg_false += static_cast<int>(result->documents.size());
-      if (result.ok())
+      if (result.ok()) {
+        unreg_false += static_cast<int>(result->documents.size());
         for (const auto &d : result->documents)
           std::fprintf(stderr,
                        "false match: unregistered view %d (tilt %.0f scale %.2f) found \"%s\" "
@@ -858,6 +858,7 @@ int main(int argc, char **argv) {
                        static_cast<int>(&q - unregistered_queries.data()), q.view.tilt_deg,
                        q.view.scale, d.document.title.c_str(), d.inliers, d.votes,
                        result->query_keypoints);
+      }
     }
     // Views of unregistered pages take every fallback and last try: their own figures.
     const std::vector<double> reg_cpu_times(cpu_times.begin(),
