@@ -2,9 +2,8 @@
 // of square cells (seed 3.1.2), so that collecting neighbours costs O(k) instead of O(N).
 #pragma once
 
-#include <vector>
-
 #include <opencv2/core.hpp>
+#include <vector>
 
 namespace texfree {
 

@@ -144,9 +144,11 @@ class VideoKeypointExtractor {
                         std::vector<cv::Point2f>* points, RectifiedPage* report);
 
   const VideoKeypointOptions options_;
-  WordKeypointExtractor measuring_;  // the registration's options
-  WordKeypointExtractor reusing_;    // the same, with half resolution for large text
-  WordKeypointExtractor rectified_;  // the registration's options, full resolution
+  // All three have the registration's options but for the first text size, taken from the
+  // plain median of the blobs (see ForVideo in the .cc).
+  WordKeypointExtractor measuring_;
+  WordKeypointExtractor reusing_;    // with half resolution for large text
+  WordKeypointExtractor rectified_;  // full resolution
   std::optional<TextGeometry> known_;
   size_t measured_keypoints_ = 0;
   int frames_since_measure_ = 0;

@@ -103,6 +103,13 @@ double AreaWeightedShortSide(const std::vector<Blob> &blobs, double q) {
   return v.back().first;
 }
 
+double MedianShortSide(const std::vector<Blob> &blobs) {
+  std::vector<float> sides;
+  sides.reserve(blobs.size());
+  for (const Blob &b : blobs) sides.push_back(b.short_side);
+  return Quantile(std::move(sides), 0.5);
+}
+
 // Short side of elongated blobs (words, or letters fused into words): a text
 // size that is the same whether or not letters touch at this resolution.
 bool WordHeight(const std::vector<Blob> &blobs, double elongation, double *height) {
@@ -497,7 +504,9 @@ WordKeypoints WordKeypointExtractor::Extract(const cv::Mat &gray) const {
   if (blobs.size() < 8) return result;
   // Letters (short side ~ letter width) or fused words (short side ~ word
   // height).
-  const double s0 = std::max(o.min_char_height, AreaWeightedShortSide(blobs, 0.5));
+  const double s0 =
+      std::max(o.min_char_height, o.area_weighted_text_size ? AreaWeightedShortSide(blobs, 0.5)
+                                                            : MedianShortSide(blobs));
   double angle = NeighborDirection(blobs, s0);
   // Provisional words: close gaps of 0.45 s0 along the line, then measure word
   // height.

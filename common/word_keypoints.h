@@ -77,6 +77,11 @@ struct WordKeypointOptions {
   // closed again).
   double min_word_area_share = 0.6;
   double min_reclosed_word_area_share = 0.8;
+  // Pass 1's provisional text size: the median of the ink blobs' short sides weighted by
+  // their area (true: noise and JPEG specks, which outnumber the letters of large type
+  // under noise on a whole page, weigh little), or their plain median (false: a small
+  // image with few letters, where a heading's few large blobs would decide).
+  bool area_weighted_text_size = true;
   // Upper bound of keypoints returned (largest blobs kept).
   int max_keypoints = 20000;
   // When > 0 and the text is taller than this many pixels, words are grouped on a

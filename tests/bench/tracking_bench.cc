@@ -24,6 +24,7 @@
 //                          [--rectified-height PX] [--max-upsampling F]
 //                          [--max-frame-age-ms MS] [--queue-frames N]
 #include <spdlog/spdlog.h>
+#include <unistd.h>
 
 #include <CLI/CLI.hpp>
 #include <algorithm>
@@ -152,7 +153,10 @@ int main(int argc, char** argv) {
   int distractors = 20, streams = 8;
   double fps = 30, seconds = 10;
   bool no_grpc = false, no_baselines = false;
-  std::string dir = "/tmp/texfree-bench-tracking";
+  // Per process: two runs at once must not remove each other's database.
+  std::string dir =
+      (fs::temp_directory_path() / ("texfree-bench-tracking-" + std::to_string(::getpid())))
+          .string();
   std::string only;
   double trace_from = 1e9;
   std::string trace_dir;
@@ -228,7 +232,8 @@ int main(int argc, char** argv) {
   service.stagger_streams = !no_stagger;
   spdlog::set_level(spdlog::level::warn);
 
-  fs::remove_all(dir);
+  std::error_code ignored;
+  fs::remove_all(dir, ignored);
   fs::create_directories(dir);
   auto store = texfree::server::DocumentStore::Open(dir + "/texfree.db");
   if (!store.ok()) {
@@ -356,8 +361,7 @@ int main(int argc, char** argv) {
           // The pages the tracker expects: extracted rectified when seen at a slant.
           texfree::VideoFrameInfo extracted;
           const auto keypoints = extractor.Extract(gray, tracker->PredictedPages(), &extracted);
-          const auto result =
-              tracker->Track(keypoints, gray.size(), shared, extracted.whole_frame);
+          const auto result = tracker->Track(keypoints, gray.size(), shared, extracted.whole_frame);
           const auto& rectified = extracted.rectified;
           s.ms = MillisecondsSince(t0);
           s.cpu_ms = texfree::ThreadCpuMilliseconds() - c0;
@@ -548,5 +552,6 @@ int main(int argc, char** argv) {
     texfree::bench::RunGrpcThroughput(registry->get(), jpegs, sequences[0].name, streams, fps,
                                       seconds, service);
   }
+  fs::remove_all(dir, ignored);
   return 0;
 }

@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <map>
 #include <opencv2/imgproc.hpp>
 #include <string>
@@ -324,6 +325,26 @@ TEST(WordKeypointsTest, InkMaskIsOpenCvsAdaptiveMeanThreshold) {
       }
     }
   }
+}
+
+// A small view of a page's top, a heading over a few lines of body text (as a far camera's
+// first rectified crop of a page): the plain median of the blobs measures the body text,
+// which is what the page's words are cut by; the area-weighted size, made for whole pages
+// under noise, lets the heading's few large words decide.
+TEST(WordKeypointsTest, PlainMedianMeasuresTheBodyTextUnderAHeading) {
+  const cv::Mat page = Gray(4242);
+  const double body = WordKeypointExtractor().Extract(page).char_height;
+  ASSERT_GT(body, 0);
+  cv::Mat crop;
+  cv::resize(page(cv::Rect(0, 0, page.cols, page.cols / 2)), crop, cv::Size(), 0.25, 0.25,
+             cv::INTER_AREA);
+  WordKeypointOptions plain;
+  plain.area_weighted_text_size = false;
+  const double measured = WordKeypointExtractor(plain).Extract(crop).char_height;
+  const double weighted = WordKeypointExtractor().Extract(crop).char_height;
+  std::printf("body %.1f px -> %.1f at 0.25; plain median %.1f, area-weighted %.1f\n", body,
+              body * 0.25, measured, weighted);
+  EXPECT_NEAR(measured, body * 0.25, 0.35 * body * 0.25);
 }
 
 TEST(WordKeypointsTest, OptionsValidate) {
