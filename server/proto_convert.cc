@@ -1,9 +1,9 @@
 // Proto <-> plain type conversions.
 #include "server/proto_convert.h"
 
-#include <cmath>
-
 #include <spdlog/spdlog.h>
+
+#include <cmath>
 
 #include "absl/strings/str_cat.h"
 
@@ -16,8 +16,8 @@ absl::StatusOr<Rgba> ColorFromProto(const v1::Color& c, bool has, const char* fi
     return absl::InvalidArgumentError(absl::StrCat(field, " components must be in 0..255"));
   // An all-zero colour message means "opaque black" rather than "invisible".
   const uint32_t a = (c.r() | c.g() | c.b() | c.a()) == 0 ? 255 : c.a();
-  return Rgba{static_cast<uint8_t>(c.r()), static_cast<uint8_t>(c.g()),
-              static_cast<uint8_t>(c.b()), static_cast<uint8_t>(a)};
+  return Rgba{static_cast<uint8_t>(c.r()), static_cast<uint8_t>(c.g()), static_cast<uint8_t>(c.b()),
+              static_cast<uint8_t>(a)};
 }
 
 void ColorToProto(const Rgba& c, v1::Color* out) {
@@ -52,7 +52,8 @@ double LocalScale(const cv::Matx33d& H, const cv::Point2d& p) {
 }  // namespace
 
 grpc::Status LoggedFailure(const char* method, const absl::Status& status) {
-  if (status.code() == absl::StatusCode::kInternal || status.code() == absl::StatusCode::kDataLoss ||
+  if (status.code() == absl::StatusCode::kInternal ||
+      status.code() == absl::StatusCode::kDataLoss ||
       status.code() == absl::StatusCode::kUnavailable) {
     spdlog::error("{}: {}", method, status.ToString());
   } else {
@@ -84,9 +85,9 @@ absl::StatusOr<cv::Mat> ImageFromProto(const v1::Image& image, const ImageLimits
       }
       if (raw.width() > 1u << 20 || raw.height() > 1u << 20)
         return absl::InvalidArgumentError("raw image width/height out of range");
-      auto mat = ImageFromRaw(raw.pixels(), format, static_cast<int>(raw.width()),
-                              static_cast<int>(raw.height()), static_cast<int>(raw.stride()),
-                              limits);
+      auto mat =
+          ImageFromRaw(raw.pixels(), format, static_cast<int>(raw.width()),
+                       static_cast<int>(raw.height()), static_cast<int>(raw.stride()), limits);
       if (!mat.ok() || !gray) return mat;
       return ToGray(*mat);
     }
@@ -219,6 +220,35 @@ void PoseToProto(const PlanarPose& pose, v1::Pose* out) {
   for (int i = 0; i < 3; ++i) out->add_translation(pose.t[i]);
 }
 
+namespace {
+// The points mapped by H, or false when one lies at or behind the camera's horizon.
+bool MapAll(const cv::Matx33d& H, std::initializer_list<cv::Point2d> in,
+            std::vector<cv::Point2d>* out) {
+  out->clear();
+  for (const cv::Point2d& p : in) {
+    const cv::Vec3d v = H * cv::Vec3d(p.x, p.y, 1);
+    if (!(v[2] > 1e-12)) return false;
+    out->emplace_back(v[0] / v[2], v[1] / v[2]);
+  }
+  return true;
+}
+
+v1::Overlay* AddOverlay(v1::Overlay::Kind kind, const std::vector<cv::Point2d>& points,
+                        const Rgba& colour, google::protobuf::RepeatedPtrField<v1::Overlay>* out) {
+  v1::Overlay* o = out->Add();
+  o->set_kind(kind);
+  for (const cv::Point2d& p : points) PointToProto(p, o->add_points());
+  ColorToProto(colour, o->mutable_color());
+  o->set_opacity(1.0);
+  o->set_thickness(2.0);
+  return o;
+}
+
+std::vector<cv::Point2d> RectCorners(const cv::Rect2d& r) {
+  return {r.tl(), {r.x + r.width, r.y}, r.br(), {r.x, r.y + r.height}};
+}
+}  // namespace
+
 void MappedAnnotationToProto(const AnnotationRecord& a, const cv::Matx33d& H,
                              v1::MappedAnnotation* m) {
   AnnotationToProto(a, m->mutable_annotation());
@@ -233,20 +263,56 @@ void MappedAnnotationToProto(const AnnotationRecord& a, const cv::Matx33d& H,
           p + cv::Point2d(len, 0.25 * a.font_size_px), p + cv::Point2d(0, 0.25 * a.font_size_px)})
       PointToProto(ApplyHomography(H, c), m->add_quad());
   } else {
-    const cv::Rect2d& r = a.rect;
-    for (const cv::Point2d& c : {r.tl(), cv::Point2d(r.x + r.width, r.y), r.br(),
-                                 cv::Point2d(r.x, r.y + r.height)})
+    for (const cv::Point2d& c : RectCorners(a.rect))
       PointToProto(ApplyHomography(H, c), m->add_quad());
-    PointToProto(ApplyHomography(H, r.tl()), m->mutable_anchor());
+    PointToProto(ApplyHomography(H, a.rect.tl()), m->mutable_anchor());
   }
 }
 
 void OutlineToProto(const cv::Matx33d& H, const cv::Size& page,
                     google::protobuf::RepeatedPtrField<v1::Point2>* out) {
   const double w = page.width, h = page.height;
-  for (const cv::Point2d& c : {cv::Point2d(0, 0), cv::Point2d(w, 0), cv::Point2d(w, h),
-                               cv::Point2d(0, h)})
+  for (const cv::Point2d& c :
+       {cv::Point2d(0, 0), cv::Point2d(w, 0), cv::Point2d(w, h), cv::Point2d(0, h)})
     PointToProto(ApplyHomography(H, c), out->Add());
+}
+
+void PageOverlaysToProto(const cv::Matx33d& H, const cv::Size& page,
+                         const std::vector<AnnotationRecord>& annotations,
+                         google::protobuf::RepeatedPtrField<v1::Overlay>* out) {
+  std::vector<cv::Point2d> mapped;
+  const double w = page.width, h = page.height;
+  if (MapAll(H, {{0, 0}, {w, 0}, {w, h}, {0, h}}, &mapped))
+    AddOverlay(v1::Overlay::POLYGON, mapped, Rgba{0, 200, 0, 255}, out);
+  for (const AnnotationRecord& a : annotations) {
+    switch (a.kind) {
+      case AnnotationRecord::Kind::kText: {
+        const cv::Point2d p = a.position;
+        if (!MapAll(H, {p, p + cv::Point2d(a.font_size_px, 0)}, &mapped)) break;
+        v1::Overlay* o = AddOverlay(v1::Overlay::TEXT, mapped, a.color, out);
+        o->set_text(a.text);
+        o->set_font_size_px(a.font_size_px * LocalScale(H, p));
+        o->set_opacity(a.color.a / 255.0);
+        break;
+      }
+      case AnnotationRecord::Kind::kHighlight: {
+        const std::vector<cv::Point2d> c = RectCorners(a.rect);
+        if (!MapAll(H, {c[0], c[1], c[2], c[3]}, &mapped)) break;
+        AddOverlay(v1::Overlay::FILLED_POLYGON, mapped, a.color, out)->set_opacity(a.opacity);
+        break;
+      }
+      case AnnotationRecord::Kind::kLink:
+      case AnnotationRecord::Kind::kMedia: {
+        const std::vector<cv::Point2d> c = RectCorners(a.rect);
+        if (!MapAll(H, {c[0], c[1], c[2], c[3]}, &mapped)) break;
+        const bool link = a.kind == AnnotationRecord::Kind::kLink;
+        AddOverlay(v1::Overlay::POLYGON, mapped,
+                   link ? Rgba{0, 90, 255, 255} : Rgba{255, 140, 0, 255}, out)
+            ->set_text(a.uri);
+        break;
+      }
+    }
+  }
 }
 
 void MatchToProto(const RetrievedDocument& doc, v1::DocumentMatch* out) {

@@ -2,9 +2,9 @@
 // and absl::Status -> grpc::Status. Proto types stop here.
 #pragma once
 
-#include <optional>
-
 #include <grpcpp/support/status.h>
+
+#include <optional>
 
 #include "absl/status/statusor.h"
 #include "common/image_io.h"
@@ -47,5 +47,15 @@ void MappedAnnotationToProto(const AnnotationRecord& a, const cv::Matx33d& H,
 // The page's four corners (tl, tr, br, bl) mapped by H.
 void OutlineToProto(const cv::Matx33d& H, const cv::Size& page,
                     google::protobuf::RepeatedPtrField<v1::Point2>* out);
+// Ready-to-draw primitives of a page seen through H (registration pixels -> image), for
+// clients that draw no perspective of their own: the outline (POLYGON, green, 2 px), then
+// per annotation a highlight as a FILLED_POLYGON of its colour and opacity, a text as TEXT
+// (points: the baseline's start and a point one font size along it; font size at the
+// anchor), a link as a blue POLYGON and a media rectangle as an orange POLYGON, both
+// carrying their URI in `text`. Annotations behind the camera (a point with w <= 0) are
+// left out.
+void PageOverlaysToProto(const cv::Matx33d& H, const cv::Size& page,
+                         const std::vector<AnnotationRecord>& annotations,
+                         google::protobuf::RepeatedPtrField<v1::Overlay>* out);
 
 }  // namespace texfree::server

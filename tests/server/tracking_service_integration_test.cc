@@ -24,8 +24,8 @@ using testing::ConfigMessage;
 using testing::FrameMessage;
 
 TEST(TrackingServiceIntegrationTest, TracksARegisteredPageThroughTheServerBinary) {
-  const fs::path dir = fs::temp_directory_path() /
-                       ("texfree-track-it-" + std::to_string(::getpid()));
+  const fs::path dir =
+      fs::temp_directory_path() / ("texfree-track-it-" + std::to_string(::getpid()));
   fs::remove_all(dir);
   fs::create_directories(dir);
   {
@@ -82,6 +82,19 @@ TEST(TrackingServiceIntegrationTest, TracksARegisteredPageThroughTheServerBinary
       const cv::Point2d corner = ApplyHomography(truth.homography, {100, 200});
       EXPECT_NEAR(t.annotations(0).quad(0).x(), corner.x, 3.0);
       EXPECT_NEAR(t.annotations(0).quad(0).y(), corner.y, 3.0);
+      // The same, ready to draw: the page's outline, then the highlight.
+      ASSERT_EQ(t.overlays_size(), 2);
+      EXPECT_EQ(t.overlays(0).kind(), v1::Overlay::POLYGON);
+      ASSERT_EQ(t.overlays(0).points_size(), 4);
+      const cv::Point2d far_corner =
+          ApplyHomography(truth.homography, cv::Point2d(page.cols, page.rows));
+      EXPECT_NEAR(t.overlays(0).points(2).x(), far_corner.x, 3.0);
+      EXPECT_NEAR(t.overlays(0).points(2).y(), far_corner.y, 3.0);
+      EXPECT_EQ(t.overlays(1).kind(), v1::Overlay::FILLED_POLYGON);
+      EXPECT_DOUBLE_EQ(t.overlays(1).opacity(), 0.4);
+      ASSERT_EQ(t.overlays(1).points_size(), 4);
+      EXPECT_NEAR(t.overlays(1).points(0).x(), corner.x, 3.0);
+      EXPECT_NEAR(t.overlays(1).points(0).y(), corner.y, 3.0);
       ++frame;
     }
     EXPECT_EQ(server.Stop(), 0);
