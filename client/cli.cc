@@ -7,11 +7,46 @@
 
 #include "client/command_context.h"
 #include "client/doc_commands.h"
-#include "client/track_commands.h"
-#include "client/survey_commands.h"
 #include "client/pool_commands.h"
+#include "client/survey_commands.h"
+#include "client/track_commands.h"
 
 namespace texfree::client {
+namespace {
+
+// For a command line that names no known command where one is required (`texfree maps
+// list`, `texfree doc frobnicate`): a message naming the word and the commands there are,
+// instead of CLI11's "A subcommand is required". Empty when that is not the error.
+std::string UnknownCommandMessage(CLI::App& app, int argc, char** argv) {
+  const CLI::App* level = &app;
+  std::string path = "texfree";
+  for (int i = 1; i < argc; ++i) {
+    const std::string word = argv[i];
+    if (word.empty() || word[0] == '-') {
+      // A global option's value follows it (--server HOST:PORT), unless given with '='.
+      if (word.find('=') == std::string::npos &&
+          (word == "--server" || word == "--connect-timeout" || word == "--timeout"))
+        ++i;
+      continue;
+    }
+    const CLI::App* next = nullptr;
+    for (const CLI::App* sub : level->get_subcommands({}))
+      if (sub->get_name() == word) next = sub;
+    if (next != nullptr) {
+      level = next;
+      path += " " + word;
+      continue;
+    }
+    if (level->get_require_subcommand_min() == 0) return "";
+    std::string names;
+    for (const CLI::App* sub : level->get_subcommands({}))
+      names += (names.empty() ? "" : ", ") + sub->get_name();
+    return "unknown command '" + word + "' after '" + path + "'; the commands there are: " + names;
+  }
+  return "";
+}
+
+}  // namespace
 
 int RunCli(int argc, char** argv, std::ostream& out, std::ostream& err) {
   CommandContext ctx(out, err);
@@ -25,14 +60,12 @@ int RunCli(int argc, char** argv, std::ostream& out, std::ostream& err) {
   app.add_option("--server", ctx.server, "Server address HOST:PORT")
       ->envname("TEXFREE_SERVER")
       ->capture_default_str();
-  app.add_flag("--json", ctx.json,
-               "Print exactly one JSON object on stdout (errors go to stderr)");
+  app.add_flag("--json", ctx.json, "Print exactly one JSON object on stdout (errors go to stderr)");
   app.add_option("--connect-timeout", ctx.connect_timeout_s,
                  "Seconds to wait for a connection to the server")
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
-  app.add_option("--timeout", ctx.rpc_timeout_s,
-                 "Deadline of each call, in seconds")
+  app.add_option("--timeout", ctx.rpc_timeout_s, "Deadline of each call, in seconds")
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
 
@@ -40,11 +73,15 @@ int RunCli(int argc, char** argv, std::ostream& out, std::ostream& err) {
   AddTrackCommands(app, ctx);
   AddSurveyCommands(app, ctx);
   AddPoolCommands(app, ctx);
-  // Later groups (track, survey, map, pool, lights) register here the same way.
+  // Each group registers its commands here the same way (survey also adds `lights`).
 
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
+    if (const std::string unknown = UnknownCommandMessage(app, argc, argv); !unknown.empty()) {
+      err << "error: " << unknown << "\nRun with --help for more information." << std::endl;
+      return kExitUsage;
+    }
     int code = app.exit(e, out, err);
     return code == 0 ? kExitOk : kExitUsage;
   }
