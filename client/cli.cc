@@ -7,9 +7,9 @@
 
 #include "client/command_context.h"
 #include "client/doc_commands.h"
-#include "client/pool_commands.h"
-#include "client/survey_commands.h"
 #include "client/track_commands.h"
+#include "client/survey_commands.h"
+#include "client/pool_commands.h"
 
 namespace texfree::client {
 namespace {
@@ -60,12 +60,14 @@ int RunCli(int argc, char** argv, std::ostream& out, std::ostream& err) {
   app.add_option("--server", ctx.server, "Server address HOST:PORT")
       ->envname("TEXFREE_SERVER")
       ->capture_default_str();
-  app.add_flag("--json", ctx.json, "Print exactly one JSON object on stdout (errors go to stderr)");
+  app.add_flag("--json", ctx.json,
+               "Print exactly one JSON object on stdout (errors go to stderr)");
   app.add_option("--connect-timeout", ctx.connect_timeout_s,
                  "Seconds to wait for a connection to the server")
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
-  app.add_option("--timeout", ctx.rpc_timeout_s, "Deadline of each call, in seconds")
+  app.add_option("--timeout", ctx.rpc_timeout_s,
+                 "Deadline of each call, in seconds")
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
 

@@ -85,8 +85,8 @@ absl::Status TrackerOptions::Validate() const {
         "inlier distance: inlier_chars and min_inlier_px must be > 0 and "
         "max_inlier_px >= min_inlier_px");
   if (!(min_separation_inliers >= 0) || min_separation_inliers > 10)
-    return absl::InvalidArgumentError(
-        absl::StrCat("min_separation_inliers must be in [0, 10], got ", min_separation_inliers));
+    return absl::InvalidArgumentError(absl::StrCat(
+        "min_separation_inliers must be in [0, 10], got ", min_separation_inliers));
   if (ransac_iterations < 10)
     return absl::InvalidArgumentError(
         absl::StrCat("ransac_iterations must be >= 10, got ", ransac_iterations));
@@ -360,8 +360,8 @@ std::vector<PageInView> DocumentTracker::PredictedPages(int frames_ahead) const 
     // The keypoints are word centres: the words reach a little beyond their hull.
     const cv::Rect2f box = cv::boundingRect(doc->hull);
     const float margin = 0.03f * std::max(box.width, box.height);
-    page.area =
-        cv::Rect2f(box.x - margin, box.y - margin, box.width + 2 * margin, box.height + 2 * margin);
+    page.area = cv::Rect2f(box.x - margin, box.y - margin, box.width + 2 * margin,
+                           box.height + 2 * margin);
     out.push_back(page);
   }
   return out;
@@ -452,7 +452,8 @@ TrackedDocument DocumentTracker::TrackOne(Followed& doc, Frame& frame, TrackerTi
   Fit projected;
   if (predicted) {
     const Pairs candidates = ProjectionMatch(*predicted, ref, frame.points, frame.grid, frame.used,
-                                             frame.size, frame.search_px, 0.8, frame.separation_px);
+                                             frame.size, frame.search_px, 0.8,
+                                             frame.separation_px);
     projected =
         RansacFit(candidates, {}, ref, frame.points, frame.inlier_px, 200, options_.min_inliers);
     if (projected.ok) projected = Refine(projected, ref, frame, options_.min_inliers);

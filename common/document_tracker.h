@@ -31,10 +31,11 @@
 
 #include <cstdint>
 #include <memory>
-#include <opencv2/core.hpp>
 #include <optional>
 #include <string>
 #include <vector>
+
+#include <opencv2/core.hpp>
 
 #include "absl/status/status.h"
 #include "common/llah_retriever.h"
@@ -136,10 +137,10 @@ struct TrackedDocument {
   int inliers = 0;                 // correspondences agreeing with the homography
   // Those correspondences: (frame keypoint index, reference keypoint index).
   std::vector<std::pair<int, int>> matches;
-  int llah_inliers = -1;       // LLAH correspondences among them; -1: LLAH not run
-  int learned = 0;             // entries added to the session index on this frame
-  size_t learned_entries = 0;  // entries learned for this page so far (kept)
-  std::string method;          // "retrieval", "projection", "llah", "" when lost
+  int llah_inliers = -1;           // LLAH correspondences among them; -1: LLAH not run
+  int learned = 0;                 // entries added to the session index on this frame
+  size_t learned_entries = 0;      // entries learned for this page so far (kept)
+  std::string method;              // "retrieval", "projection", "llah", "" when lost
 };
 
 struct TrackerTimings {
@@ -167,7 +168,8 @@ class DocumentTracker {
   // false: the keypoints cover only the pages tracked (VideoKeypointExtractor's rectified
   // extraction), so retrieval of further pages waits for a frame that covers it all.
   TrackerFrameResult Track(const WordKeypoints& frame, const cv::Size& image_size,
-                           std::shared_ptr<const LlahRetriever> shared, bool whole_frame = true);
+                           std::shared_ptr<const LlahRetriever> shared,
+                           bool whole_frame = true);
 
   // Forgets every page and everything learned.
   void Reset();
@@ -186,7 +188,8 @@ class DocumentTracker {
   struct Followed;
   struct Frame;
 
-  void Follow(uint32_t document, const DocumentHit& hit, Frame& frame, TrackerFrameResult& result);
+  void Follow(uint32_t document, const DocumentHit& hit, Frame& frame,
+              TrackerFrameResult& result);
   TrackedDocument TrackOne(Followed& doc, Frame& frame, TrackerTimings& timings);
   // LLAH correspondences of the page in the frame from the session index: per free frame
   // keypoint, the reference keypoint most of its descriptors hit (`strong`: two or more).

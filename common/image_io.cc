@@ -1,9 +1,10 @@
 // Image decoding with header-first size checks.
 #include "common/image_io.h"
 
+#include <vector>
+
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
-#include <vector>
 
 #include "absl/strings/str_cat.h"
 #include "common/status_macros.h"
@@ -16,9 +17,10 @@ absl::Status CheckSize(int width, int height, const ImageLimits& limits) {
     return absl::InvalidArgumentError("image has no pixels");
   }
   if (static_cast<int64_t>(width) * height > limits.max_pixels) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        "image is ", width, "x", height, " = ", static_cast<int64_t>(width) * height,
-        " pixels, over the limit of ", limits.max_pixels, " pixels; downscale it before sending"));
+    return absl::InvalidArgumentError(
+        absl::StrCat("image is ", width, "x", height, " = ", static_cast<int64_t>(width) * height,
+                     " pixels, over the limit of ", limits.max_pixels,
+                     " pixels; downscale it before sending"));
   }
   if (width < limits.min_side || height < limits.min_side) {
     return absl::InvalidArgumentError(absl::StrCat("image is ", width, "x", height,
@@ -52,8 +54,8 @@ bool PeekSize(std::string_view bytes, int* width, int* height) {
         continue;
       }
       const size_t len = (size_t{p[i + 2]} << 8) | p[i + 3];
-      const bool sof =
-          marker >= 0xC0 && marker <= 0xCF && marker != 0xC4 && marker != 0xC8 && marker != 0xCC;
+      const bool sof = marker >= 0xC0 && marker <= 0xCF && marker != 0xC4 && marker != 0xC8 &&
+                       marker != 0xCC;
       if (sof) {
         *height = (p[i + 5] << 8) | p[i + 6];
         *width = (p[i + 7] << 8) | p[i + 8];
@@ -122,14 +124,15 @@ absl::StatusOr<cv::Mat> ImageFromRaw(std::string_view pixels, RawPixelFormat for
   const int64_t row_bytes = static_cast<int64_t>(width) * channels;
   const int64_t step = stride == 0 ? row_bytes : stride;
   if (step < row_bytes) {
-    return absl::InvalidArgumentError(absl::StrCat(
-        "raw image stride ", stride, " is smaller than width * channels = ", row_bytes));
+    return absl::InvalidArgumentError(absl::StrCat("raw image stride ", stride,
+                                                   " is smaller than width * channels = ",
+                                                   row_bytes));
   }
   const int64_t needed = step * (height - 1) + row_bytes;
   if (static_cast<int64_t>(pixels.size()) < needed) {
-    return absl::InvalidArgumentError(absl::StrCat("raw image has ", pixels.size(), " bytes; ",
-                                                   width, "x", height, " with stride ", step,
-                                                   " needs ", needed));
+    return absl::InvalidArgumentError(absl::StrCat("raw image has ", pixels.size(),
+                                                   " bytes; ", width, "x", height, " with stride ",
+                                                   step, " needs ", needed));
   }
   const cv::Mat view(height, width, channels == 1 ? CV_8UC1 : CV_8UC3,
                      const_cast<char*>(pixels.data()), static_cast<size_t>(step));

@@ -3,9 +3,10 @@
 #pragma once
 
 #include <cstdint>
-#include <opencv2/core.hpp>
 #include <string>
 #include <string_view>
+
+#include <opencv2/core.hpp>
 
 #include "absl/status/statusor.h"
 

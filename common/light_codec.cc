@@ -57,8 +57,9 @@ uint32_t LightCrc3(uint32_t id) {
 
 absl::StatusOr<std::vector<uint8_t>> EncodeLightPacket(uint32_t id) {
   if (id > static_cast<uint32_t>(kMaxLightId)) {
-    return absl::InvalidArgumentError(absl::StrCat("light id ", id, " is out of range: ids are 0..",
-                                                   kMaxLightId, " (6 bits per packet)"));
+    return absl::InvalidArgumentError(
+        absl::StrCat("light id ", id, " is out of range: ids are 0..", kMaxLightId,
+                     " (6 bits per packet)"));
   }
   std::vector<uint8_t> samples = {1, 1, 1, 1, 1, 1, 0, 0, 0, 0, 0, 0};
   const uint32_t word = (id << kCrcBits) | LightCrc3(id);
@@ -269,8 +270,8 @@ absl::StatusOr<SequenceDecode> DecodeLightSequence(const float* soft, int count,
   }
   if (!have_best) return absl::NotFoundError("no header with a valid CRC");
   if (best.agreement < options.min_agreement) {
-    return absl::NotFoundError(absl::StrCat("id ", best.id, " decoded but only ", best.agreement,
-                                            " of the burst fits its pattern"));
+    return absl::NotFoundError(absl::StrCat("id ", best.id, " decoded but only ",
+                                            best.agreement, " of the burst fits its pattern"));
   }
   return best;
 }

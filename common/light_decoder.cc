@@ -2,15 +2,16 @@
 // decoding, regions per ID, centroids; and the pipelined image-decoding front end.
 #include "common/light_decoder.h"
 
-#include <jpeglib.h>
-
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <unordered_map>
+
 #include <csetjmp>
 #include <cstdio>
+
+#include <jpeglib.h>
 #include <opencv2/imgproc.hpp>
-#include <unordered_map>
 
 #include "absl/strings/str_cat.h"
 #include "common/timing.h"
@@ -119,8 +120,7 @@ absl::Status BurstDecoderOptions::Validate() const {
     return absl::InvalidArgumentError(
         absl::StrCat("min_frames must be at least ", kPacketSamples, " (one packet)"));
   }
-  if (candidate_frames != 0 &&
-      (candidate_frames < 2 * kLongestRun || candidate_frames > min_frames)) {
+  if (candidate_frames != 0 && (candidate_frames < 2 * kLongestRun || candidate_frames > min_frames)) {
     return absl::InvalidArgumentError(absl::StrCat("candidate_frames must be 0 (automatic) or in [",
                                                    2 * kLongestRun, ", min_frames]"));
   }
@@ -137,7 +137,8 @@ absl::Status BurstDecoderOptions::Validate() const {
 
 int BurstDecoderOptions::CandidateFrames() const {
   if (candidate_frames > 0) return candidate_frames;
-  const int automatic = 2 * std::max(kLongestRun, 2 + sequence.max_idle_samples) + kHeaderSamples;
+  const int automatic =
+      2 * std::max(kLongestRun, 2 + sequence.max_idle_samples) + kHeaderSamples;
   return std::min(automatic, min_frames);
 }
 
@@ -151,8 +152,8 @@ absl::StatusOr<std::unique_ptr<BurstDecoder>> BurstDecoder::Create(
 }
 
 size_t BurstDecoder::MemoryBytes() const {
-  size_t bytes = min_.total() * min_.elemSize() + max_.total() * max_.elemSize() + state_.total() +
-                 first_frame_.total() * first_frame_.elemSize();
+  size_t bytes = min_.total() * min_.elemSize() + max_.total() * max_.elemSize() +
+                 state_.total() + first_frame_.total() * first_frame_.elemSize();
   bytes += active_index_.capacity() * sizeof(int32_t);
   for (const auto& s : samples_) bytes += s.capacity() * sizeof(uint16_t) + sizeof(s);
   return bytes;
@@ -179,8 +180,8 @@ void BurstDecoder::EstimateNoise(const cv::Mat& frame1) {
   // Quantised (JPEG) dark images often have a median difference of 0: count it as 0.5.
   const double mad = std::max(0.5, static_cast<double>(median));
   stats_.noise_sigma = 1.4826 * mad / std::sqrt(2.0);
-  const double threshold =
-      std::max(options_.min_contrast * full_scale_, options_.noise_sigmas * stats_.noise_sigma);
+  const double threshold = std::max(options_.min_contrast * full_scale_,
+                                    options_.noise_sigmas * stats_.noise_sigma);
   contrast_threshold_ = static_cast<uint16_t>(std::min(65535.0, std::ceil(threshold)));
   stats_.contrast_threshold = contrast_threshold_;
   first_frame_.release();
@@ -192,34 +193,31 @@ void BurstDecoder::Activate(const cv::Mat& frame) {
   const int stripes = options_.threads;
   std::vector<std::vector<std::pair<int32_t, uint16_t>>> activated(stripes);
   const uint16_t c = contrast_threshold_;
-  cv::parallel_for_(
-      cv::Range(0, stripes),
-      [&](const cv::Range& range) {
-        for (int s = range.start; s < range.end; ++s) {
-          const int y0 = frame.rows * s / stripes, y1 = frame.rows * (s + 1) / stripes;
-          auto& out = activated[s];
-          for (int y = y0; y < y1; ++y) {
-            const Pixel* src = frame.ptr<Pixel>(y);
-            uint16_t* lo_row = min_.ptr<uint16_t>(y);
-            uint16_t* hi_row = max_.ptr<uint16_t>(y);
-            uint8_t* st = state_.ptr<uint8_t>(y);
-            for (int x = 0; x < frame.cols; ++x) {
-              if (st[x]) continue;
-              const uint16_t v = src[x];
-              const uint16_t lo = lo_row[x], hi = hi_row[x];
-              const uint16_t new_lo = v < lo ? v : lo, new_hi = v > hi ? v : hi;
-              if (new_hi - new_lo >= c) {
-                st[x] = 1;
-                out.emplace_back(y * frame.cols + x, static_cast<uint16_t>((lo + hi + 1) / 2));
-              } else {
-                lo_row[x] = new_lo;
-                hi_row[x] = new_hi;
-              }
-            }
+  cv::parallel_for_(cv::Range(0, stripes), [&](const cv::Range& range) {
+    for (int s = range.start; s < range.end; ++s) {
+      const int y0 = frame.rows * s / stripes, y1 = frame.rows * (s + 1) / stripes;
+      auto& out = activated[s];
+      for (int y = y0; y < y1; ++y) {
+        const Pixel* src = frame.ptr<Pixel>(y);
+        uint16_t* lo_row = min_.ptr<uint16_t>(y);
+        uint16_t* hi_row = max_.ptr<uint16_t>(y);
+        uint8_t* st = state_.ptr<uint8_t>(y);
+        for (int x = 0; x < frame.cols; ++x) {
+          if (st[x]) continue;
+          const uint16_t v = src[x];
+          const uint16_t lo = lo_row[x], hi = hi_row[x];
+          const uint16_t new_lo = v < lo ? v : lo, new_hi = v > hi ? v : hi;
+          if (new_hi - new_lo >= c) {
+            st[x] = 1;
+            out.emplace_back(y * frame.cols + x, static_cast<uint16_t>((lo + hi + 1) / 2));
+          } else {
+            lo_row[x] = new_lo;
+            hi_row[x] = new_hi;
           }
         }
-      },
-      stripes);
+      }
+    }
+  }, stripes);
   for (auto& list : activated) {
     for (const auto& [index, earlier] : list) {
       if (static_cast<int64_t>(active_index_.size()) >= options_.max_active_pixels) {
@@ -433,8 +431,7 @@ absl::StatusOr<BurstResult> BurstDecoder::Finish() {
   std::map<uint32_t, int> regions_per_id;
   for (size_t r = 0; r < regions.size(); ++r) {
     const Region& region = regions[r];
-    if (region.pixels.empty() ||
-        static_cast<int>(region.pixels.size()) > options_.max_region_pixels)
+    if (region.pixels.empty() || static_cast<int>(region.pixels.size()) > options_.max_region_pixels)
       continue;
     LightSpot spot;
     spot.id = static_cast<uint32_t>(region.id);
@@ -512,8 +509,7 @@ absl::StatusOr<std::unique_ptr<StreamingBurstDecoder>> StreamingBurstDecoder::Cr
   stream->limits_ = limits;
   stream->max_in_flight_ = options.threads + 2;
   stream->candidate_frames_ = options.CandidateFrames();
-  for (int t = 0; t < options.threads; ++t)
-    stream->workers_.emplace_back([s = stream.get()] { s->Work(); });
+  for (int t = 0; t < options.threads; ++t) stream->workers_.emplace_back([s = stream.get()] { s->Work(); });
   return stream;
 }
 

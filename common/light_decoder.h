@@ -16,10 +16,11 @@
 #include <map>
 #include <memory>
 #include <mutex>
-#include <opencv2/core.hpp>
 #include <string>
 #include <thread>
 #include <vector>
+
+#include <opencv2/core.hpp>
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"
@@ -59,10 +60,10 @@ struct BurstDecoderOptions {
 
 struct LightSpot {
   uint32_t id = 0;
-  cv::Point2d center;      // sub-pixel centroid, image pixels (pixel centres at integers)
-  int pixels = 0;          // decoded pixels of the region
-  double quality = 0;      // mean share of frames agreeing with the ID's pattern, 0..1
-  double amplitude = 0;    // mean on-off intensity of the decoded pixels
+  cv::Point2d center;    // sub-pixel centroid, image pixels (pixel centres at integers)
+  int pixels = 0;        // decoded pixels of the region
+  double quality = 0;    // mean share of frames agreeing with the ID's pattern, 0..1
+  double amplitude = 0;  // mean on-off intensity of the decoded pixels
   double clock_ratio = 1;  // camera frame interval / LED sample period, as decoded
   bool conflict = false;   // the same ID also decoded in another region
   cv::Rect bounds;
@@ -127,8 +128,8 @@ class BurstDecoder {
   cv::Mat state_;        // CV_8UC1: 0 idle, 1 active, 2 dropped
   uint16_t contrast_threshold_ = 0;
   BurstStats stats_;
-  std::vector<int32_t> active_index_;           // linear pixel index
-  std::vector<std::vector<uint16_t>> samples_;  // per active pixel, one per frame
+  std::vector<int32_t> active_index_;             // linear pixel index
+  std::vector<std::vector<uint16_t>> samples_;    // per active pixel, one per frame
   std::shared_ptr<const std::vector<uint8_t>> candidate_rows_;
 };
 

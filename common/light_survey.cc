@@ -1,11 +1,12 @@
 // View poses from references, triangulation, bundle adjustment and uncertainties.
 #include "common/light_survey.h"
 
-#include <Eigen/Dense>
 #include <algorithm>
 #include <cmath>
-#include <opencv2/calib3d.hpp>
 #include <set>
+
+#include <Eigen/Dense>
+#include <opencv2/calib3d.hpp>
 
 #include "absl/strings/str_cat.h"
 #include "absl/strings/str_join.h"
@@ -80,8 +81,7 @@ cv::Point2d ProjectPoint(const CameraModel& camera, const CameraPose& pose, cons
 
 absl::Status PoseOptions::Validate() const {
   if (min_references < 4) return absl::InvalidArgumentError("min_references must be at least 4");
-  if (!(ransac_threshold_px > 0))
-    return absl::InvalidArgumentError("ransac_threshold_px must be > 0");
+  if (!(ransac_threshold_px > 0)) return absl::InvalidArgumentError("ransac_threshold_px must be > 0");
   if (ransac_iterations < 1) return absl::InvalidArgumentError("ransac_iterations must be >= 1");
   if (!(ransac_confidence > 0 && ransac_confidence < 1))
     return absl::InvalidArgumentError("ransac_confidence must be in (0, 1)");
@@ -113,9 +113,9 @@ absl::StatusOr<PoseResult> EstimateViewPose(const std::vector<cv::Point3d>& worl
     return absl::InvalidArgumentError("world points and pixels differ in number");
   }
   if (static_cast<int>(world.size()) < options.min_references) {
-    return absl::FailedPreconditionError(
-        absl::StrCat("a view needs at least ", options.min_references,
-                     " reference lights to be posed; it sees ", world.size()));
+    return absl::FailedPreconditionError(absl::StrCat(
+        "a view needs at least ", options.min_references, " reference lights to be posed; it sees ",
+        world.size()));
   }
   cv::Vec3d rvec, tvec;
   std::vector<int> inliers;
@@ -129,10 +129,10 @@ absl::StatusOr<PoseResult> EstimateViewPose(const std::vector<cv::Point3d>& worl
     return absl::FailedPreconditionError(absl::StrCat("pose estimation failed: ", e.what()));
   }
   if (!found || static_cast<int>(inliers.size()) < options.min_references) {
-    return absl::FailedPreconditionError(
-        absl::StrCat("no camera pose agrees with ", options.min_references,
-                     " or more of the view's reference lights within ", options.ransac_threshold_px,
-                     " px: check the reference coordinates and the intrinsics"));
+    return absl::FailedPreconditionError(absl::StrCat(
+        "no camera pose agrees with ", options.min_references,
+        " or more of the view's reference lights within ", options.ransac_threshold_px,
+        " px: check the reference coordinates and the intrinsics"));
   }
   std::vector<cv::Point3d> world_in;
   std::vector<cv::Point2d> pixels_in;
@@ -141,9 +141,9 @@ absl::StatusOr<PoseResult> EstimateViewPose(const std::vector<cv::Point3d>& worl
     pixels_in.push_back(pixels[i]);
   }
   try {
-    cv::solvePnPRefineLM(
-        world_in, pixels_in, cv::Mat(camera.K), DistortionMat(camera), rvec, tvec,
-        cv::TermCriteria(cv::TermCriteria::EPS + cv::TermCriteria::COUNT, 50, 1e-10));
+    cv::solvePnPRefineLM(world_in, pixels_in, cv::Mat(camera.K), DistortionMat(camera), rvec, tvec,
+                         cv::TermCriteria(cv::TermCriteria::EPS + cv::TermCriteria::COUNT, 50,
+                                          1e-10));
   } catch (const cv::Exception& e) {
     return absl::FailedPreconditionError(absl::StrCat("pose refinement failed: ", e.what()));
   }
@@ -206,9 +206,9 @@ absl::StatusOr<TriangulatedPoint> TriangulatePoint(const std::vector<CameraPose>
     for (int j = i + 1; j < n; ++j)
       max_angle = std::max(max_angle, std::acos(std::clamp(rays[i].dot(rays[j]), -1.0, 1.0)));
   if (max_angle * 180 / CV_PI < options.min_ray_angle_deg) {
-    return absl::FailedPreconditionError(absl::StrCat("rays meet at ", max_angle * 180 / CV_PI,
-                                                      " degrees, under ", options.min_ray_angle_deg,
-                                                      ": move the viewpoints further apart"));
+    return absl::FailedPreconditionError(absl::StrCat(
+        "rays meet at ", max_angle * 180 / CV_PI, " degrees, under ", options.min_ray_angle_deg,
+        ": move the viewpoints further apart"));
   }
   Eigen::JacobiSVD<Eigen::MatrixXd> svd(A, Eigen::ComputeFullV);
   const Eigen::Vector4d h = svd.matrixV().col(3);
@@ -264,9 +264,9 @@ absl::StatusOr<TriangulatedPoint> TriangulatePoint(const std::vector<CameraPose>
 namespace {
 
 struct BundleObservation {
-  int view = 0;       // index into posed views
-  int point = -1;     // index into free points, or -1 for a fixed reference
-  cv::Point3d fixed;  // the reference position when point == -1
+  int view = 0;        // index into posed views
+  int point = -1;      // index into free points, or -1 for a fixed reference
+  cv::Point3d fixed;   // the reference position when point == -1
   cv::Point2d pixel;
 };
 
@@ -365,7 +365,8 @@ absl::Status BundleAdjust(const CameraModel& camera, std::vector<CameraPose>* po
   }
   *points = X;
   // Covariance: sigma^2 (J^T J)^-1, sigma from the prior or the residual if larger.
-  const double sigma = std::max(pixel_sigma, std::sqrt(cost / std::max(1, residuals - params)));
+  const double sigma =
+      std::max(pixel_sigma, std::sqrt(cost / std::max(1, residuals - params)));
   const Eigen::MatrixXd H = J.transpose() * J;
   Eigen::FullPivLU<Eigen::MatrixXd> lu(H);
   point_sigma->assign(free_points, cv::Vec3d(0, 0, 0));
@@ -373,9 +374,8 @@ absl::Status BundleAdjust(const CameraModel& camera, std::vector<CameraPose>* po
     const Eigen::MatrixXd covariance = sigma * sigma * lu.inverse();
     for (int p = 0; p < free_points; ++p) {
       const int k = 6 * views + 3 * p;
-      (*point_sigma)[p] =
-          cv::Vec3d(std::sqrt(covariance(k, k)), std::sqrt(covariance(k + 1, k + 1)),
-                    std::sqrt(covariance(k + 2, k + 2)));
+      (*point_sigma)[p] = cv::Vec3d(std::sqrt(covariance(k, k)), std::sqrt(covariance(k + 1, k + 1)),
+                                    std::sqrt(covariance(k + 2, k + 2)));
     }
   }
   return absl::OkStatus();
@@ -500,8 +500,7 @@ absl::StatusOr<SurveySolution> SolveSurvey(const CameraModel& camera,
       if (light.conflict) continue;
       auto X = all.find(light.id);
       if (X == all.end()) continue;
-      const double e =
-          cv::norm(ProjectPoint(camera, solution.views[v].pose, X->second) - light.pixel);
+      const double e = cv::norm(ProjectPoint(camera, solution.views[v].pose, X->second) - light.pixel);
       if (!std::isfinite(e)) continue;
       const bool is_reference = references.count(light.id) > 0;
       if (is_reference && e > options.pose.ransac_threshold_px) continue;  // outlier reference

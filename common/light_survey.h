@@ -11,9 +11,10 @@
 
 #include <cstdint>
 #include <map>
-#include <opencv2/core.hpp>
 #include <string>
 #include <vector>
+
+#include <opencv2/core.hpp>
 
 #include "absl/status/statusor.h"
 #include "common/planar_pose.h"

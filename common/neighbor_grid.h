@@ -2,8 +2,9 @@
 // of square cells (seed 3.1.2), so that collecting neighbours costs O(k) instead of O(N).
 #pragma once
 
-#include <opencv2/core.hpp>
 #include <vector>
+
+#include <opencv2/core.hpp>
 
 namespace texfree {
 

@@ -5,11 +5,12 @@
 #pragma once
 
 #include <array>
-#include <opencv2/core.hpp>
 #include <optional>
 #include <string>
 #include <utility>
 #include <vector>
+
+#include <opencv2/core.hpp>
 
 #include "absl/status/statusor.h"
 #include "common/planar_pose.h"

@@ -10,8 +10,9 @@
 #pragma once
 
 #include <array>
-#include <opencv2/core.hpp>
 #include <vector>
+
+#include <opencv2/core.hpp>
 
 #include "absl/status/statusor.h"
 #include "common/planar_pose.h"
@@ -207,7 +208,7 @@ struct PoolBallOptions {
 using PoolVotes = std::array<double, 9>;
 
 struct PoolDetectedBall {
-  int number = -1;            // 0 = cue, 1..9; -1 = a ball whose number is unknown
+  int number = -1;          // 0 = cue, 1..9; -1 = a ball whose number is unknown
   double x_mm = 0, y_mm = 0;  // centre on the table (at Z = ball radius)
   cv::Point2d ideal_pixel;    // projection of the centre, ideal (undistorted) pixels
   double radius_px = 0;       // apparent radius
@@ -278,8 +279,8 @@ std::vector<int> AssignPoolNumbers(const std::vector<std::array<double, 10>>& sc
                                    double unnamed_score = PoolBallOptions().unnamed_score);
 
 // Figure 4.10: the image with every ball replaced by the cloth around it.
-cv::Mat EmptyTableBackground(const cv::Mat& ideal_bgr, const cv::Matx33d& K, const PlanarPose& pose,
-                             const PoolTableProfile& profile,
+cv::Mat EmptyTableBackground(const cv::Mat& ideal_bgr, const cv::Matx33d& K,
+                             const PlanarPose& pose, const PoolTableProfile& profile,
                              const std::vector<PoolDetectedBall>& balls);
 
 // The silhouette of a sphere of `radius` at table point `centre` as a conic in ideal

@@ -41,11 +41,10 @@ class Simulator {
     const double jc = table.corner_pocket_mm / std::sqrt(2.0);  // jaw distance from corner
     const double hs = table.side_pocket_mm / 2;
     corner_jaw_ = jc;
-    cushions_ = {{1, R_, 1, jc, L / 2 - hs},      {1, R_, 1, L / 2 + hs, L - jc},
-                 {1, W - R_, -1, jc, L / 2 - hs}, {1, W - R_, -1, L / 2 + hs, L - jc},
-                 {0, R_, 1, jc, W - jc},          {0, L - R_, -1, jc, W - jc}};
-    jaws_ = {{jc, 0},         {0, jc},         {L - jc, 0},     {L, jc},
-             {L - jc, W},     {L, W - jc},     {jc, W},         {0, W - jc},
+    cushions_ = {{1, R_, 1, jc, L / 2 - hs},         {1, R_, 1, L / 2 + hs, L - jc},
+                 {1, W - R_, -1, jc, L / 2 - hs},    {1, W - R_, -1, L / 2 + hs, L - jc},
+                 {0, R_, 1, jc, W - jc},             {0, L - R_, -1, jc, W - jc}};
+    jaws_ = {{jc, 0}, {0, jc}, {L - jc, 0}, {L, jc}, {L - jc, W}, {L, W - jc}, {jc, W}, {0, W - jc},
              {L / 2 - hs, 0}, {L / 2 + hs, 0}, {L / 2 - hs, W}, {L / 2 + hs, W}};
   }
 
@@ -303,8 +302,8 @@ absl::Status PoolPhysicsConstants::Validate() const {
 
 std::array<cv::Point2d, 6> PoolPocketPositions(const PoolTableProfile& table) {
   const double L = table.length_mm, W = table.width_mm;
-  return {cv::Point2d(0, 0), cv::Point2d(L, 0),     cv::Point2d(L, W),
-          cv::Point2d(0, W), cv::Point2d(L / 2, 0), cv::Point2d(L / 2, W)};
+  return {cv::Point2d(0, 0), cv::Point2d(L, 0), cv::Point2d(L, W), cv::Point2d(0, W),
+          cv::Point2d(L / 2, 0), cv::Point2d(L / 2, W)};
 }
 
 PoolSimulation SimulatePoolShot(const PoolTableProfile& table,

@@ -18,8 +18,9 @@
 #pragma once
 
 #include <array>
-#include <opencv2/core.hpp>
 #include <vector>
+
+#include <opencv2/core.hpp>
 
 #include "absl/status/status.h"
 #include "common/pool_profile.h"
@@ -32,15 +33,15 @@ struct PoolPhysicsConstants {
   double sliding_friction = 0.2;
   double rolling_friction = 0.01;
   double gravity_mm_s2 = 9810;
-  double max_time_s = 12;         // a simulation stops after this much table time
-  double time_step_s = 0.002;     // integration step between exactly-timed events
+  double max_time_s = 12;    // a simulation stops after this much table time
+  double time_step_s = 0.002;  // integration step between exactly-timed events
   double path_interval_s = 0.02;  // spacing of the recorded path points
 
   absl::Status Validate() const;
 };
 
 struct PoolBallState {
-  int number = 0;        // 0 = cue
+  int number = 0;  // 0 = cue
   cv::Point2d position;  // mm, table frame
   cv::Point2d velocity;  // mm/s
   // Horizontal angular velocity (rad/s) about the table's X and Y axes.
@@ -52,8 +53,8 @@ struct PoolSimulation {
   std::vector<PoolBallState> final_state;
   // Path of every ball that moved, in the order of final_state (empty if it never moved).
   std::vector<std::vector<cv::Point2d>> paths;
-  std::vector<int> pocket_of;  // per ball: pocket index 0..5 or -1
-  int first_contact = -1;      // number of the first ball the cue ball touched
+  std::vector<int> pocket_of;       // per ball: pocket index 0..5 or -1
+  int first_contact = -1;           // number of the first ball the cue ball touched
   int cushion_hits_after_contact = 0;
   double duration_s = 0;
   // Kinetic energy (translation + rotation, J for balls of mass 1 kg) at each path sample:

@@ -15,8 +15,9 @@ absl::Status PoolTableProfile::Validate() const {
   if (!finite_positive(length_mm) || !finite_positive(width_mm))
     return absl::InvalidArgumentError("table length_mm and width_mm must be positive");
   if (length_mm < width_mm)
-    return absl::InvalidArgumentError(absl::StrCat(
-        "table length_mm (", length_mm, ") must not be less than width_mm (", width_mm, ")"));
+    return absl::InvalidArgumentError(absl::StrCat("table length_mm (", length_mm,
+                                                   ") must not be less than width_mm (",
+                                                   width_mm, ")"));
   if (length_mm > 10000)
     return absl::InvalidArgumentError("table length_mm is over 10 m: give millimetres");
   if (!finite_positive(ball_radius_mm) || ball_radius_mm * 8 > width_mm)
@@ -26,7 +27,8 @@ absl::Status PoolTableProfile::Validate() const {
     return absl::InvalidArgumentError(
         absl::StrCat("cushion_height_mm (", cushion_height_mm,
                      ") must be positive and below the ball diameter (", 2 * ball_radius_mm, ")"));
-  if (!std::isfinite(cushion_width_mm) || cushion_width_mm < 0 || cushion_width_mm > width_mm / 4)
+  if (!std::isfinite(cushion_width_mm) || cushion_width_mm < 0 ||
+      cushion_width_mm > width_mm / 4)
     return absl::InvalidArgumentError("cushion_width_mm must be in [0, width/4]");
   if (!finite_positive(corner_pocket_mm) || corner_pocket_mm < 2 * ball_radius_mm ||
       corner_pocket_mm > width_mm / 2)
@@ -55,8 +57,8 @@ absl::StatusOr<PoolTableProfile> CalibratePoolColors(
   for (int y = cloth_region.y; y < cloth_region.y + cloth_region.height; ++y)
     for (int x = cloth_region.x; x < cloth_region.x + cloth_region.width; ++x)
       ++histogram[bin(bgr.at<cv::Vec3b>(y, x))];
-  const int peak =
-      static_cast<int>(std::max_element(histogram.begin(), histogram.end()) - histogram.begin());
+  const int peak = static_cast<int>(std::max_element(histogram.begin(), histogram.end()) -
+                                    histogram.begin());
   cv::Vec3d sum(0, 0, 0);
   int n = 0;
   for (int y = cloth_region.y; y < cloth_region.y + cloth_region.height; ++y)
@@ -67,9 +69,9 @@ absl::StatusOr<PoolTableProfile> CalibratePoolColors(
       ++n;
     }
   const cv::Vec3d cloth = sum / std::max(1, n);
-  profile.cloth_bgr =
-      cv::Vec3b(cv::saturate_cast<uint8_t>(cloth[0]), cv::saturate_cast<uint8_t>(cloth[1]),
-                cv::saturate_cast<uint8_t>(cloth[2]));
+  profile.cloth_bgr = cv::Vec3b(cv::saturate_cast<uint8_t>(cloth[0]),
+                                cv::saturate_cast<uint8_t>(cloth[1]),
+                                cv::saturate_cast<uint8_t>(cloth[2]));
   // Balls: the pixels more than 10 degrees (seed eq. 4.1) away from the cloth colour.
   const double cos_limit = std::cos(10 * 3.14159265358979 / 180);
   for (const auto& [number, region] : ball_regions) {
@@ -94,9 +96,9 @@ absl::StatusOr<PoolTableProfile> CalibratePoolColors(
       return absl::InvalidArgumentError(absl::StrCat(
           "the region of ball ", number, " holds no pixels that differ from the cloth colour"));
     ball /= count;
-    profile.ball_bgr[number] =
-        cv::Vec3b(cv::saturate_cast<uint8_t>(ball[0]), cv::saturate_cast<uint8_t>(ball[1]),
-                  cv::saturate_cast<uint8_t>(ball[2]));
+    profile.ball_bgr[number] = cv::Vec3b(cv::saturate_cast<uint8_t>(ball[0]),
+                                         cv::saturate_cast<uint8_t>(ball[1]),
+                                         cv::saturate_cast<uint8_t>(ball[2]));
   }
   RETURN_IF_ERROR(profile.Validate());
   return profile;

@@ -4,10 +4,11 @@
 #pragma once
 
 #include <array>
-#include <opencv2/core.hpp>
 #include <string>
 #include <utility>
 #include <vector>
+
+#include <opencv2/core.hpp>
 
 #include "absl/status/status.h"
 #include "absl/status/statusor.h"

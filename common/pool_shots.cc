@@ -225,22 +225,17 @@ absl::StatusOr<std::vector<PoolShot>> SuggestPoolShots(const PoolTableProfile& t
     cv::Point2d d;
     double cut;
     double chance = DirectGeometry(table, balls, cue_at, target, mouths[p], options, &d, &cut, {});
-    if (chance > 0)
-      candidates.push_back({PoolShot::Kind::kDirect, target_number, p, d, cut, chance});
+    if (chance > 0) candidates.push_back({PoolShot::Kind::kDirect, target_number, p, d, cut, chance});
     // One-cushion bank: aim the object ball at the pocket mirrored in a cushion line.
     for (int c = 0; c < 4; ++c) {
       const PocketMouth& m = mouths[p];
       PocketMouth mirrored = m;
       auto mirror = [&](const cv::Point2d& q) {
         switch (c) {
-          case 0:
-            return cv::Point2d(q.x, 2 * R - q.y);
-          case 1:
-            return cv::Point2d(q.x, 2 * (W - R) - q.y);
-          case 2:
-            return cv::Point2d(2 * R - q.x, q.y);
-          default:
-            return cv::Point2d(2 * (L - R) - q.x, q.y);
+          case 0: return cv::Point2d(q.x, 2 * R - q.y);
+          case 1: return cv::Point2d(q.x, 2 * (W - R) - q.y);
+          case 2: return cv::Point2d(2 * R - q.x, q.y);
+          default: return cv::Point2d(2 * (L - R) - q.x, q.y);
         }
       };
       mirrored.aim = mirror(m.aim);
@@ -251,18 +246,10 @@ absl::StatusOr<std::vector<PoolShot>> SuggestPoolShots(const PoolTableProfile& t
       const cv::Point2d dir = mirrored.aim - t0;
       double s;
       switch (c) {
-        case 0:
-          s = (R - t0.y) / dir.y;
-          break;
-        case 1:
-          s = (W - R - t0.y) / dir.y;
-          break;
-        case 2:
-          s = (R - t0.x) / dir.x;
-          break;
-        default:
-          s = (L - R - t0.x) / dir.x;
-          break;
+        case 0: s = (R - t0.y) / dir.y; break;
+        case 1: s = (W - R - t0.y) / dir.y; break;
+        case 2: s = (R - t0.x) / dir.x; break;
+        default: s = (L - R - t0.x) / dir.x; break;
       }
       if (!(s > 0 && s < 1)) continue;
       const cv::Point2d bank = t0 + dir * s;
@@ -271,9 +258,10 @@ absl::StatusOr<std::vector<PoolShot>> SuggestPoolShots(const PoolTableProfile& t
       if (along < jc || along > (c < 2 ? L : W) - jc) continue;
       if (c < 2 && std::abs(bank.x - L / 2) < table.side_pocket_mm / 2 + R) continue;
       // Ghost ball towards the bank point; the object's second leg must be clear too.
-      const double chance_geo = DirectGeometry(
-          table, balls, cue_at, target, PocketMouth{mirrored.jaw_a, mirrored.jaw_b, mirrored.aim},
-          options, &d, &cut, {});
+      const double chance_geo =
+          DirectGeometry(table, balls, cue_at, target,
+                         PocketMouth{mirrored.jaw_a, mirrored.jaw_b, mirrored.aim}, options, &d,
+                         &cut, {});
       if (chance_geo <= 0) continue;
       if (PoolPathBlocked(bank, m.aim, R, balls, {target_number, 0})) continue;
       // Cushions are less predictable than straight lines.
@@ -304,7 +292,8 @@ absl::StatusOr<std::vector<PoolShot>> SuggestPoolShots(const PoolTableProfile& t
       const double margin_cue = CueMargin(margin_t, cut_t, d_cue, R);
       const double chance_c = Chance(margin_cue, options.aim_sigma_deg);
       if (chance_c > 0.02)
-        candidates.push_back({PoolShot::Kind::kCombination, other.number, p, dc, cut_t, chance_c});
+        candidates.push_back(
+            {PoolShot::Kind::kCombination, other.number, p, dc, cut_t, chance_c});
     }
   }
   std::sort(candidates.begin(), candidates.end(),
@@ -362,18 +351,21 @@ absl::StatusOr<std::vector<PoolShot>> SuggestPoolShots(const PoolTableProfile& t
     // Aim points: the target itself, and its mirror images in the four cushion lines
     // (kick safeties when the direct line is blocked); a few contact offsets on each.
     const cv::Point2d t0 = At(target);
-    const std::array<cv::Point2d, 5> aims = {
-        t0, cv::Point2d(t0.x, 2 * R - t0.y), cv::Point2d(t0.x, 2 * (W - R) - t0.y),
-        cv::Point2d(2 * R - t0.x, t0.y), cv::Point2d(2 * (L - R) - t0.x, t0.y)};
+    const std::array<cv::Point2d, 5> aims = {t0, cv::Point2d(t0.x, 2 * R - t0.y),
+                                             cv::Point2d(t0.x, 2 * (W - R) - t0.y),
+                                             cv::Point2d(2 * R - t0.x, t0.y),
+                                             cv::Point2d(2 * (L - R) - t0.x, t0.y)};
     for (const auto& aim : aims) {
       const cv::Point2d to_target = aim - cue_at;
       const double d = std::sqrt(Dot(to_target, to_target));
       if (d <= 2 * R) continue;
       for (double offset : {-0.8, -0.5, -0.25, 0.0, 0.25, 0.5, 0.8}) {
-        const double angle = std::atan2(to_target.y, to_target.x) + std::asin(offset * 2 * R / d);
+        const double angle =
+            std::atan2(to_target.y, to_target.x) + std::asin(offset * 2 * R / d);
         const cv::Point2d dir(std::cos(angle), std::sin(angle));
         for (double speed : {500.0, 800.0, 1200.0, 1800.0}) {
-          const PoolSimulation sim = SimulatePoolShot(table, states, dir * speed, options.physics);
+          const PoolSimulation sim =
+              SimulatePoolShot(table, states, dir * speed, options.physics);
           if (sim.first_contact != target_number) continue;
           bool scratch = false, any_pocketed = false;
           for (size_t i = 0; i < sim.final_state.size(); ++i) {

@@ -6,9 +6,10 @@
 // the opponent the poorest best shot.
 #pragma once
 
-#include <opencv2/core.hpp>
 #include <string>
 #include <vector>
+
+#include <opencv2/core.hpp>
 
 #include "absl/status/statusor.h"
 #include "common/pool_physics.h"
@@ -42,18 +43,18 @@ struct PoolShot {
   enum class Kind { kDirect, kBank, kCombination, kSafety };
   Type type = Type::kPocket;
   Kind kind = Kind::kDirect;
-  int target_ball = 0;           // the lowest ball, the one the cue ball must hit first
-  int pocketed_ball = -1;        // pocket shots: the ball that goes in (the target, or the
-                                 // second ball of a combination)
-  int pocket = -1;               // 0..5 as PoolPocketPositions
+  int target_ball = 0;    // the lowest ball, the one the cue ball must hit first
+  int pocketed_ball = -1;  // pocket shots: the ball that goes in (the target, or the
+                           // second ball of a combination)
+  int pocket = -1;         // 0..5 as PoolPocketPositions
   double cue_direction_deg = 0;  // in the table frame, from +X towards +Y
   double speed_mm_s = 0;
   double cut_angle_deg = 0;
-  double chance = 0;                // of making the shot with aim_sigma_deg
-  double next_chance = 0;           // best chance on the next ball from where the cue ball stops
-  double opponent_chance = 0;       // safeties: the opponent's best chance afterwards
-  double difficulty = 0;            // 1 - chance
-  double score = 0;                 // ranking
+  double chance = 0;        // of making the shot with aim_sigma_deg
+  double next_chance = 0;   // best chance on the next ball from where the cue ball stops
+  double opponent_chance = 0;  // safeties: the opponent's best chance afterwards
+  double difficulty = 0;    // 1 - chance
+  double score = 0;         // ranking
   std::vector<PoolBallPath> paths;  // every ball that moves
   std::string Describe() const;
 };

@@ -49,8 +49,8 @@ struct PoolTableDetection {
   // The same table with the origin at the opposite corner (the table's 180 degree
   // symmetry): which of the two is right is decided by the ball arrangement (seed 4.5).
   PlanarPose rotated_pose;
-  cv::Vec3b cloth_bgr;      // measured on this image
-  double cloth_brightness;  // mean of B, G, R of the cloth
+  cv::Vec3b cloth_bgr;         // measured on this image
+  double cloth_brightness;     // mean of B, G, R of the cloth
   // The cloth was found among the image's own colours, not the profile's (other_cloth_colours).
   bool cloth_not_profile_colour = false;
   bool long_side_view = true;  // camera stands at a long side

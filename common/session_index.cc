@@ -12,8 +12,8 @@ absl::Status SessionIndexOptions::Validate() const {
     return absl::InvalidArgumentError(
         absl::StrCat("session index log2_buckets must be in [8, 24], got ", log2_buckets));
   if (max_learned_entries > 10'000'000)
-    return absl::InvalidArgumentError(
-        absl::StrCat("max_learned_entries must be at most 10000000, got ", max_learned_entries));
+    return absl::InvalidArgumentError(absl::StrCat(
+        "max_learned_entries must be at most 10000000, got ", max_learned_entries));
   return absl::OkStatus();
 }
 

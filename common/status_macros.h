@@ -7,11 +7,11 @@
 #define TEXFREE_CONCAT_INNER(a, b) a##b
 #define TEXFREE_CONCAT(a, b) TEXFREE_CONCAT_INNER(a, b)
 
-#define RETURN_IF_ERROR(expr)                                             \
-  do {                                                                    \
+#define RETURN_IF_ERROR(expr)                                  \
+  do {                                                         \
     if (::absl::Status _texfree_status = (expr); !_texfree_status.ok()) { \
-      return _texfree_status;                                             \
-    }                                                                     \
+      return _texfree_status;                                  \
+    }                                                          \
   } while (0)
 
 #define ASSIGN_OR_RETURN(lhs, expr) \

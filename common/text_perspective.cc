@@ -3,8 +3,8 @@
 #include "common/text_perspective.h"
 
 #include <algorithm>
-#include <cmath>
 #include <limits>
+#include <cmath>
 
 #include "absl/strings/str_cat.h"
 #include "common/neighbor_grid.h"

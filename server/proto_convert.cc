@@ -1,9 +1,9 @@
 // Proto <-> plain type conversions.
 #include "server/proto_convert.h"
 
-#include <spdlog/spdlog.h>
-
 #include <cmath>
+
+#include <spdlog/spdlog.h>
 
 #include "absl/strings/str_cat.h"
 
@@ -16,8 +16,8 @@ absl::StatusOr<Rgba> ColorFromProto(const v1::Color& c, bool has, const char* fi
     return absl::InvalidArgumentError(absl::StrCat(field, " components must be in 0..255"));
   // An all-zero colour message means "opaque black" rather than "invisible".
   const uint32_t a = (c.r() | c.g() | c.b() | c.a()) == 0 ? 255 : c.a();
-  return Rgba{static_cast<uint8_t>(c.r()), static_cast<uint8_t>(c.g()), static_cast<uint8_t>(c.b()),
-              static_cast<uint8_t>(a)};
+  return Rgba{static_cast<uint8_t>(c.r()), static_cast<uint8_t>(c.g()),
+              static_cast<uint8_t>(c.b()), static_cast<uint8_t>(a)};
 }
 
 void ColorToProto(const Rgba& c, v1::Color* out) {
@@ -52,8 +52,7 @@ double LocalScale(const cv::Matx33d& H, const cv::Point2d& p) {
 }  // namespace
 
 grpc::Status LoggedFailure(const char* method, const absl::Status& status) {
-  if (status.code() == absl::StatusCode::kInternal ||
-      status.code() == absl::StatusCode::kDataLoss ||
+  if (status.code() == absl::StatusCode::kInternal || status.code() == absl::StatusCode::kDataLoss ||
       status.code() == absl::StatusCode::kUnavailable) {
     spdlog::error("{}: {}", method, status.ToString());
   } else {
@@ -85,9 +84,9 @@ absl::StatusOr<cv::Mat> ImageFromProto(const v1::Image& image, const ImageLimits
       }
       if (raw.width() > 1u << 20 || raw.height() > 1u << 20)
         return absl::InvalidArgumentError("raw image width/height out of range");
-      auto mat =
-          ImageFromRaw(raw.pixels(), format, static_cast<int>(raw.width()),
-                       static_cast<int>(raw.height()), static_cast<int>(raw.stride()), limits);
+      auto mat = ImageFromRaw(raw.pixels(), format, static_cast<int>(raw.width()),
+                              static_cast<int>(raw.height()), static_cast<int>(raw.stride()),
+                              limits);
       if (!mat.ok() || !gray) return mat;
       return ToGray(*mat);
     }
@@ -272,8 +271,8 @@ void MappedAnnotationToProto(const AnnotationRecord& a, const cv::Matx33d& H,
 void OutlineToProto(const cv::Matx33d& H, const cv::Size& page,
                     google::protobuf::RepeatedPtrField<v1::Point2>* out) {
   const double w = page.width, h = page.height;
-  for (const cv::Point2d& c :
-       {cv::Point2d(0, 0), cv::Point2d(w, 0), cv::Point2d(w, h), cv::Point2d(0, h)})
+  for (const cv::Point2d& c : {cv::Point2d(0, 0), cv::Point2d(w, 0), cv::Point2d(w, h),
+                               cv::Point2d(0, h)})
     PointToProto(ApplyHomography(H, c), out->Add());
 }
 

@@ -2,9 +2,9 @@
 // and absl::Status -> grpc::Status. Proto types stop here.
 #pragma once
 
-#include <grpcpp/support/status.h>
-
 #include <optional>
+
+#include <grpcpp/support/status.h>
 
 #include "absl/status/statusor.h"
 #include "common/image_io.h"

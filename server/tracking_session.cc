@@ -1,10 +1,10 @@
 // TrackingSession: the two-stage pipeline of one tracking stream, and IdleWatchdog.
 #include "server/tracking_session.h"
 
-#include <spdlog/spdlog.h>
-
 #include <exception>
 #include <utility>
+
+#include <spdlog/spdlog.h>
 
 #include "absl/strings/str_cat.h"
 #include "common/status_macros.h"
@@ -35,8 +35,7 @@ void AddTiming(v1::TrackResponse* r, const char* stage, double ms) {
 
 absl::Status TrackingSessionOptions::Validate() const {
   if (queue_frames < 1 || queue_frames > 64)
-    return absl::InvalidArgumentError(
-        absl::StrCat("queue_frames must be in [1, 64], got ", queue_frames));
+    return absl::InvalidArgumentError(absl::StrCat("queue_frames must be in [1, 64], got ", queue_frames));
   if (max_frame_age_ms < 1 || max_frame_age_ms > 60'000)
     return absl::InvalidArgumentError(
         absl::StrCat("max_frame_age_ms must be in [1, 60000], got ", max_frame_age_ms));
@@ -47,8 +46,8 @@ absl::Status TrackingSessionOptions::Validate() const {
   return absl::OkStatus();
 }
 
-TrackingSession::TrackingSession(const DocumentRegistry* registry, TrackingSessionOptions options,
-                                 Writer writer)
+TrackingSession::TrackingSession(const DocumentRegistry* registry,
+                                 TrackingSessionOptions options, Writer writer)
     : registry_(registry),
       options_(std::move(options)),
       writer_(std::move(writer)),

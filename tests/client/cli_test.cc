@@ -50,7 +50,8 @@ class TempDir {
  public:
   TempDir() {
     path_ = std::filesystem::temp_directory_path() /
-            ("texfree_cli_test_" + std::to_string(::getpid()) + "_" + std::to_string(counter_++));
+            ("texfree_cli_test_" + std::to_string(::getpid()) + "_" +
+             std::to_string(counter_++));
     std::filesystem::create_directories(path_);
   }
   ~TempDir() { std::filesystem::remove_all(path_); }
@@ -58,7 +59,9 @@ class TempDir {
     std::ofstream(path_ / name, std::ios::binary) << content;
     return (path_ / name).string();
   }
-  std::string Path(const std::string& name) const { return (path_ / name).string(); }
+  std::string Path(const std::string& name) const {
+    return (path_ / name).string();
+  }
 
  private:
   static inline int counter_ = 0;
@@ -91,10 +94,12 @@ TEST(CliTest, UsageErrorsExitTwo) {
   EXPECT_EQ(RunTexfree({"--no-such-flag", "doc", "list"}).code, 2);
   EXPECT_EQ(RunTexfree({"doc", "delete"}).code, 2);
   EXPECT_EQ(RunTexfree({"doc", "annotate", "x"}).code, 2);
-  Result missing = RunTexfree({"--json", "doc", "register", "/nonexistent/page.png"});
+  Result missing =
+      RunTexfree({"--json", "doc", "register", "/nonexistent/page.png"});
   EXPECT_EQ(missing.code, 2);
   EXPECT_TRUE(missing.out.empty());
-  EXPECT_NE(missing.err.find("/nonexistent/page.png"), std::string::npos) << missing.err;
+  EXPECT_NE(missing.err.find("/nonexistent/page.png"), std::string::npos)
+      << missing.err;
 }
 
 TEST(CliTest, HelpExitsZero) {
@@ -107,21 +112,25 @@ TEST(CliTest, HelpExitsZero) {
 TEST(CliTest, MalformedAnnotationsFailBeforeContactingTheServer) {
   TempDir dir;
   std::string image = dir.File("page.png", PngBytes(64, 64));
-  std::string annotations =
-      dir.File("a.json", R"([{"type": "highlight", "x": 1, "y": 2, "width": -5, "height": 3}])");
+  std::string annotations = dir.File(
+      "a.json",
+      R"([{"type": "highlight", "x": 1, "y": 2, "width": -5, "height": 3}])");
   int port = UnusedPort();
   auto start = std::chrono::steady_clock::now();
-  Result result = RunTexfree({"--json", "--server", "127.0.0.1:" + std::to_string(port), "doc",
-                              "register", image, "--annotations", annotations});
+  Result result =
+      RunTexfree({"--json", "--server", "127.0.0.1:" + std::to_string(port),
+                  "doc", "register", image, "--annotations", annotations});
   auto elapsed = std::chrono::steady_clock::now() - start;
   EXPECT_EQ(result.code, 2);
   EXPECT_TRUE(result.out.empty());
-  EXPECT_NE(result.err.find("annotations[0].width"), std::string::npos) << result.err;
+  EXPECT_NE(result.err.find("annotations[0].width"), std::string::npos)
+      << result.err;
   EXPECT_LT(elapsed, std::chrono::seconds(2));  // no connection attempt
 
-  std::string camera = dir.File("camera.yml", "%YAML:1.0\n---\nimage_width: 640\n");
-  result = RunTexfree({"--server", "127.0.0.1:" + std::to_string(port), "doc", "retrieve", image,
-                       "--intrinsics", camera});
+  std::string camera =
+      dir.File("camera.yml", "%YAML:1.0\n---\nimage_width: 640\n");
+  result = RunTexfree({"--server", "127.0.0.1:" + std::to_string(port), "doc",
+                       "retrieve", image, "--intrinsics", camera});
   EXPECT_EQ(result.code, 2);
   EXPECT_NE(result.err.find("camera_matrix"), std::string::npos) << result.err;
 }
@@ -133,7 +142,8 @@ TEST(CliTest, UnreachableServerExitsOneQuickly) {
   auto elapsed = std::chrono::steady_clock::now() - start;
   EXPECT_EQ(result.code, 1);
   EXPECT_TRUE(result.out.empty());
-  EXPECT_NE(result.err.find("cannot reach texfree-server at " + server), std::string::npos)
+  EXPECT_NE(result.err.find("cannot reach texfree-server at " + server),
+            std::string::npos)
       << result.err;
   EXPECT_LT(elapsed, std::chrono::seconds(8));
 }
@@ -141,8 +151,9 @@ TEST(CliTest, UnreachableServerExitsOneQuickly) {
 // A DocumentService with canned answers.
 class FakeDocumentService final : public v1::DocumentService::Service {
  public:
-  grpc::Status RegisterDocument(grpc::ServerContext*, const v1::RegisterDocumentRequest* request,
-                                v1::RegisterDocumentResponse* response) override {
+  grpc::Status RegisterDocument(
+      grpc::ServerContext*, const v1::RegisterDocumentRequest* request,
+      v1::RegisterDocumentResponse* response) override {
     last_register = *request;
     auto* document = response->mutable_document();
     document->set_document_id("doc-1");
@@ -152,23 +163,27 @@ class FakeDocumentService final : public v1::DocumentService::Service {
     document->set_keypoints(42);
     for (int i = 0; i < request->annotations_size(); ++i) {
       *document->add_annotations() = request->annotations(i);
-      document->mutable_annotations(i)->set_annotation_id("a" + std::to_string(i));
+      document->mutable_annotations(i)->set_annotation_id("a" +
+                                                          std::to_string(i));
     }
     response->set_server_ms(3.5);
     return grpc::Status::OK;
   }
 
-  grpc::Status DeleteDocument(grpc::ServerContext*, const v1::DeleteDocumentRequest* request,
+  grpc::Status DeleteDocument(grpc::ServerContext*,
+                              const v1::DeleteDocumentRequest* request,
                               v1::DeleteDocumentResponse* response) override {
     if (request->document_id() != "doc-1") {
-      return grpc::Status(grpc::StatusCode::NOT_FOUND,
-                          "document '" + request->document_id() + "' does not exist");
+      return grpc::Status(
+          grpc::StatusCode::NOT_FOUND,
+          "document '" + request->document_id() + "' does not exist");
     }
     response->set_document_id("doc-1");
     return grpc::Status::OK;
   }
 
-  grpc::Status ListDocuments(grpc::ServerContext*, const v1::ListDocumentsRequest* request,
+  grpc::Status ListDocuments(grpc::ServerContext*,
+                             const v1::ListDocumentsRequest* request,
                              v1::ListDocumentsResponse* response) override {
     // Two pages: doc-1, doc-2 then doc-3.
     if (request->page_token().empty()) {
@@ -187,8 +202,9 @@ class FakeDocumentService final : public v1::DocumentService::Service {
     return grpc::Status::OK;
   }
 
-  grpc::Status RetrieveDocuments(grpc::ServerContext*, const v1::RetrieveDocumentsRequest* request,
-                                 v1::RetrieveDocumentsResponse* response) override {
+  grpc::Status RetrieveDocuments(
+      grpc::ServerContext*, const v1::RetrieveDocumentsRequest* request,
+      v1::RetrieveDocumentsResponse* response) override {
     last_retrieve = *request;
     auto* match = response->add_matches();
     match->set_document_id("doc-1");
@@ -210,7 +226,8 @@ class FakeDocumentService final : public v1::DocumentService::Service {
     highlight->mutable_color()->set_a(255);
     highlight->set_opacity(1.0);
     if (request->has_intrinsics()) {
-      for (int i = 0; i < 9; ++i) match->mutable_pose()->add_rotation(i % 4 == 0 ? 1 : 0);
+      for (int i = 0; i < 9; ++i)
+        match->mutable_pose()->add_rotation(i % 4 == 0 ? 1 : 0);
       for (int i = 0; i < 3; ++i) match->mutable_pose()->add_translation(i);
     }
     response->set_server_ms(12.5);
@@ -226,7 +243,8 @@ class CliServerTest : public ::testing::Test {
   void SetUp() override {
     grpc::ServerBuilder builder;
     int port = 0;
-    builder.AddListeningPort("127.0.0.1:0", grpc::InsecureServerCredentials(), &port);
+    builder.AddListeningPort("127.0.0.1:0", grpc::InsecureServerCredentials(),
+                             &port);
     builder.RegisterService(&service_);
     server_ = builder.BuildAndStart();
     ASSERT_NE(server_, nullptr);
@@ -248,9 +266,11 @@ class CliServerTest : public ::testing::Test {
 TEST_F(CliServerTest, RegisterSendsEncodedBytesTitleAndAnnotations) {
   std::string bytes = PngBytes(64, 64);
   std::string image = dir_.File("my_page.png", bytes);
-  std::string annotations =
-      dir_.File("a.json", R"({"annotations": [{"type": "text", "text": "hi", "x": 1, "y": 20}]})");
-  Result result = RunJson({"doc", "register", image, "--annotations", annotations});
+  std::string annotations = dir_.File(
+      "a.json",
+      R"({"annotations": [{"type": "text", "text": "hi", "x": 1, "y": 20}]})");
+  Result result =
+      RunJson({"doc", "register", image, "--annotations", annotations});
   ASSERT_EQ(result.code, 0) << result.err;
   json out = json::parse(result.out);  // exactly one JSON document
   EXPECT_EQ(out["document_id"], "doc-1");
@@ -273,11 +293,14 @@ TEST_F(CliServerTest, RetrieveOutputsMatchesAndDrawsTheOverlay) {
   {
     cv::FileStorage fs(camera, cv::FileStorage::WRITE);
     fs << "image_width" << 64 << "image_height" << 64;
-    fs << "camera_matrix" << cv::Mat(cv::Matx33d(100, 0, 32, 0, 100, 32, 0, 0, 1));
-    fs << "distortion_coefficients" << cv::Mat(cv::Matx<double, 1, 5>(0, 0, 0, 0, 0));
+    fs << "camera_matrix"
+       << cv::Mat(cv::Matx33d(100, 0, 32, 0, 100, 32, 0, 0, 1));
+    fs << "distortion_coefficients"
+       << cv::Mat(cv::Matx<double, 1, 5>(0, 0, 0, 0, 0));
   }
   std::string overlay = dir_.Path("overlay.png");
-  Result result = RunJson({"doc", "retrieve", image, "--intrinsics", camera, "--overlay", overlay});
+  Result result = RunJson(
+      {"doc", "retrieve", image, "--intrinsics", camera, "--overlay", overlay});
   ASSERT_EQ(result.code, 0) << result.err;
   json out = json::parse(result.out);
   ASSERT_EQ(out["matches"].size(), 1u);
@@ -362,12 +385,14 @@ TEST_F(CliServerTest, ListFollowsPageTokens) {
 TEST_F(CliServerTest, DeleteAndServerErrors) {
   Result result = RunJson({"doc", "delete", "doc-1"});
   ASSERT_EQ(result.code, 0) << result.err;
-  EXPECT_EQ(json::parse(result.out), (json{{"deleted", "doc-1"}, {"server_ms", 0.0}}));
+  EXPECT_EQ(json::parse(result.out),
+            (json{{"deleted", "doc-1"}, {"server_ms", 0.0}}));
 
   result = RunJson({"doc", "delete", "x"});
   EXPECT_EQ(result.code, 1);
   EXPECT_TRUE(result.out.empty());
-  EXPECT_NE(result.err.find("error: NOT_FOUND: document 'x' does not exist"), std::string::npos)
+  EXPECT_NE(result.err.find("error: NOT_FOUND: document 'x' does not exist"),
+            std::string::npos)
       << result.err;
 
   // The fake does not implement GetDocument.
