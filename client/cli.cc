@@ -23,9 +23,11 @@ std::string UnknownCommandMessage(CLI::App& app, int argc, char** argv) {
   for (int i = 1; i < argc; ++i) {
     const std::string word = argv[i];
     if (word.empty() || word[0] == '-') {
-      // A global option's value follows it (--server HOST:PORT), unless given with '='.
-      if (word.find('=') == std::string::npos &&
-          (word == "--server" || word == "--connect-timeout" || word == "--timeout"))
+      // An option taking a value has it next (--server HOST:PORT), unless given with '='.
+      const CLI::Option* option = level->get_option_no_throw(word);
+      if (option == nullptr) option = app.get_option_no_throw(word);  // global, after a group
+      if (option != nullptr && option->get_items_expected_min() > 0 &&
+          word.find('=') == std::string::npos)
         ++i;
       continue;
     }

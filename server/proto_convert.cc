@@ -221,7 +221,7 @@ void PoseToProto(const PlanarPose& pose, v1::Pose* out) {
 
 namespace {
 // The points mapped by H, or false when one lies at or behind the camera's horizon.
-bool MapAll(const cv::Matx33d& H, std::initializer_list<cv::Point2d> in,
+bool MapAll(const cv::Matx33d& H, const std::vector<cv::Point2d>& in,
             std::vector<cv::Point2d>* out) {
   out->clear();
   for (const cv::Point2d& p : in) {
@@ -270,9 +270,7 @@ void MappedAnnotationToProto(const AnnotationRecord& a, const cv::Matx33d& H,
 
 void OutlineToProto(const cv::Matx33d& H, const cv::Size& page,
                     google::protobuf::RepeatedPtrField<v1::Point2>* out) {
-  const double w = page.width, h = page.height;
-  for (const cv::Point2d& c : {cv::Point2d(0, 0), cv::Point2d(w, 0), cv::Point2d(w, h),
-                               cv::Point2d(0, h)})
+  for (const cv::Point2d& c : RectCorners(cv::Rect2d(0, 0, page.width, page.height)))
     PointToProto(ApplyHomography(H, c), out->Add());
 }
 
@@ -280,8 +278,7 @@ void PageOverlaysToProto(const cv::Matx33d& H, const cv::Size& page,
                          const std::vector<AnnotationRecord>& annotations,
                          google::protobuf::RepeatedPtrField<v1::Overlay>* out) {
   std::vector<cv::Point2d> mapped;
-  const double w = page.width, h = page.height;
-  if (MapAll(H, {{0, 0}, {w, 0}, {w, h}, {0, h}}, &mapped))
+  if (MapAll(H, RectCorners(cv::Rect2d(0, 0, page.width, page.height)), &mapped))
     AddOverlay(v1::Overlay::POLYGON, mapped, Rgba{0, 200, 0, 255}, out);
   for (const AnnotationRecord& a : annotations) {
     switch (a.kind) {
@@ -295,15 +292,13 @@ void PageOverlaysToProto(const cv::Matx33d& H, const cv::Size& page,
         break;
       }
       case AnnotationRecord::Kind::kHighlight: {
-        const std::vector<cv::Point2d> c = RectCorners(a.rect);
-        if (!MapAll(H, {c[0], c[1], c[2], c[3]}, &mapped)) break;
+        if (!MapAll(H, RectCorners(a.rect), &mapped)) break;
         AddOverlay(v1::Overlay::FILLED_POLYGON, mapped, a.color, out)->set_opacity(a.opacity);
         break;
       }
       case AnnotationRecord::Kind::kLink:
       case AnnotationRecord::Kind::kMedia: {
-        const std::vector<cv::Point2d> c = RectCorners(a.rect);
-        if (!MapAll(H, {c[0], c[1], c[2], c[3]}, &mapped)) break;
+        if (!MapAll(H, RectCorners(a.rect), &mapped)) break;
         const bool link = a.kind == AnnotationRecord::Kind::kLink;
         AddOverlay(v1::Overlay::POLYGON, mapped,
                    link ? Rgba{0, 90, 255, 255} : Rgba{255, 140, 0, 255}, out)

@@ -361,7 +361,8 @@ int main(int argc, char** argv) {
           // The pages the tracker expects: extracted rectified when seen at a slant.
           texfree::VideoFrameInfo extracted;
           const auto keypoints = extractor.Extract(gray, tracker->PredictedPages(), &extracted);
-          const auto result = tracker->Track(keypoints, gray.size(), shared, extracted.whole_frame);
+          const auto result =
+              tracker->Track(keypoints, gray.size(), shared, extracted.whole_frame);
           const auto& rectified = extracted.rectified;
           s.ms = MillisecondsSince(t0);
           s.cpu_ms = texfree::ThreadCpuMilliseconds() - c0;
