@@ -151,16 +151,7 @@ int RunRegister(CommandContext& ctx, const RegisterOptions& options) {
 
 int RunRetrieve(CommandContext& ctx, const RetrieveOptions& options) {
   std::string bytes = ReadInputFile(options.image, "image");
-  std::optional<CameraFile> camera;
-  if (!options.intrinsics.empty()) {
-    try {
-      camera = LoadCameraFile(options.intrinsics);
-    } catch (const CameraFileError& e) {
-      throw UsageError(e.what());
-    }
-  }
-  if (options.undistort && !camera)
-    throw UsageError("--undistort needs --intrinsics (the camera's distortion coefficients)");
+  std::optional<CameraFile> camera = LoadIntrinsicsOption(options.intrinsics, options.undistort);
   cv::Mat canvas;
   if (!options.overlay.empty() && !cv::haveImageWriter(options.overlay)) {
     throw UsageError("--overlay: cannot write images of this type: '" + options.overlay +

@@ -28,4 +28,20 @@ std::string ReadInputFile(const std::filesystem::path& path,
   return bytes;
 }
 
+CameraFile LoadCameraOrUsage(const std::filesystem::path& path) {
+  try {
+    return LoadCameraFile(path);
+  } catch (const CameraFileError& e) {
+    throw UsageError(e.what());
+  }
+}
+
+std::optional<CameraFile> LoadIntrinsicsOption(const std::string& path, bool undistort) {
+  std::optional<CameraFile> camera;
+  if (!path.empty()) camera = LoadCameraOrUsage(path);
+  if (undistort && !camera)
+    throw UsageError("--undistort needs --intrinsics (the camera's distortion coefficients)");
+  return camera;
+}
+
 }  // namespace texfree::client

@@ -82,6 +82,24 @@ void BlendMask(cv::Mat& image_roi, const cv::Mat& mask, const cv::Scalar& bgr,
   }
 }
 
+// Fills the polygon of image points `mapped` (convex, anti-aliased) in `bgr`, blended at
+// `opacity`; only the polygon's bounding box inside the image is touched.
+void FillConvexBlended(cv::Mat& image, const std::vector<cv::Point2d>& mapped,
+                       const cv::Scalar& bgr, double opacity) {
+  cv::Rect roi = ClippedBounds(mapped, image.size());
+  if (roi.empty()) return;
+  constexpr int kShift = 4;
+  std::vector<cv::Point> points;
+  for (const auto& p : mapped) {
+    points.emplace_back(cvRound((p.x - roi.x) * (1 << kShift)),
+                        cvRound((p.y - roi.y) * (1 << kShift)));
+  }
+  cv::Mat mask = cv::Mat::zeros(roi.size(), CV_8UC1);
+  cv::fillConvexPoly(mask, points, cv::Scalar(255), cv::LINE_AA, kShift);
+  cv::Mat image_roi = image(roi);
+  BlendMask(image_roi, mask, bgr, opacity);
+}
+
 std::string MediaLabel(const PageAnnotation& annotation) {
   std::string label =
       annotation.mime_type.empty() ? "media" : annotation.mime_type;
@@ -204,18 +222,7 @@ void OverlayRenderer::FillQuad(cv::Mat& image, const cv::Matx33d& homography,
       {rect.x, rect.y + rect.height}};
   std::vector<cv::Point2d> mapped;
   if (!MapPoints(homography, corners, &mapped)) return;
-  cv::Rect roi = ClippedBounds(mapped, image.size());
-  if (roi.empty()) return;
-  constexpr int kShift = 4;
-  std::vector<cv::Point> points;
-  for (const auto& p : mapped) {
-    points.emplace_back(cvRound((p.x - roi.x) * (1 << kShift)),
-                        cvRound((p.y - roi.y) * (1 << kShift)));
-  }
-  cv::Mat mask = cv::Mat::zeros(roi.size(), CV_8UC1);
-  cv::fillConvexPoly(mask, points, cv::Scalar(255), cv::LINE_AA, kShift);
-  cv::Mat image_roi = image(roi);
-  BlendMask(image_roi, mask, bgr, std::min(opacity, 1.0));
+  FillConvexBlended(image, mapped, bgr, std::min(opacity, 1.0));
 }
 
 cv::Mat OverlayRenderer::RenderTextMask(const std::string& text, int height_px,
@@ -342,22 +349,8 @@ void OverlayRenderer::DrawAnnotation(cv::Mat& image,
             centre + cv::Point2d(-side / 2, -side / 2),
             centre + cv::Point2d(side / 2, 0),
             centre + cv::Point2d(-side / 2, side / 2)};
-        if (MapPoints(homography, triangle, &mapped)) {
-          cv::Rect roi = ClippedBounds(mapped, image.size());
-          if (!roi.empty()) {
-            constexpr int kShift = 4;
-            std::vector<cv::Point> points;
-            for (const auto& p : mapped) {
-              points.emplace_back(cvRound((p.x - roi.x) * (1 << kShift)),
-                                  cvRound((p.y - roi.y) * (1 << kShift)));
-            }
-            cv::Mat mask = cv::Mat::zeros(roi.size(), CV_8UC1);
-            cv::fillConvexPoly(mask, points, cv::Scalar(255), cv::LINE_AA,
-                               kShift);
-            cv::Mat image_roi = image(roi);
-            BlendMask(image_roi, mask, color.ToBgr(), 0.6);
-          }
-        }
+        if (MapPoints(homography, triangle, &mapped))
+          FillConvexBlended(image, mapped, color.ToBgr(), 0.6);
       }
       // Label: the URL (link) or the media type and name, fitted into the box.
       std::string label = link ? annotation.url : MediaLabel(annotation);

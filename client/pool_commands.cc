@@ -64,14 +64,6 @@ std::unique_ptr<v1::PoolService::Stub> PoolStub(CommandContext& ctx) {
   return v1::PoolService::NewStub(ctx.Channel());
 }
 
-CameraFile LoadCameraOrUsage(const std::string& path) {
-  try {
-    return LoadCameraFile(path);
-  } catch (const CameraFileError& e) {
-    throw UsageError(e.what());
-  }
-}
-
 // "#rrggbb" or [r, g, b].
 v1::Color ColourFromJson(const json& value, const std::string& what) {
   v1::Color c;

@@ -124,12 +124,7 @@ std::string Fixed(double v, int digits) {
 }
 
 int RunCreate(CommandContext& ctx, const CreateOptions& options) {
-  CameraFile camera;
-  try {
-    camera = LoadCameraFile(options.intrinsics);
-  } catch (const CameraFileError& e) {
-    throw UsageError(e.what());
-  }
+  const CameraFile camera = LoadCameraOrUsage(options.intrinsics);
   const auto references =
       ParseReferencesCsv(ReadInputFile(options.references, "references file"), options.references);
   v1::CreateSurveyRequest request;

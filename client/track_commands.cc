@@ -28,6 +28,7 @@
 
 #include "client/camera_file.h"
 #include "client/command_context.h"
+#include "client/file_util.h"
 #include "client/frame_source.h"
 #include "client/json_output.h"
 #include "client/overlay_renderer.h"
@@ -129,16 +130,7 @@ double Median(std::vector<double> v) {
 
 int RunTrack(CommandContext& ctx, const TrackOptions& options) {
   // Everything local is checked before the server is contacted.
-  std::optional<CameraFile> camera;
-  if (!options.intrinsics.empty()) {
-    try {
-      camera = LoadCameraFile(options.intrinsics);
-    } catch (const CameraFileError& e) {
-      throw UsageError(e.what());
-    }
-  }
-  if (options.undistort && !camera)
-    throw UsageError("--undistort needs --intrinsics (the camera's distortion coefficients)");
+  std::optional<CameraFile> camera = LoadIntrinsicsOption(options.intrinsics, options.undistort);
   std::optional<FrameUndistorter> undistorter;
   if (options.undistort) {
     undistorter.emplace(*camera);

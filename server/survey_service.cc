@@ -13,16 +13,6 @@
 namespace texfree::server {
 namespace {
 
-grpc::Status Fail(const char* method, const absl::Status& status) {
-  if (status.code() == absl::StatusCode::kInternal || status.code() == absl::StatusCode::kDataLoss ||
-      status.code() == absl::StatusCode::kUnavailable) {
-    spdlog::error("{}: {}", method, status.ToString());
-  } else {
-    spdlog::info("{}: {}", method, status.ToString());
-  }
-  return ToGrpcStatus(status);
-}
-
 absl::Status CheckId(const std::string& id, const char* what) {
   if (id.empty()) return absl::InvalidArgumentError(absl::StrCat(what, " is empty"));
   if (id.size() > 128) return absl::InvalidArgumentError(absl::StrCat(what, " is too long"));
@@ -178,18 +168,18 @@ grpc::Status SurveyServiceImpl::CreateSurvey(grpc::ServerContext*,
                                              const v1::CreateSurveyRequest* request,
                                              v1::Survey* response) {
   auto camera = CameraFromProto(request->intrinsics());
-  if (!camera.ok()) return Fail("CreateSurvey", camera.status());
+  if (!camera.ok()) return LoggedFailure("CreateSurvey", camera.status());
   if (!camera->has_value()) {
-    return Fail("CreateSurvey", absl::InvalidArgumentError(
-                                    "intrinsics are required (fx, fy, cx, cy, distortion, "
-                                    "width, height): pass the camera's calibration"));
+    return LoggedFailure("CreateSurvey", absl::InvalidArgumentError(
+                                             "intrinsics are required (fx, fy, cx, cy, distortion, "
+                                             "width, height): pass the camera's calibration"));
   }
   if ((*camera)->size.width <= 0 || (*camera)->size.height <= 0) {
-    return Fail("CreateSurvey",
-                absl::InvalidArgumentError("intrinsics need the image width and height"));
+    return LoggedFailure("CreateSurvey",
+                         absl::InvalidArgumentError("intrinsics need the image width and height"));
   }
   if (request->name().size() > 256) {
-    return Fail("CreateSurvey", absl::InvalidArgumentError("name is over 256 characters"));
+    return LoggedFailure("CreateSurvey", absl::InvalidArgumentError("name is over 256 characters"));
   }
   SurveyRecord record;
   record.name = request->name();
@@ -197,29 +187,30 @@ grpc::Status SurveyServiceImpl::CreateSurvey(grpc::ServerContext*,
   for (int i = 0; i < request->references_size(); ++i) {
     const auto& ref = request->references(i);
     if (ref.id() > static_cast<uint32_t>(lights::kMaxLightId)) {
-      return Fail("CreateSurvey", absl::InvalidArgumentError(absl::StrCat(
-                                      "reference ", i, ": light id ", ref.id(),
-                                      " is out of range 0..", lights::kMaxLightId)));
+      return LoggedFailure("CreateSurvey", absl::InvalidArgumentError(absl::StrCat(
+                                               "reference ", i, ": light id ", ref.id(),
+                                               " is out of range 0..", lights::kMaxLightId)));
     }
     const auto& p = ref.position_m();
     if (!std::isfinite(p.x()) || !std::isfinite(p.y()) || !std::isfinite(p.z())) {
-      return Fail("CreateSurvey", absl::InvalidArgumentError(absl::StrCat(
-                                      "reference light ", ref.id(), " has a non-finite position")));
+      return LoggedFailure("CreateSurvey",
+                           absl::InvalidArgumentError(absl::StrCat("reference light ", ref.id(),
+                                                                   " has a non-finite position")));
     }
     if (!record.references.emplace(ref.id(), cv::Point3d(p.x(), p.y(), p.z())).second) {
-      return Fail("CreateSurvey", absl::InvalidArgumentError(absl::StrCat(
-                                      "reference light ", ref.id(), " is listed twice")));
+      return LoggedFailure("CreateSurvey", absl::InvalidArgumentError(absl::StrCat(
+                                               "reference light ", ref.id(), " is listed twice")));
     }
   }
   if (static_cast<int>(record.references.size()) < options_.solve.pose.min_references) {
-    return Fail("CreateSurvey",
-                absl::InvalidArgumentError(absl::StrCat(
-                    "a survey needs at least ", options_.solve.pose.min_references,
-                    " reference lights with surveyed coordinates to pose its views; got ",
-                    record.references.size())));
+    return LoggedFailure("CreateSurvey",
+                         absl::InvalidArgumentError(absl::StrCat(
+                             "a survey needs at least ", options_.solve.pose.min_references,
+                             " reference lights with surveyed coordinates to pose its views; got ",
+                             record.references.size())));
   }
   auto stored = store_->Create(std::move(record));
-  if (!stored.ok()) return Fail("CreateSurvey", stored.status());
+  if (!stored.ok()) return LoggedFailure("CreateSurvey", stored.status());
   spdlog::info("CreateSurvey: {} '{}' with {} reference lights", stored->id, stored->name,
                stored->references.size());
   SurveyToProto(*stored, response);
@@ -232,26 +223,29 @@ grpc::Status SurveyServiceImpl::UploadView(grpc::ServerContext* context,
   const auto t0 = SteadyClock::now();
   v1::UploadViewRequest message;
   if (!reader->Read(&message) || !message.has_header()) {
-    return Fail("UploadView", absl::InvalidArgumentError(
-                                  "the first message of UploadView must be the view header "
-                                  "(survey_id, view_name)"));
+    return LoggedFailure(
+        "UploadView",
+        absl::InvalidArgumentError("the first message of UploadView must be the view header "
+                                   "(survey_id, view_name)"));
   }
   const v1::ViewHeader header = message.header();
-  if (auto s = CheckId(header.survey_id(), "survey_id"); !s.ok()) return Fail("UploadView", s);
+  if (auto s = CheckId(header.survey_id(), "survey_id"); !s.ok())
+    return LoggedFailure("UploadView", s);
   if (header.view_name().empty() || header.view_name().size() > 128) {
-    return Fail("UploadView", absl::InvalidArgumentError("view_name must be 1..128 characters"));
+    return LoggedFailure("UploadView",
+                         absl::InvalidArgumentError("view_name must be 1..128 characters"));
   }
   auto record = store_->Get(header.survey_id());
-  if (!record.ok()) return Fail("UploadView", record.status());
+  if (!record.ok()) return LoggedFailure("UploadView", record.status());
 
   lights::BurstDecoderOptions decoder_options = options_.decoder;
   auto stream = lights::StreamingBurstDecoder::Create(decoder_options, options_.limits);
-  if (!stream.ok()) return Fail("UploadView", stream.status());
+  if (!stream.ok()) return LoggedFailure("UploadView", stream.status());
   int frames = 0;
   absl::Status push_status;
   while (reader->Read(&message)) {
     if (context->IsCancelled()) {
-      return Fail("UploadView", absl::CancelledError("client cancelled the upload"));
+      return LoggedFailure("UploadView", absl::CancelledError("client cancelled the upload"));
     }
     if (!message.has_frame()) {
       push_status = absl::InvalidArgumentError(
@@ -267,10 +261,10 @@ grpc::Status SurveyServiceImpl::UploadView(grpc::ServerContext* context,
     if (!push_status.ok()) break;
     ++frames;
   }
-  if (!push_status.ok()) return Fail("UploadView", push_status);
+  if (!push_status.ok()) return LoggedFailure("UploadView", push_status);
   const double receive_ms = MillisecondsSince(t0);
   auto result = (*stream)->Finish();
-  if (!result.ok()) return Fail("UploadView", result.status());
+  if (!result.ok()) return LoggedFailure("UploadView", result.status());
   const double image_decode_ms = (*stream)->image_decode_ms();
   const lights::BurstStats& stats = result->stats;
 
@@ -285,14 +279,15 @@ grpc::Status SurveyServiceImpl::UploadView(grpc::ServerContext* context,
   const auto t_pose = SteadyClock::now();
   view.size = (*stream)->frame_size();
   if (camera.size.width > 0 && view.size != camera.size) {
-    return Fail("UploadView", absl::InvalidArgumentError(absl::StrCat(
-                                  "frames are ", view.size.width, "x", view.size.height,
-                                  " but the survey's camera was calibrated at ", camera.size.width,
-                                  "x", camera.size.height, ": upload the full-size frames")));
+    return LoggedFailure("UploadView",
+                         absl::InvalidArgumentError(absl::StrCat(
+                             "frames are ", view.size.width, "x", view.size.height,
+                             " but the survey's camera was calibrated at ", camera.size.width, "x",
+                             camera.size.height, ": upload the full-size frames")));
   }
   PoseView(*record, options_.solve.pose, &view);
   const double pose_ms = MillisecondsSince(t_pose);
-  if (auto s = store_->PutView(record->id, view); !s.ok()) return Fail("UploadView", s);
+  if (auto s = store_->PutView(record->id, view); !s.ok()) return LoggedFailure("UploadView", s);
 
   ViewToProto(view, response->mutable_view());
   response->set_candidate_pixels(static_cast<uint64_t>(stats.candidate_pixels));
@@ -322,14 +317,16 @@ grpc::Status SurveyServiceImpl::UploadView(grpc::ServerContext* context,
 grpc::Status SurveyServiceImpl::Solve(grpc::ServerContext*, const v1::SolveRequest* request,
                                       v1::SolveResponse* response) {
   const auto t0 = SteadyClock::now();
-  if (auto s = CheckId(request->survey_id(), "survey_id"); !s.ok()) return Fail("Solve", s);
+  if (auto s = CheckId(request->survey_id(), "survey_id"); !s.ok())
+    return LoggedFailure("Solve", s);
   auto record = store_->Get(request->survey_id());
-  if (!record.ok()) return Fail("Solve", record.status());
+  if (!record.ok()) return LoggedFailure("Solve", record.status());
   survey::SolveOptions options = options_.solve;
   options.bundle_adjustment = request->bundle_adjustment();
   auto solution = survey::SolveSurvey(record->camera, record->references, ViewInputs(*record), options);
-  if (!solution.ok()) return Fail("Solve", solution.status());
-  if (auto s = store_->PutSolution(record->id, *solution); !s.ok()) return Fail("Solve", s);
+  if (!solution.ok()) return LoggedFailure("Solve", solution.status());
+  if (auto s = store_->PutSolution(record->id, *solution); !s.ok())
+    return LoggedFailure("Solve", s);
   for (const auto& p : solution->points) SolvedPointToProto(p, response->add_points());
   for (const auto& v : solution->views) {
     auto* r = response->add_views();
@@ -353,9 +350,10 @@ grpc::Status SurveyServiceImpl::Solve(grpc::ServerContext*, const v1::SolveReque
 grpc::Status SurveyServiceImpl::GetSurvey(grpc::ServerContext*,
                                           const v1::GetSurveyRequest* request,
                                           v1::Survey* response) {
-  if (auto s = CheckId(request->survey_id(), "survey_id"); !s.ok()) return Fail("GetSurvey", s);
+  if (auto s = CheckId(request->survey_id(), "survey_id"); !s.ok())
+    return LoggedFailure("GetSurvey", s);
   auto record = store_->Get(request->survey_id());
-  if (!record.ok()) return Fail("GetSurvey", record.status());
+  if (!record.ok()) return LoggedFailure("GetSurvey", record.status());
   SurveyToProto(*record, response);
   return grpc::Status::OK;
 }
@@ -363,7 +361,7 @@ grpc::Status SurveyServiceImpl::GetSurvey(grpc::ServerContext*,
 grpc::Status SurveyServiceImpl::ListSurveys(grpc::ServerContext*, const v1::ListSurveysRequest*,
                                             v1::ListSurveysResponse* response) {
   auto list = store_->List();
-  if (!list.ok()) return Fail("ListSurveys", list.status());
+  if (!list.ok()) return LoggedFailure("ListSurveys", list.status());
   for (const auto& r : *list) {
     auto* s = response->add_surveys();
     s->set_survey_id(r.id);
@@ -378,8 +376,10 @@ grpc::Status SurveyServiceImpl::ListSurveys(grpc::ServerContext*, const v1::List
 grpc::Status SurveyServiceImpl::DeleteSurvey(grpc::ServerContext*,
                                              const v1::DeleteSurveyRequest* request,
                                              v1::DeleteSurveyResponse* response) {
-  if (auto s = CheckId(request->survey_id(), "survey_id"); !s.ok()) return Fail("DeleteSurvey", s);
-  if (auto s = store_->Delete(request->survey_id()); !s.ok()) return Fail("DeleteSurvey", s);
+  if (auto s = CheckId(request->survey_id(), "survey_id"); !s.ok())
+    return LoggedFailure("DeleteSurvey", s);
+  if (auto s = store_->Delete(request->survey_id()); !s.ok())
+    return LoggedFailure("DeleteSurvey", s);
   spdlog::info("DeleteSurvey: {}", request->survey_id());
   response->set_survey_id(request->survey_id());
   return grpc::Status::OK;
@@ -388,13 +388,15 @@ grpc::Status SurveyServiceImpl::DeleteSurvey(grpc::ServerContext*,
 grpc::Status SurveyServiceImpl::ExportPoints(grpc::ServerContext*,
                                              const v1::ExportPointsRequest* request,
                                              v1::ExportPointsResponse* response) {
-  if (auto s = CheckId(request->survey_id(), "survey_id"); !s.ok()) return Fail("ExportPoints", s);
+  if (auto s = CheckId(request->survey_id(), "survey_id"); !s.ok())
+    return LoggedFailure("ExportPoints", s);
   auto record = store_->Get(request->survey_id());
-  if (!record.ok()) return Fail("ExportPoints", record.status());
+  if (!record.ok()) return LoggedFailure("ExportPoints", record.status());
   if (!record->solved) {
-    return Fail("ExportPoints", absl::FailedPreconditionError(absl::StrCat(
-                                    "survey '", record->id,
-                                    "' has no solution yet (or a view changed since): run Solve")));
+    return LoggedFailure(
+        "ExportPoints",
+        absl::FailedPreconditionError(absl::StrCat(
+            "survey '", record->id, "' has no solution yet (or a view changed since): run Solve")));
   }
   switch (request->format()) {
     case v1::ExportPointsRequest::FORMAT_UNSPECIFIED:
@@ -411,7 +413,7 @@ grpc::Status SurveyServiceImpl::ExportPoints(grpc::ServerContext*,
       response->set_mime_type("application/x-ply");
       break;
     default:
-      return Fail("ExportPoints", absl::InvalidArgumentError("unknown export format"));
+      return LoggedFailure("ExportPoints", absl::InvalidArgumentError("unknown export format"));
   }
   return grpc::Status::OK;
 }
