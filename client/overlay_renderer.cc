@@ -38,6 +38,14 @@ double LocalScale(const cv::Matx33d& h, const cv::Point2d& p) {
   return std::isfinite(det) ? std::sqrt(det) : 0;
 }
 
+// A rectangle's corners, clockwise in image axes from its top-left.
+std::vector<cv::Point2d> RectCorners(const cv::Rect2d& rect) {
+  return {{rect.x, rect.y},
+          {rect.x + rect.width, rect.y},
+          {rect.x + rect.width, rect.y + rect.height},
+          {rect.x, rect.y + rect.height}};
+}
+
 // Bounding box of points, clipped to the image; empty if outside.
 cv::Rect ClippedBounds(const std::vector<cv::Point2d>& points,
                        const cv::Size& size) {
@@ -215,13 +223,8 @@ void OverlayRenderer::FillQuad(cv::Mat& image, const cv::Matx33d& homography,
                                double opacity) {
   CV_Assert(image.type() == CV_8UC3);
   if (opacity <= 0 || rect.width <= 0 || rect.height <= 0) return;
-  std::vector<cv::Point2d> corners = {
-      {rect.x, rect.y},
-      {rect.x + rect.width, rect.y},
-      {rect.x + rect.width, rect.y + rect.height},
-      {rect.x, rect.y + rect.height}};
   std::vector<cv::Point2d> mapped;
-  if (!MapPoints(homography, corners, &mapped)) return;
+  if (!MapPoints(homography, RectCorners(rect), &mapped)) return;
   FillConvexBlended(image, mapped, bgr, std::min(opacity, 1.0));
 }
 
@@ -322,11 +325,7 @@ void OverlayRenderer::DrawAnnotation(cv::Mat& image,
       const bool link = annotation.kind == AnnotationKind::kLink;
       const Rgba& color = link ? kLinkColor : kMediaColor;
       FillQuad(image, homography, rect, color.ToBgr(), link ? 0.12 : 0.08);
-      std::vector<cv::Point2d> corners = {
-          {rect.x, rect.y},
-          {rect.x + rect.width, rect.y},
-          {rect.x + rect.width, rect.y + rect.height},
-          {rect.x, rect.y + rect.height}};
+      const std::vector<cv::Point2d> corners = RectCorners(rect);
       std::vector<cv::Point2d> mapped;
       if (MapPoints(homography, corners, &mapped)) {
         constexpr int kShift = 4;
