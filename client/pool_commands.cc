@@ -190,6 +190,7 @@ json ResponseToJson(const v1::AnalyzeTableResponse& r) {
       {"server_ms", r.server_ms()},  {"timings", timings}, {"long_side_view", r.long_side_view()},
       {"pose", PoseToJson(r.pose())}};
   if (!r.shots_note().empty()) out["shots_note"] = r.shots_note();
+  if (!r.profile_note().empty()) out["profile_note"] = r.profile_note();
   return out;
 }
 
@@ -261,7 +262,9 @@ int RunAnalyze(CommandContext& ctx, const AnalyzeOptions& options) {
       << " side view), corners";
   for (const auto& c : response.corners())
     out << " (" << std::fixed << std::setprecision(1) << c.x() << ", " << c.y() << ")";
-  out << "\n" << response.balls_size() << " balls:\n";
+  out << "\n";
+  if (!response.profile_note().empty()) out << "note: " << response.profile_note() << "\n";
+  out << response.balls_size() << " balls:\n";
   for (const auto& b : response.balls())
     out << "  "
         << (b.number() < 0    ? std::string("?")

@@ -5,10 +5,37 @@
 #include <opencv2/imgproc.hpp>
 
 #include "absl/strings/str_cat.h"
+#include "absl/strings/str_format.h"
 #include "common/status_macros.h"
 #include "common/timing.h"
 
 namespace texfree {
+
+namespace {
+
+// PoolAnalysis::profile_note for a table and its balls measured against `profile`.
+std::string ProfileNote(const PoolTableProfile& profile, const PoolAnalyzerOptions& options,
+                        double rectangle_inconsistency, double ball_size_ratio) {
+  const std::string table =
+      absl::StrFormat("the profile's %.0f x %.0f mm table, balls of %.1f mm", profile.length_mm,
+                      profile.width_mm, 2 * profile.ball_radius_mm);
+  if (rectangle_inconsistency > options.note_rectangle_inconsistency)
+    return absl::StrFormat(
+        "the table's outline fits a rectangle of %s only to %.1f%%: if this table has other "
+        "sides, give them (table.json: length_mm, width_mm, ball_radius_mm), else check the "
+        "camera intrinsics; positions are off until then",
+        table, 100 * rectangle_inconsistency);
+  if (ball_size_ratio > 0 && (ball_size_ratio < options.min_ball_size_ratio ||
+                              ball_size_ratio > options.max_ball_size_ratio))
+    return absl::StrFormat(
+        "the balls look %.2f times as large as %s predicts: if this table is %s, give its "
+        "size and ball radius (table.json: length_mm, width_mm, ball_radius_mm); positions "
+        "are off by about that factor until then",
+        ball_size_ratio, table, ball_size_ratio > 1 ? "smaller" : "larger");
+  return "";
+}
+
+}  // namespace
 
 absl::Status PoolAnalyzerOptions::Validate() const {
   RETURN_IF_ERROR(table.Validate());
@@ -17,6 +44,13 @@ absl::Status PoolAnalyzerOptions::Validate() const {
     return absl::InvalidArgumentError(absl::StrCat(
         "max_working_pixels must be 0 (never reduce) or at least 320x240 = 76800, got ",
         max_working_pixels));
+  if (!(note_rectangle_inconsistency > 0))
+    return absl::InvalidArgumentError(absl::StrCat(
+        "note_rectangle_inconsistency must be positive, got ", note_rectangle_inconsistency));
+  if (!(min_ball_size_ratio > 0 && min_ball_size_ratio < 1 && max_ball_size_ratio > 1))
+    return absl::InvalidArgumentError(
+        absl::StrCat("min_ball_size_ratio must be in (0, 1) and max_ball_size_ratio over 1, got ",
+                     min_ball_size_ratio, " and ", max_ball_size_ratio));
   return absl::OkStatus();
 }
 
@@ -100,9 +134,13 @@ absl::StatusOr<PoolAnalysis> PoolAnalyzer::Analyze(const cv::Mat& bgr,
   ASSIGN_OR_RETURN(PoolTableDetection table, DetectPoolTable(&ideal, K, profile_, options_.table));
   analysis.timings_ms.emplace_back("table", MillisecondsSince(t0));
   t0 = SteadyClock::now();
-  std::vector<PoolDetectedBall> detected = DetectPoolBalls(
-      &ideal, K, table.pose, profile_, table.cloth_bgr, options_.balls, &light_gains_);
+  std::vector<PoolDetectedBall> detected =
+      DetectPoolBalls(&ideal, K, table.pose, profile_, table.cloth_bgr, options_.balls,
+                      &light_gains_, &analysis.ball_size_ratio);
   analysis.timings_ms.emplace_back("balls", MillisecondsSince(t0));
+  analysis.rectangle_inconsistency = table.rectangle_inconsistency;
+  analysis.profile_note =
+      ProfileNote(profile_, options_, analysis.rectangle_inconsistency, analysis.ball_size_ratio);
   PlanarPose pose = table.pose;
   const double L = profile_.length_mm, W = profile_.width_mm;
   auto to_balls = [&](bool rotated) {

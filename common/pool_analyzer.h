@@ -30,6 +30,24 @@ struct PoolAnalyzerOptions {
   // within 10 mm, at 1920x1440 dark balls whose blurred rim spans several pixels were
   // fitted 11-21 mm off, in 1.6 times the time. 0: never reduce.
   int64_t max_working_pixels = 1280 * 960;
+  // Signs that the profile is not the table in view (or the intrinsics not the camera's),
+  // reported in PoolAnalysis::profile_note; the analysis itself goes on.
+  // - A table of the profile's size but another aspect ratio: the four corners fit a
+  //   rectangle of the profile's sides only so well (PoolTableDetection's
+  //   rectangle_inconsistency): at most 0.0095 over the benchmark's 1330 x 700 mm sets with
+  //   the right profile (0.015 on one frame of the 9-ft set's 120), 0.020-0.032 for the
+  //   1330 x 700 mm table read as a 9-ft one (2:1 against 1.9:1). Over
+  //   note_rectangle_inconsistency the note says so.
+  // - A profile whose table is larger or smaller than the table in view for its balls (all
+  //   standard tables are 2:1, so only the balls tell a 7-ft table from a 9-ft one): the
+  //   pose puts the table farther or nearer than it is, and the balls look larger or
+  //   smaller than it predicts (DetectPoolBalls' ball_size_ratio: 0.89-1.27 over the
+  //   benchmark's sets with the right profile, up to 1.35 for the 9-ft set's 3-4 px balls;
+  //   a profile of a table 1.28 times as large: 1.07-1.56, median 1.38). Outside
+  //   [min_ball_size_ratio, max_ball_size_ratio] the note says so.
+  double note_rectangle_inconsistency = 0.018;
+  double min_ball_size_ratio = 0.7;
+  double max_ball_size_ratio = 1.45;
   absl::Status Validate() const;
 };
 
@@ -55,6 +73,16 @@ struct PoolAnalysis {
   // for the next picture (PoolBallOptions::white_balance_min_cast).
   cv::Vec3f light_gains{1, 1, 1};
   std::vector<PoolBall> balls;
+  // How large the balls look against the table profile (DetectPoolBalls' ball_size_ratio):
+  // about 1 when the profile's table and ball sizes are the table's; 0 when fewer than
+  // three balls were seen.
+  double ball_size_ratio = 0;
+  // PoolTableDetection's: how far the four corners are from a rectangle of the profile's
+  // sides seen by this camera.
+  double rectangle_inconsistency = 0;
+  // Set when either says the profile is not this table's (PoolAnalyzerOptions): what
+  // looks wrong and what to check; empty otherwise.
+  std::string profile_note;
   std::vector<std::pair<std::string, double>> timings_ms;
 };
 

@@ -1272,8 +1272,10 @@ std::vector<PoolDetectedBall> DetectPoolBallsOnce(const cv::Mat& image, const cv
                                                   const cv::Matx33d& K, const PlanarPose& pose,
                                                   const PoolTableProfile& profile,
                                                   const cv::Vec3b& cloth_bgr,
-                                                  const PoolBallOptions& options) {
+                                                  const PoolBallOptions& options,
+                                                  double* ball_size_ratio) {
   const double L = profile.length_mm, W = profile.width_mm, r = profile.ball_radius_mm;
+  if (ball_size_ratio) *ball_size_ratio = 0;
   const cv::Vec3f cloth(cloth_bgr[0], cloth_bgr[1], cloth_bgr[2]);
   // JPEG rings around sharp colour edges (and halves the colour resolution); a light
   // blur removes the ringing that would make the cloth next to a ball look like ball.
@@ -1422,6 +1424,8 @@ std::vector<PoolDetectedBall> DetectPoolBallsOnce(const cv::Mat& image, const cv
     double radius_px, expected;  // a ball's apparent radius and area there
   };
   std::vector<Fragment> fragments;  // blobs too small for a ball
+  // Each ball-sized blob's largest inscribed circle over a ball's apparent radius there.
+  std::vector<double> size_ratios;
   for (int i = 1; i < n; ++i) {
     const cv::Point2d c(centroids.at<double>(i, 0) + roi.x, centroids.at<double>(i, 1) + roi.y);
     cv::Point2d xy;
@@ -1435,16 +1439,21 @@ std::vector<PoolDetectedBall> DetectPoolBallsOnce(const cv::Mat& image, const cv
       continue;
     }
     const int count = std::max(1, static_cast<int>(std::floor(area / expected + 0.35)));
-    if (count == 1) {
-      seeds.push_back(xy);
-      continue;
-    }
     const cv::Rect box(stats.at<int>(i, cv::CC_STAT_LEFT), stats.at<int>(i, cv::CC_STAT_TOP),
                        stats.at<int>(i, cv::CC_STAT_WIDTH), stats.at<int>(i, cv::CC_STAT_HEIGHT));
     cv::Mat blob;
     cv::copyMakeBorder(labels(box) == i, blob, 1, 1, 1, 1, cv::BORDER_CONSTANT, 0);
     cv::Mat dist;
     cv::distanceTransform(blob, dist, cv::DIST_L2, 3);
+    {
+      double inscribed = 0;
+      cv::minMaxLoc(dist, nullptr, &inscribed);
+      size_ratios.push_back(inscribed / r_px);
+    }
+    if (count == 1) {
+      seeds.push_back(xy);
+      continue;
+    }
     const size_t seeds_before = seeds.size();
     for (int k = 0; k < count; ++k) {
       double max_value;
@@ -1483,6 +1492,12 @@ std::vector<PoolDetectedBall> DetectPoolBallsOnce(const cv::Mat& image, const cv
       for (size_t b : group) used[b] = 1;
       seeds.push_back(xy);
     }
+  }
+
+  if (ball_size_ratio && size_ratios.size() >= 3) {
+    std::nth_element(size_ratios.begin(), size_ratios.begin() + size_ratios.size() / 2,
+                     size_ratios.end());
+    *ball_size_ratio = size_ratios[size_ratios.size() / 2];
   }
 
   // Fit each ball's silhouette, nearest balls first; a farther ball ignores pixels that a
@@ -2431,7 +2446,7 @@ std::vector<PoolDetectedBall> DetectPoolBallsIn(const cv::Mat& image, const cv::
                                                 const PoolTableProfile& profile,
                                                 const cv::Vec3b& cloth_bgr,
                                                 const PoolBallOptions& options,
-                                                cv::Vec3f* light_gains) {
+                                                cv::Vec3f* light_gains, double* ball_size_ratio) {
   const bool balance = options.white_balance_min_cast > 0;
   const cv::Vec3f prior = balance && light_gains ? *light_gains : cv::Vec3f(1, 1, 1);
   const auto balanced_cloth = [&](const cv::Vec3f& gains) {
@@ -2449,7 +2464,7 @@ std::vector<PoolDetectedBall> DetectPoolBallsIn(const cv::Mat& image, const cv::
   const cv::Mat seen = balanced_image(prior);
   const cv::Vec3b seen_cloth = balanced_cloth(prior);
   std::vector<PoolDetectedBall> balls =
-      DetectPoolBallsOnce(seen, valid, K, pose, profile, seen_cloth, options);
+      DetectPoolBallsOnce(seen, valid, K, pose, profile, seen_cloth, options, ball_size_ratio);
   if (!balance) return balls;
   // Two witnesses of the light's colour must agree: the white of the balls, and the cloth
   // measured on the picture against the profile's cloth colour. The white of one small
@@ -2465,7 +2480,7 @@ std::vector<PoolDetectedBall> DetectPoolBallsIn(const cv::Mat& image, const cv::
   const cv::Vec3f gains = prior.mul(residual);
   if (light_gains) *light_gains = gains;
   return DetectPoolBallsOnce(balanced_image(gains), valid, K, pose, profile, balanced_cloth(gains),
-                             options);
+                             options, ball_size_ratio);
 }
 
 }  // namespace
@@ -2475,14 +2490,17 @@ std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& image, const cv::Ma
                                               const PoolTableProfile& profile,
                                               const cv::Vec3b& cloth_bgr,
                                               const PoolBallOptions& options,
-                                              cv::Vec3f* light_gains) {
+                                              cv::Vec3f* light_gains, double* ball_size_ratio) {
   return DetectPoolBallsIn(image, cv::Rect(0, 0, image.cols, image.rows), K, pose, profile,
-                           cloth_bgr, options, light_gains);
+                           cloth_bgr, options, light_gains, ball_size_ratio);
 }
 
-std::vector<PoolDetectedBall> DetectPoolBalls(
-    IdealView* view, const cv::Matx33d& K, const PlanarPose& pose, const PoolTableProfile& profile,
-    const cv::Vec3b& cloth_bgr, const PoolBallOptions& options, cv::Vec3f* light_gains) {
+std::vector<PoolDetectedBall> DetectPoolBalls(IdealView* view, const cv::Matx33d& K,
+                                              const PlanarPose& pose,
+                                              const PoolTableProfile& profile,
+                                              const cv::Vec3b& cloth_bgr,
+                                              const PoolBallOptions& options,
+                                              cv::Vec3f* light_gains, double* ball_size_ratio) {
   const double L = profile.length_mm, W = profile.width_mm, r = profile.ball_radius_mm;
   const cv::Rect search = BallSearchRect(pose, K, L, W, r, view->full().size());
   if (search.area() > 0) {
@@ -2491,7 +2509,7 @@ std::vector<PoolDetectedBall> DetectPoolBalls(
                    search.height + 2 * margin});
   }
   return DetectPoolBallsIn(view->full(), view->valid(), K, pose, profile, cloth_bgr, options,
-                           light_gains);
+                           light_gains, ball_size_ratio);
 }
 
 cv::Mat EmptyTableBackground(const cv::Mat& bgr, const cv::Matx33d& K, const PlanarPose& pose,

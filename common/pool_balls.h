@@ -233,22 +233,27 @@ struct PoolDetectedBall {
 // (optional, BGR): the light's white balance (options.white_balance_min_cast) found on an
 // earlier picture of the same table, applied at once; on return, the gains this picture
 // was read with when its balls and cloth showed a cast, else left as passed.
+// `ball_size_ratio` (optional): how large the balls look against what the pose and the
+// profile predict, the median over the ball blobs of each one's largest inscribed circle
+// over a ball's apparent radius there (touching balls count once each: the circle fits
+// one of them). About 1.1 with the right profile (the blur grows a blob a little); a
+// profile of a larger table than the one in view, for its balls, puts the table farther
+// away and the balls look larger in proportion. 0 when fewer than three blobs were seen.
 std::vector<PoolDetectedBall> DetectPoolBalls(const cv::Mat& ideal_bgr, const cv::Matx33d& K,
                                               const PlanarPose& pose,
                                               const PoolTableProfile& profile,
                                               const cv::Vec3b& cloth_bgr,
                                               const PoolBallOptions& options = {},
-                                              cv::Vec3f* light_gains = nullptr);
+                                              cv::Vec3f* light_gains = nullptr,
+                                              double* ball_size_ratio = nullptr);
 
 class IdealView;
 // The same on a picture undistorted on demand (pool_table.h): makes valid the part of
 // view->full() around the table that the balls are looked for in, and reads only that.
-std::vector<PoolDetectedBall> DetectPoolBalls(IdealView* view, const cv::Matx33d& K,
-                                              const PlanarPose& pose,
-                                              const PoolTableProfile& profile,
-                                              const cv::Vec3b& cloth_bgr,
-                                              const PoolBallOptions& options = {},
-                                              cv::Vec3f* light_gains = nullptr);
+std::vector<PoolDetectedBall> DetectPoolBalls(
+    IdealView* view, const cv::Matx33d& K, const PlanarPose& pose, const PoolTableProfile& profile,
+    const cv::Vec3b& cloth_bgr, const PoolBallOptions& options = {},
+    cv::Vec3f* light_gains = nullptr, double* ball_size_ratio = nullptr);
 
 // Seed eq. 4.3 and the nearest-colour votes: a score for each number 0..9.
 // `white_outward` as PoolDetectedBall's (0: no information on where the white lies).

@@ -156,6 +156,9 @@ void FillResponse(const PoolAnalyzer& analyzer, const PoolAnalysis& analysis,
   }
   PoseToProto(analysis.pose, out->mutable_pose());
   out->set_long_side_view(analysis.long_side_view);
+  out->set_profile_note(analysis.profile_note);
+  out->set_ball_size_ratio(analysis.ball_size_ratio);
+  out->set_rectangle_inconsistency(analysis.rectangle_inconsistency);
   ColourToProto(analysis.cloth_bgr, out->mutable_cloth_color());
   for (const auto& s : shots) {
     auto* shot = out->add_shots();
@@ -341,6 +344,7 @@ grpc::Status PoolServiceImpl::AnalyzeTable(grpc::ServerContext*,
         "were read white-balanced, BGR gains {:.2f},{:.2f},{:.2f} (CalibrateColors under this "
         "light makes the profile's colours the light's own)",
         gains[0], gains[1], gains[2]);
+  if (!analysis->profile_note.empty()) spdlog::warn("AnalyzeTable: {}", analysis->profile_note);
   std::vector<PoolShot> shots;
   std::string note;
   double shots_ms = 0;

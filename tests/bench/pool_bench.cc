@@ -227,6 +227,16 @@ int main(int argc, char** argv) {
                  "A handheld camera's shake in every frame (live video): a smear of up to this "
                  "many pixels in a random direction, each frame's drawn from a stream of its own")
       ->check(CLI::Range(0.0, 20.0));
+  double profile_table_scale = 1;
+  app.add_option("--profile-table-scale", profile_table_scale,
+                 "Analyse with the profile of a table this many times as long and wide (the same "
+                 "balls and cushions): a user's wrong table.json, which the analysis's profile "
+                 "note should name")
+      ->check(CLI::Range(0.3, 3.0));
+  bool nine_foot_profile = false;
+  app.add_flag("--nine-foot-profile", nine_foot_profile,
+               "Analyse with the default 9-ft profile whatever the table (a user who gave no "
+               "table.json)");
   bool cue_stick = false;
   app.add_flag("--cue-stick", cue_stick,
                "A cue stick in every frame, aimed through the cue ball at another ball as a "
@@ -276,9 +286,19 @@ int main(int argc, char** argv) {
                                   cv::saturate_cast<uchar>(spec.cloth_rgb[1]),
                                   cv::saturate_cast<uchar>(spec.cloth_rgb[0]));
   if (!save.empty()) std::filesystem::create_directories(save);
+  // A user's mistake: the profile of a larger or smaller table than the one in view, or
+  // the default 9-ft profile left in place.
+  if (nine_foot_profile) {
+    const cv::Vec3b cloth = profile.cloth_bgr;
+    profile = PoolTableProfile();
+    profile.cloth_bgr = cloth;
+  }
+  profile.length_mm *= profile_table_scale;
+  profile.width_mm *= profile_table_scale;
 
   std::mt19937_64 rng(seed);
   int found = 0, separated = 0, separated_found = 0, identified = 0, false_balls = 0;
+  int noted = 0;  // frames whose analysis says the profile is not the table's
   int balls_total = 0, balls_matched = 0;
   std::vector<double> errors, separated_errors, corner_errors, times, cpu_times, per_frame_max,
       shot_times;
@@ -361,6 +381,7 @@ int main(int argc, char** argv) {
     separated_found += score.separated_found;
     identified += score.separated_identified;
     false_balls += score.false_balls;
+    noted += !analysis->profile_note.empty();
     double frame_max = 0;
     for (double e : score.position_errors_mm) frame_max = std::max(frame_max, e);
     per_frame_max.push_back(frame_max);
@@ -471,6 +492,8 @@ int main(int argc, char** argv) {
   std::printf("| separated balls identified | %d / %d (%.1f%%) |\n", identified, separated,
               separated ? 100.0 * identified / separated : 0.0);
   std::printf("| false balls | %d |\n", false_balls);
+  std::printf("| frames with a profile note (a profile of another table) | %d / %d |\n", noted,
+              static_cast<int>(per_frame_max.size()));
   std::printf("| analysis time per frame mean / p95 | %.1f / %.1f ms |\n", Mean(times),
               Percentile(times, 0.95));
   std::printf("| analysis CPU time per frame mean / p95 | %.1f / %.1f ms |\n", Mean(cpu_times),

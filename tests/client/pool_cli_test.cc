@@ -80,6 +80,23 @@ TEST_F(PoolCliTest, AnalyzePrintsTheContractAndWritesOverlayAndTopView) {
     EXPECT_EQ(s["path"][0].size(), 2u);
   }
   EXPECT_GT(out["server_ms"].get<double>(), 0);
+  EXPECT_FALSE(out.contains("profile_note")) << out["profile_note"];
+
+  // Without --table the server takes the default 9-ft profile: the answer says the profile
+  // is not this table's, in text and in JSON.
+  r = RunTexfree(
+      {"--server", server.address(), "pool", "analyze", image_, "--intrinsics", camera_});
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find("note: the table's outline fits a rectangle of the profile's 2540 x 1270 "
+                       "mm table"),
+            std::string::npos)
+      << r.out;
+  r = RunTexfree(
+      {"--json", "--server", server.address(), "pool", "analyze", image_, "--intrinsics", camera_});
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(json::parse(r.out).value("profile_note", "").find("table.json"), std::string::npos)
+      << r.out;
+
   const cv::Mat drawn = cv::imread(overlay), original = cv::imread(image_);
   ASSERT_EQ(drawn.size(), original.size());
   EXPECT_GT(cv::norm(drawn, original, cv::NORM_L1), 1000);  // something was drawn

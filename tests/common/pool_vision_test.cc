@@ -10,6 +10,7 @@
 #include <tuple>
 #include <utility>
 
+#include "absl/strings/str_format.h"
 #include "common/pool_analyzer.h"
 #include "common/pool_balls.h"
 #include "common/pool_profile.h"
@@ -349,6 +350,71 @@ TEST(PoolErrors, OnlyPartOfTheTable) {
   scene.camera.horizontal_fov_deg = 30;
   scene.camera.look_at_mm = {250, 350, 0};
   ExpectAnalysisRefused(scene, 6, "only part of the table");
+}
+
+// A user who leaves out the table's size gets the default 9-ft profile. The analysis of a
+// 1330 x 700 mm table with it, or with a profile of a table 1.6 times as large (the same
+// balls), goes on but says that the profile is not this table's; with the right profile it
+// says nothing, and its two measures sit where PoolAnalyzerOptions documents them.
+TEST(PoolProfileNote, AProfileOfAnotherTableIsNamedAndTheRightOneIsNot) {
+  for (const PoolViewSide side : {PoolViewSide::kLongNear, PoolViewSide::kShortLeft}) {
+    SCOPED_TRACE(side == PoolViewSide::kLongNear ? "long side" : "short side");
+    const PoolScene scene = Scene(side, 45);
+    const PoolView view = testdata::RenderPoolView(scene, 4242);
+    const PoolTableProfile right = ProfileFor(scene.table);
+
+    auto analyzer = PoolAnalyzer::Create(right, CameraOf(view));
+    ASSERT_TRUE(analyzer.ok()) << analyzer.status();
+    auto analysis = analyzer->Analyze(view.image);
+    ASSERT_TRUE(analysis.ok()) << analysis.status();
+    EXPECT_EQ(analysis->profile_note, "");
+    EXPECT_GT(analysis->ball_size_ratio, 0.9);
+    EXPECT_LT(analysis->ball_size_ratio, 1.3);
+    EXPECT_LT(analysis->rectangle_inconsistency, 0.01);
+
+    PoolTableProfile nine_foot;  // the default profile
+    nine_foot.cloth_bgr = right.cloth_bgr;
+    PoolTableProfile larger = right;
+    larger.length_mm *= 1.6;
+    larger.width_mm *= 1.6;
+    for (const PoolTableProfile& wrong : {nine_foot, larger}) {
+      SCOPED_TRACE(wrong.length_mm);
+      auto wrong_analyzer = PoolAnalyzer::Create(wrong, CameraOf(view));
+      ASSERT_TRUE(wrong_analyzer.ok()) << wrong_analyzer.status();
+      auto wrong_analysis = wrong_analyzer->Analyze(view.image);
+      ASSERT_TRUE(wrong_analysis.ok()) << wrong_analysis.status();
+      EXPECT_NE(wrong_analysis->profile_note.find(
+                    absl::StrFormat("%.0f x %.0f mm table", wrong.length_mm, wrong.width_mm)),
+                std::string::npos)
+          << wrong_analysis->profile_note;
+      EXPECT_NE(wrong_analysis->profile_note.find("table.json"), std::string::npos);
+    }
+  }
+}
+
+// Balls 1.6 times as large as the profile's on a table of the profile's size: the
+// ball-size ratio alone names it.
+TEST(PoolProfileNote, BallsLargerThanTheProfilesAreNamed) {
+  PoolScene scene = Scene(PoolViewSide::kLongNear, 50);
+  const PoolTableProfile profile = ProfileFor(scene.table);
+  scene.table.ball_radius_mm *= 1.6;
+  const PoolView view = testdata::RenderPoolView(scene, 4243);
+  auto analyzer = PoolAnalyzer::Create(profile, CameraOf(view));
+  ASSERT_TRUE(analyzer.ok()) << analyzer.status();
+  auto analysis = analyzer->Analyze(view.image);
+  ASSERT_TRUE(analysis.ok()) << analysis.status();
+  EXPECT_GT(analysis->ball_size_ratio, 1.45);
+  EXPECT_NE(analysis->profile_note.find("the balls look"), std::string::npos)
+      << analysis->profile_note;
+}
+
+TEST(PoolProfileNote, OptionsOutOfRangeAreRefused) {
+  PoolAnalyzerOptions options;
+  options.max_ball_size_ratio = 0.9;
+  EXPECT_EQ(options.Validate().code(), absl::StatusCode::kInvalidArgument);
+  options = {};
+  options.note_rectangle_inconsistency = 0;
+  EXPECT_EQ(options.Validate().code(), absl::StatusCode::kInvalidArgument);
 }
 
 TEST(PoolBackground, BallsAreReplacedByTheCloth) {
