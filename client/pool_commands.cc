@@ -338,6 +338,7 @@ int RunTrack(CommandContext& ctx, const TrackOptions& options) {
   cv::Mat frame;
   int index = 0;
   std::vector<uchar> jpeg;
+  bool noted = false;  // the profile note was printed
   while (source.Next(&frame)) {
     v1::TrackTableRequest message;
     cv::imencode(".jpg", frame, jpeg, {cv::IMWRITE_JPEG_QUALITY, 90});
@@ -354,6 +355,11 @@ int RunTrack(CommandContext& ctx, const TrackOptions& options) {
       }
       DrawOverlays(frame, response.overlays());
       writer.write(frame);
+    }
+    if (!ctx.json && !noted && !response.profile_note().empty()) {
+      // Once: every frame of the same table would say the same.
+      ctx.err() << (progress ? "\n" : "") << "note: " << response.profile_note() << "\n";
+      noted = true;
     }
     if (ctx.json) {
       json line = ResponseToJson(response);
