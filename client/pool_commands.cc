@@ -191,6 +191,9 @@ json ResponseToJson(const v1::AnalyzeTableResponse& r) {
       {"pose", PoseToJson(r.pose())}};
   if (!r.shots_note().empty()) out["shots_note"] = r.shots_note();
   if (!r.profile_note().empty()) out["profile_note"] = r.profile_note();
+  // How well the table and its balls fit the profile (AnalyzeTableResponse).
+  out["rectangle_inconsistency"] = r.rectangle_inconsistency();
+  out["ball_size_ratio"] = r.ball_size_ratio();
   return out;
 }
 

@@ -81,6 +81,9 @@ TEST_F(PoolCliTest, AnalyzePrintsTheContractAndWritesOverlayAndTopView) {
   }
   EXPECT_GT(out["server_ms"].get<double>(), 0);
   EXPECT_FALSE(out.contains("profile_note")) << out["profile_note"];
+  EXPECT_LT(out["rectangle_inconsistency"].get<double>(), 0.018);
+  EXPECT_GT(out["ball_size_ratio"].get<double>(), 0.7);
+  EXPECT_LT(out["ball_size_ratio"].get<double>(), 1.45);
 
   // Without --table the server takes the default 9-ft profile: the answer says the profile
   // is not this table's, in text and in JSON.
