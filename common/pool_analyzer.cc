@@ -17,7 +17,7 @@ namespace {
 std::string ProfileNote(const PoolTableProfile& profile, const PoolAnalyzerOptions& options,
                         double rectangle_inconsistency, double ball_size_ratio) {
   const std::string table =
-      absl::StrFormat("the profile's %.0f x %.0f mm table, balls of %.1f mm", profile.length_mm,
+      absl::StrFormat("the profile's %.0f x %.0f mm table with %.1f mm balls", profile.length_mm,
                       profile.width_mm, 2 * profile.ball_radius_mm);
   if (rectangle_inconsistency > options.note_rectangle_inconsistency)
     return absl::StrFormat(
