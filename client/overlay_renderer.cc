@@ -7,6 +7,8 @@
 #include <opencv2/freetype.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "common/planar_pose.h"
+
 namespace texfree::client {
 namespace {
 
@@ -36,14 +38,6 @@ double LocalScale(const cv::Matx33d& h, const cv::Point2d& p) {
   double j11 = (h(1, 1) - y * h(2, 1)) / w;
   double det = std::abs(j00 * j11 - j01 * j10);
   return std::isfinite(det) ? std::sqrt(det) : 0;
-}
-
-// A rectangle's corners, clockwise in image axes from its top-left.
-std::vector<cv::Point2d> RectCorners(const cv::Rect2d& rect) {
-  return {{rect.x, rect.y},
-          {rect.x + rect.width, rect.y},
-          {rect.x + rect.width, rect.y + rect.height},
-          {rect.x, rect.y + rect.height}};
 }
 
 // Bounding box of points, clipped to the image; empty if outside.
@@ -156,19 +150,10 @@ cv::Scalar OverlayRenderer::PaletteColor(int index) {
 bool OverlayRenderer::MapPoints(const cv::Matx33d& h,
                                 const std::vector<cv::Point2d>& in,
                                 std::vector<cv::Point2d>* out) {
-  out->clear();
-  out->reserve(in.size());
-  for (const auto& p : in) {
-    double w = h(2, 0) * p.x + h(2, 1) * p.y + h(2, 2);
-    if (!(w > 1e-12)) return false;
-    double x = (h(0, 0) * p.x + h(0, 1) * p.y + h(0, 2)) / w;
-    double y = (h(1, 0) * p.x + h(1, 1) * p.y + h(1, 2)) / w;
-    if (!std::isfinite(x) || !std::isfinite(y) ||
-        std::abs(x) > kMaxCoordinate || std::abs(y) > kMaxCoordinate) {
-      return false;
-    }
-    out->emplace_back(x, y);
-  }
+  if (!MapPointsInFront(h, in, out)) return false;
+  // Beyond this, OpenCV's fixed-point drawing overflows.
+  for (const cv::Point2d& p : *out)
+    if (std::abs(p.x) > kMaxCoordinate || std::abs(p.y) > kMaxCoordinate) return false;
   return true;
 }
 

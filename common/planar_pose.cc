@@ -249,6 +249,25 @@ cv::Point2d ApplyHomography(const cv::Matx33d &H, const cv::Point2d &p) {
           (H(1, 0) * p.x + H(1, 1) * p.y + H(1, 2)) / w};
 }
 
+bool MapPointsInFront(const cv::Matx33d &H, const std::vector<cv::Point2d> &in,
+                      std::vector<cv::Point2d> *out) {
+  out->clear();
+  out->reserve(in.size());
+  for (const cv::Point2d &p : in) {
+    const double w = H(2, 0) * p.x + H(2, 1) * p.y + H(2, 2);
+    if (!(w > 1e-12)) return false;
+    const cv::Point2d q((H(0, 0) * p.x + H(0, 1) * p.y + H(0, 2)) / w,
+                        (H(1, 0) * p.x + H(1, 1) * p.y + H(1, 2)) / w);
+    if (!std::isfinite(q.x) || !std::isfinite(q.y)) return false;
+    out->push_back(q);
+  }
+  return true;
+}
+
+std::vector<cv::Point2d> RectCorners(const cv::Rect2d &r) {
+  return {r.tl(), {r.x + r.width, r.y}, r.br(), {r.x, r.y + r.height}};
+}
+
 bool MakePlausibleHomography(cv::Matx33d *H_inout, const std::vector<cv::Point2f> &seen) {
   cv::Matx33d &H = *H_inout;
   if (seen.empty()) return false;

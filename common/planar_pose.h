@@ -67,6 +67,15 @@ cv::Matx33d HomographyFromPose(const PlanarPose &pose, const cv::Matx33d &K);
 // Applies a homography to a point.
 cv::Point2d ApplyHomography(const cv::Matx33d &H, const cv::Point2d &p);
 
+// Applies a homography to points: false when one lies at or behind the horizon (w <= 0,
+// behind the camera) or maps to a non-finite point; `out` then holds the points before it.
+bool MapPointsInFront(const cv::Matx33d &H, const std::vector<cv::Point2d> &in,
+                      std::vector<cv::Point2d> *out);
+
+// A rectangle's corners: top-left, top-right, bottom-right, bottom-left (clockwise in
+// image axes).
+std::vector<cv::Point2d> RectCorners(const cv::Rect2d &r);
+
 // Checks a page homography against the plane points seen in the image: finite, every seen
 // point on the same side of the horizon, the page not mirrored, its local scale in
 // (1/40, 40) at their centre and not stretched 8 times more one way than the other there

@@ -220,18 +220,6 @@ void PoseToProto(const PlanarPose& pose, v1::Pose* out) {
 }
 
 namespace {
-// The points mapped by H, or false when one lies at or behind the camera's horizon.
-bool MapAll(const cv::Matx33d& H, const std::vector<cv::Point2d>& in,
-            std::vector<cv::Point2d>* out) {
-  out->clear();
-  for (const cv::Point2d& p : in) {
-    const cv::Vec3d v = H * cv::Vec3d(p.x, p.y, 1);
-    if (!(v[2] > 1e-12)) return false;
-    out->emplace_back(v[0] / v[2], v[1] / v[2]);
-  }
-  return true;
-}
-
 v1::Overlay* AddOverlay(v1::Overlay::Kind kind, const std::vector<cv::Point2d>& points,
                         const Rgba& colour, google::protobuf::RepeatedPtrField<v1::Overlay>* out) {
   v1::Overlay* o = out->Add();
@@ -241,10 +229,6 @@ v1::Overlay* AddOverlay(v1::Overlay::Kind kind, const std::vector<cv::Point2d>& 
   o->set_opacity(1.0);
   o->set_thickness(2.0);
   return o;
-}
-
-std::vector<cv::Point2d> RectCorners(const cv::Rect2d& r) {
-  return {r.tl(), {r.x + r.width, r.y}, r.br(), {r.x, r.y + r.height}};
 }
 }  // namespace
 
@@ -278,13 +262,13 @@ void PageOverlaysToProto(const cv::Matx33d& H, const cv::Size& page,
                          const std::vector<AnnotationRecord>& annotations,
                          google::protobuf::RepeatedPtrField<v1::Overlay>* out) {
   std::vector<cv::Point2d> mapped;
-  if (MapAll(H, RectCorners(cv::Rect2d(0, 0, page.width, page.height)), &mapped))
+  if (MapPointsInFront(H, RectCorners(cv::Rect2d(0, 0, page.width, page.height)), &mapped))
     AddOverlay(v1::Overlay::POLYGON, mapped, Rgba{0, 200, 0, 255}, out);
   for (const AnnotationRecord& a : annotations) {
     switch (a.kind) {
       case AnnotationRecord::Kind::kText: {
         const cv::Point2d p = a.position;
-        if (!MapAll(H, {p, p + cv::Point2d(a.font_size_px, 0)}, &mapped)) break;
+        if (!MapPointsInFront(H, {p, p + cv::Point2d(a.font_size_px, 0)}, &mapped)) break;
         v1::Overlay* o = AddOverlay(v1::Overlay::TEXT, mapped, a.color, out);
         o->set_text(a.text);
         o->set_font_size_px(a.font_size_px * LocalScale(H, p));
@@ -292,13 +276,13 @@ void PageOverlaysToProto(const cv::Matx33d& H, const cv::Size& page,
         break;
       }
       case AnnotationRecord::Kind::kHighlight: {
-        if (!MapAll(H, RectCorners(a.rect), &mapped)) break;
+        if (!MapPointsInFront(H, RectCorners(a.rect), &mapped)) break;
         AddOverlay(v1::Overlay::FILLED_POLYGON, mapped, a.color, out)->set_opacity(a.opacity);
         break;
       }
       case AnnotationRecord::Kind::kLink:
       case AnnotationRecord::Kind::kMedia: {
-        if (!MapAll(H, RectCorners(a.rect), &mapped)) break;
+        if (!MapPointsInFront(H, RectCorners(a.rect), &mapped)) break;
         const bool link = a.kind == AnnotationRecord::Kind::kLink;
         AddOverlay(v1::Overlay::POLYGON, mapped,
                    link ? Rgba{0, 90, 255, 255} : Rgba{255, 140, 0, 255}, out)
