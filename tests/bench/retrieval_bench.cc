@@ -11,6 +11,7 @@
 
 #include <CLI/CLI.hpp>
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cstdio>
 #include <filesystem>
@@ -23,6 +24,7 @@
 #include <random>
 #include <sstream>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "common/image_io.h"
@@ -534,6 +536,16 @@ int main(int argc, char **argv) {
   app.add_flag("--line-closing", line_closing,
                "register and query first with the line closing (new database only)");
   app.add_option("--log2-buckets", registry_options.log2_buckets, "index hash table size");
+  int register_threads = 1;
+  int measure_delete = 0;
+  app.add_option("--measure-delete", measure_delete,
+                 "after the queries, delete this many registered pages one by one (timed), then "
+                 "register each again (it must be accepted: nothing of it may be left in the "
+                 "index); the database keeps its pages");
+  app.add_option("--register-threads", register_threads,
+                 "threads rendering and registering pages (the registry serialises the index "
+                 "writes; each thread renders and cuts its own pages)")
+      ->check(CLI::Range(1, 16));
   int page_width = 1000;
   app.add_option("--page-width", page_width,
                  "width of the rendered pages in pixels (1000: about 120 dpi on A4; 2480: 300 "
@@ -719,19 +731,31 @@ int main(int argc, char **argv) {
   for (int target : checkpoints) {
     const auto t_reg = Clock::now();
     const int before = registered;
-    for (; registered < target; ++registered) {
-      auto page = texfree::testdata::RenderTextPage(registered, page_options);
-      cv::Mat gray;
-      cv::cvtColor(page.image, gray, cv::COLOR_BGR2GRAY);
-      if (register_scale != 1.0)
-        cv::resize(gray, gray, cv::Size(), register_scale, register_scale, cv::INTER_AREA);
-      auto record = registry->Register(gray, "page " + std::to_string(registered), {});
-      if (!record.ok()) {
-        std::fprintf(stderr, "register page %d: %s\n", registered,
-                     record.status().ToString().c_str());
+    // Pages are numbered by seed, so titles (and the views drawn from them) do not depend
+    // on which thread registered a page first.
+    std::atomic<int> next_page{registered};
+    std::atomic<int> done{0};
+    auto register_pages = [&]() {
+      for (int n = next_page++; n < target; n = next_page++) {
+        auto page = texfree::testdata::RenderTextPage(n, page_options);
+        cv::Mat gray;
+        cv::cvtColor(page.image, gray, cv::COLOR_BGR2GRAY);
+        if (register_scale != 1.0)
+          cv::resize(gray, gray, cv::Size(), register_scale, register_scale, cv::INTER_AREA);
+        auto record = registry->Register(gray, "page " + std::to_string(n), {});
+        if (!record.ok())
+          std::fprintf(stderr, "register page %d: %s\n", n, record.status().ToString().c_str());
+        const int d = ++done;
+        if ((before + d) % 500 == 0)
+          std::fprintf(stderr, "registered %d (%.1f ms a page)\n", before + d,
+                       texfree::MillisecondsSince(t_reg) / d);
       }
-      if ((registered + 1) % 500 == 0) std::fprintf(stderr, "registered %d\n", registered + 1);
-    }
+    };
+    std::vector<std::thread> workers;
+    for (int t = 1; t < register_threads; ++t) workers.emplace_back(register_pages);
+    register_pages();
+    for (std::thread &w : workers) w.join();
+    registered = std::max(registered, target);
     const double reg_ms =
         registered > before ? texfree::MillisecondsSince(t_reg) / (registered - before) : 0;
 
@@ -881,6 +905,41 @@ int main(int argc, char **argv) {
     for (const auto &[stage, ms] : stage_ms)
       stages += stage + " " + std::to_string(ms / queries_now.size()).substr(0, 5) + " ms  ";
     std::fprintf(stderr, "mean stage times (registered-page queries): %s\n", stages.c_str());
+    if (measure_delete > 0) {
+      std::vector<double> delete_ms, reregister_ms;
+      int refused = 0;
+      for (int k = 0; k < measure_delete && k < registered; ++k) {
+        const int p = static_cast<int>((static_cast<int64_t>(k) * 7919 + 13) % registered);
+        if (id_of_page[p].empty()) continue;
+        const auto t_delete = Clock::now();
+        const absl::Status deleted = registry->Delete(id_of_page[p]);
+        delete_ms.push_back(texfree::MillisecondsSince(t_delete));
+        if (!deleted.ok()) {
+          std::fprintf(stderr, "delete page %d: %s\n", p, deleted.ToString().c_str());
+          continue;
+        }
+        auto page = texfree::testdata::RenderTextPage(p, page_options);
+        cv::Mat gray;
+        cv::cvtColor(page.image, gray, cv::COLOR_BGR2GRAY);
+        if (register_scale != 1.0)
+          cv::resize(gray, gray, cv::Size(), register_scale, register_scale, cv::INTER_AREA);
+        const auto t_register = Clock::now();
+        auto record = registry->Register(gray, "page " + std::to_string(p), {});
+        reregister_ms.push_back(texfree::MillisecondsSince(t_register));
+        if (!record.ok()) {
+          ++refused;
+          std::fprintf(stderr, "register page %d again: %s\n", p,
+                       record.status().ToString().c_str());
+        } else {
+          id_of_page[p] = record->id;
+        }
+      }
+      std::printf(
+          "delete: %zu pages, median %.1f ms, max %.1f ms; registered again: median %.1f ms, "
+          "%d refused\n",
+          delete_ms.size(), Percentile(delete_ms, 0.5), Percentile(delete_ms, 1.0),
+          Percentile(reregister_ms, 0.5), refused);
+    }
     std::fflush(stdout);
   }
   return 0;
