@@ -25,21 +25,6 @@ cv::Matx33d Translation(double tx, double ty) {
   return cv::Matx33d(1, 0, tx, 0, 1, ty, 0, 0, 1);
 }
 
-// Local area scale of the homography around a point (sqrt of |det J|), 0 if
-// degenerate.
-double LocalScale(const cv::Matx33d& h, const cv::Point2d& p) {
-  double w = h(2, 0) * p.x + h(2, 1) * p.y + h(2, 2);
-  if (!(w > 0)) return 0;
-  double x = (h(0, 0) * p.x + h(0, 1) * p.y + h(0, 2)) / w;
-  double y = (h(1, 0) * p.x + h(1, 1) * p.y + h(1, 2)) / w;
-  double j00 = (h(0, 0) - x * h(2, 0)) / w;
-  double j01 = (h(0, 1) - x * h(2, 1)) / w;
-  double j10 = (h(1, 0) - y * h(2, 0)) / w;
-  double j11 = (h(1, 1) - y * h(2, 1)) / w;
-  double det = std::abs(j00 * j11 - j01 * j10);
-  return std::isfinite(det) ? std::sqrt(det) : 0;
-}
-
 // Bounding box of points, clipped to the image; empty if outside.
 cv::Rect ClippedBounds(const std::vector<cv::Point2d>& points,
                        const cv::Size& size) {
@@ -255,7 +240,7 @@ void OverlayRenderer::DrawWarpedText(
   CV_Assert(image.type() == CV_8UC3);
   if (text.empty() || !(font_size_px > 0) || color.a == 0) return;
   // Render at about the resolution the text will have in the image.
-  double scale = LocalScale(homography, origin);
+  double scale = HomographyLocalScale(homography, origin);
   if (!(scale > 0)) return;
   int height_px = static_cast<int>(std::lround(font_size_px * scale));
   height_px = std::clamp(height_px, kMinTextHeight, kMaxTextHeight);
@@ -319,7 +304,7 @@ void OverlayRenderer::DrawAnnotation(cv::Mat& image,
           points.emplace_back(cvRound(p.x * (1 << kShift)),
                               cvRound(p.y * (1 << kShift)));
         }
-        double scale = LocalScale(homography, (corners[0] + corners[2]) * 0.5);
+        double scale = HomographyLocalScale(homography, (corners[0] + corners[2]) * 0.5);
         int thickness =
             std::clamp(static_cast<int>(std::lround(2 * scale)), 1, 4);
         cv::polylines(image, points, true, color.ToBgr(), thickness,

@@ -249,6 +249,23 @@ cv::Point2d ApplyHomography(const cv::Matx33d &H, const cv::Point2d &p) {
           (H(1, 0) * p.x + H(1, 1) * p.y + H(1, 2)) / w};
 }
 
+std::optional<cv::Matx22d> HomographyJacobian(const cv::Matx33d &H, const cv::Point2d &p) {
+  const double w = H(2, 0) * p.x + H(2, 1) * p.y + H(2, 2);
+  if (!(w > 0)) return std::nullopt;
+  const double x = (H(0, 0) * p.x + H(0, 1) * p.y + H(0, 2)) / w;
+  const double y = (H(1, 0) * p.x + H(1, 1) * p.y + H(1, 2)) / w;
+  const cv::Matx22d J((H(0, 0) - x * H(2, 0)) / w, (H(0, 1) - x * H(2, 1)) / w,
+                      (H(1, 0) - y * H(2, 0)) / w, (H(1, 1) - y * H(2, 1)) / w);
+  for (int i = 0; i < 4; ++i)
+    if (!std::isfinite(J.val[i])) return std::nullopt;
+  return J;
+}
+
+double HomographyLocalScale(const cv::Matx33d &H, const cv::Point2d &p) {
+  const auto J = HomographyJacobian(H, p);
+  return J ? std::sqrt(std::abs(cv::determinant(*J))) : 0.0;
+}
+
 bool MapPointsInFront(const cv::Matx33d &H, const std::vector<cv::Point2d> &in,
                       std::vector<cv::Point2d> *out) {
   out->clear();

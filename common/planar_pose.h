@@ -3,6 +3,7 @@
 #pragma once
 
 #include <opencv2/core.hpp>
+#include <optional>
 #include <vector>
 
 #include "absl/status/statusor.h"
@@ -66,6 +67,14 @@ cv::Matx33d HomographyFromPose(const PlanarPose &pose, const cv::Matx33d &K);
 
 // Applies a homography to a point.
 cv::Point2d ApplyHomography(const cv::Matx33d &H, const cv::Point2d &p);
+
+// The homography's Jacobian at p (output pixels per input pixel): nullopt when p lies at or
+// behind the horizon (w <= 0) or the Jacobian is not finite.
+std::optional<cv::Matx22d> HomographyJacobian(const cv::Matx33d &H, const cv::Point2d &p);
+
+// Local area scale of H around p: sqrt |det J|, 0 where the Jacobian is undefined. How
+// much larger a small thing at p is drawn (a text's font size, a stroke's width).
+double HomographyLocalScale(const cv::Matx33d &H, const cv::Point2d &p);
 
 // Applies a homography to points: false when one lies at or behind the horizon (w <= 0,
 // behind the camera) or maps to a non-finite point; `out` then holds the points before it.

@@ -7,6 +7,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "absl/strings/str_cat.h"
+#include "common/planar_pose.h"
 
 namespace texfree {
 namespace {
@@ -38,13 +39,11 @@ bool Project(const cv::Matx33d& H, const cv::Point2d& p, cv::Point2d* out) {
 }
 
 // Singular values of the homography's Jacobian at page point p (frame pixels per page
-// pixel along the most squeezed and the most stretched direction).
+// pixel along the most squeezed and the most stretched direction); 0 and 0 behind the
+// horizon.
 void LocalScales(const cv::Matx33d& H, const cv::Point2d& p, double* smallest, double* largest) {
-  const double w = H(2, 0) * p.x + H(2, 1) * p.y + H(2, 2);
-  const double x = (H(0, 0) * p.x + H(0, 1) * p.y + H(0, 2)) / w;
-  const double y = (H(1, 0) * p.x + H(1, 1) * p.y + H(1, 2)) / w;
-  const double a = (H(0, 0) - x * H(2, 0)) / w, b = (H(0, 1) - x * H(2, 1)) / w;
-  const double c = (H(1, 0) - y * H(2, 0)) / w, d = (H(1, 1) - y * H(2, 1)) / w;
+  const cv::Matx22d J = HomographyJacobian(H, p).value_or(cv::Matx22d::zeros());
+  const double a = J(0, 0), b = J(0, 1), c = J(1, 0), d = J(1, 1);
   const double frobenius = a * a + b * b + c * c + d * d;
   const double det = a * d - b * c;
   const double root = std::sqrt(std::max(0.0, frobenius * frobenius - 4 * det * det));

@@ -41,14 +41,6 @@ void PointToProto(const cv::Point2d& p, v1::Point2* out) {
   out->set_y(p.y);
 }
 
-// Local scale of H around p (square root of the Jacobian determinant).
-double LocalScale(const cv::Matx33d& H, const cv::Point2d& p) {
-  const cv::Point2d a = ApplyHomography(H, p), b = ApplyHomography(H, p + cv::Point2d(1, 0)),
-                    c = ApplyHomography(H, p + cv::Point2d(0, 1));
-  const double det = (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x);
-  return std::sqrt(std::abs(det));
-}
-
 }  // namespace
 
 grpc::Status LoggedFailure(const char* method, const absl::Status& status) {
@@ -237,7 +229,7 @@ void MappedAnnotationToProto(const AnnotationRecord& a, const cv::Matx33d& H,
   AnnotationToProto(a, m->mutable_annotation());
   if (a.kind == AnnotationRecord::Kind::kText) {
     PointToProto(ApplyHomography(H, a.position), m->mutable_anchor());
-    m->set_font_size_px(a.font_size_px * LocalScale(H, a.position));
+    m->set_font_size_px(a.font_size_px * HomographyLocalScale(H, a.position));
     // Text box: baseline start, one font size up, a rough advance of 0.6 em per byte.
     const double len = 0.6 * a.font_size_px * a.text.size();
     const cv::Point2d p = a.position;
@@ -271,7 +263,7 @@ void PageOverlaysToProto(const cv::Matx33d& H, const cv::Size& page,
         if (!MapPointsInFront(H, {p, p + cv::Point2d(a.font_size_px, 0)}, &mapped)) break;
         v1::Overlay* o = AddOverlay(v1::Overlay::TEXT, mapped, a.color, out);
         o->set_text(a.text);
-        o->set_font_size_px(a.font_size_px * LocalScale(H, p));
+        o->set_font_size_px(a.font_size_px * HomographyLocalScale(H, p));
         o->set_opacity(a.color.a / 255.0);
         break;
       }

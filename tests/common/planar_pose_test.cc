@@ -164,6 +164,33 @@ TEST(PlanarPoseTest, ApplyHomographyDividesByW) {
   EXPECT_DOUBLE_EQ(p.y, 10.0 / 3.0);
 }
 
+// The analytic Jacobian against central differences of ApplyHomography on a perspective
+// homography; a pure scaling's local scale is its factor; behind the horizon there is none.
+TEST(PlanarPoseTest, HomographyJacobianMatchesFiniteDifferences) {
+  const cv::Matx33d H(1.2, 0.3, 40, -0.1, 0.9, 25, 4e-4, -2e-4, 1);
+  for (const cv::Point2d p : {cv::Point2d(0, 0), cv::Point2d(300, 150), cv::Point2d(-80, 600)}) {
+    const auto J = HomographyJacobian(H, p);
+    ASSERT_TRUE(J.has_value());
+    const double h = 1e-4;
+    const cv::Point2d dx =
+        (ApplyHomography(H, p + cv::Point2d(h, 0)) - ApplyHomography(H, p - cv::Point2d(h, 0))) /
+        (2 * h);
+    const cv::Point2d dy =
+        (ApplyHomography(H, p + cv::Point2d(0, h)) - ApplyHomography(H, p - cv::Point2d(0, h))) /
+        (2 * h);
+    EXPECT_NEAR((*J)(0, 0), dx.x, 1e-7);
+    EXPECT_NEAR((*J)(1, 0), dx.y, 1e-7);
+    EXPECT_NEAR((*J)(0, 1), dy.x, 1e-7);
+    EXPECT_NEAR((*J)(1, 1), dy.y, 1e-7);
+    EXPECT_NEAR(HomographyLocalScale(H, p), std::sqrt(std::abs(dx.x * dy.y - dx.y * dy.x)), 1e-7);
+  }
+  EXPECT_DOUBLE_EQ(HomographyLocalScale(cv::Matx33d(2.5, 0, 7, 0, 2.5, -3, 0, 0, 1), {10, 20}),
+                   2.5);
+  // w = 4e-4 x - 2e-4 y + 1 <= 0 beyond the horizon.
+  EXPECT_FALSE(HomographyJacobian(H, {-5000, 0}).has_value());
+  EXPECT_EQ(HomographyLocalScale(H, {-5000, 0}), 0.0);
+}
+
 // A 600 x 400 grid of plane points (spacing `step`) around the looked-at point, projected
 // by `truth` through `camera` and kept where they land inside its 640 x 480 image.
 void VisibleGrid(const PlanarPose &truth, const CameraModel &camera, int step,
