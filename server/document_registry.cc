@@ -370,6 +370,17 @@ absl::StatusOr<DocumentRecord> DocumentRegistry::Register(
     if (static_cast<int>(figure_points.size()) < options_.figure_min_keypoints)
       figure_points.clear();
   }
+  // The page as the index will hold it, cut before taking the registration lock: the
+  // layers are most of a registration's work and depend on nothing the index holds, so
+  // concurrent registrations cut their pages in parallel and queue only for the duplicate
+  // check and the writes.
+  DocumentRecord record;
+  record.title = std::move(title);
+  record.size = gray.size();
+  record.keypoints = kp.points;
+  ExtractLayers(gray, kp.points.size(), &record);
+  record.figure_keypoints = std::move(figure_points);  // empty unless index_figures
+  record.annotations = std::move(annotations);
   const double extract_ms = MillisecondsSince(t0);
 
   std::lock_guard registering(register_mutex_);
@@ -398,16 +409,9 @@ absl::StatusOr<DocumentRecord> DocumentRegistry::Register(
     figures = figure_retriever_;
   }
 
-  DocumentRecord record;
-  record.title = std::move(title);
-  record.size = gray.size();
-  record.keypoints = kp.points;
-  ExtractLayers(gray, kp.points.size(), &record);
   std::vector<cv::Point2f> all = kp.points;
   all.insert(all.end(), record.layer_keypoints.begin(), record.layer_keypoints.end());
   retriever->DescribeLayers(all, record.layer_sizes, &record.hashes);
-  record.figure_keypoints = std::move(figure_points);  // empty unless index_figures
-  record.annotations = std::move(annotations);
   ASSIGN_OR_RETURN(record, store_->Insert(std::move(record)));
   absl::Status added = retriever->AddDocument(
       {record.index_id, std::move(all), gray.size(), record.layer_sizes, record.hashes});

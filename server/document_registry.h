@@ -198,8 +198,9 @@ struct RetrievalResult {
   StageTimes timings;
 };
 
-// Thread-safe. Registrations are serialised (so the duplicate check cannot
-// race); retrievals run concurrently with each other.
+// Thread-safe. Registrations cut their pages into keypoints concurrently and are
+// serialised from the duplicate check to the index write (so the check cannot race);
+// retrievals run concurrently with each other.
 class DocumentRegistry {
  public:
   static absl::StatusOr<std::unique_ptr<DocumentRegistry>> Open(
