@@ -15,6 +15,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <set>
+#include <thread>
 
 #include "common/figure_keypoints.h"
 #include "common/word_keypoints.h"
@@ -401,6 +402,66 @@ TEST_F(DocumentRegistryTest, WeakAnswerIsReplacedByTheRectifiedPicturesFirmerOne
               1.0)
         << "page " << page;
   }
+}
+
+// Registrations from several clients at once: the pages are cut in parallel, but the
+// duplicate check and the writes are serialised, so of four simultaneous registrations of
+// one page exactly one is stored and the others are refused naming it; two other pages
+// registered at the same time are both stored; all three are found after a restart.
+TEST_F(DocumentRegistryTest, SimultaneousRegistrationsOfOnePageStoreItOnce) {
+  const cv::Mat same = Gray(testdata::RenderTextPage(41).image);
+  const cv::Mat other_a = Gray(testdata::RenderTextPage(42).image);
+  const cv::Mat other_b = Gray(testdata::RenderTextPage(43).image);
+  std::string first_id;
+  {
+    auto registry = Open({});
+    ASSERT_NE(registry, nullptr);
+    // The first page creates the index (its quantisation), outside the race.
+    auto first = registry->Register(other_a, "page 42", {});
+    ASSERT_TRUE(first.ok()) << first.status();
+    first_id = first->id;
+
+    std::vector<absl::StatusOr<DocumentRecord>> results(5, absl::UnknownError("not run"));
+    std::vector<std::thread> threads;
+    for (int t = 0; t < 5; ++t)
+      threads.emplace_back([&, t] {
+        results[t] = t < 4 ? registry->Register(same, "page 41", {})
+                           : registry->Register(other_b, "page 43", {});
+      });
+    for (std::thread& t : threads) t.join();
+
+    int stored = 0;
+    std::string same_id;
+    for (int t = 0; t < 4; ++t) {
+      if (results[t].ok()) {
+        ++stored;
+        same_id = results[t]->id;
+      }
+    }
+    ASSERT_EQ(stored, 1) << "one of the simultaneous registrations of one page is stored";
+    for (int t = 0; t < 4; ++t) {
+      if (results[t].ok()) continue;
+      EXPECT_EQ(results[t].status().code(), absl::StatusCode::kAlreadyExists)
+          << results[t].status();
+      EXPECT_NE(results[t].status().message().find(same_id), std::string::npos)
+          << "the refusal names the stored document: " << results[t].status();
+    }
+    ASSERT_TRUE(results[4].ok()) << results[4].status();
+    auto count = registry->Count();
+    ASSERT_TRUE(count.ok());
+    EXPECT_EQ(*count, 3);
+  }
+  auto reopened = Open({});
+  ASSERT_NE(reopened, nullptr);
+  auto count = reopened->Count();
+  ASSERT_TRUE(count.ok());
+  EXPECT_EQ(*count, 3);
+  auto result = reopened->Retrieve(
+      Gray(testdata::RenderCameraView(testdata::RenderTextPage(41).image, TiltedView(), 5).image),
+      std::nullopt, 0);
+  ASSERT_TRUE(result.ok()) << result.status();
+  ASSERT_EQ(result->documents.size(), 1u);
+  EXPECT_EQ(result->documents[0].document.title, "page 41");
 }
 
 TEST(DocumentRegistryOptionsTest, RectifiedPictureLimitsAreValidated) {
