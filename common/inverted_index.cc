@@ -15,6 +15,23 @@ InvertedIndex::InvertedIndex(int log2_buckets)
       sketch_bits_(log2_buckets),
       sketch_(size_t{2} << log2_buckets, 0) {}
 
+int InvertedIndex::Log2BucketsFor(size_t entries, int min_log2_buckets) {
+  int log2 = min_log2_buckets;
+  while (log2 < kMaxLog2Buckets && (size_t{1} << log2) * kEntriesPerBucket < entries) ++log2;
+  return log2;
+}
+
+bool InvertedIndex::Rebucket(int log2_buckets) {
+  if (pool_.size() != 0) return false;
+  shift_ = 64 - log2_buckets;
+  heads_.assign(size_t{1} << log2_buckets, kNil);
+  heads_.shrink_to_fit();
+  sketch_bits_ = log2_buckets;
+  sketch_.assign(size_t{2} << log2_buckets, 0);
+  sketch_.shrink_to_fit();
+  return true;
+}
+
 size_t InvertedIndex::SketchSlot(uint64_t hash, int row) const {
   // Multiply-shift with two odd constants: two counters per hash, independent of the bucket
   // (top bits) and of the check (low bits).
@@ -44,7 +61,7 @@ uint32_t InvertedIndex::Allocate() {
     return e;
   }
   if (pool_.size() >= kNil - 1) throw std::length_error("inverted index is full (4G entries)");
-  pool_.push_back({});
+  pool_.resize(pool_.size() + 1);
   return static_cast<uint32_t>(pool_.size() - 1);
 }
 

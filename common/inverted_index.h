@@ -9,6 +9,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 namespace texfree {
@@ -78,6 +79,16 @@ class InvertedIndex {
   // Pre-allocates room for `entries` entries (start-up rebuild knows the total).
   void Reserve(size_t entries) { pool_.reserve(entries); }
 
+  // The table size for `entries` entries: chains of about kEntriesPerBucket at most (walking
+  // a chain is a cache miss an entry for entries added one by one), never below
+  // `min_log2_buckets`, at most kMaxLog2Buckets (1 GiB of heads and sketch).
+  static constexpr size_t kEntriesPerBucket = 16;
+  static constexpr int kMaxLog2Buckets = 27;
+  static int Log2BucketsFor(size_t entries, int min_log2_buckets);
+  // Another table size; only while the index is empty (false otherwise).
+  bool Rebucket(int log2_buckets);
+  int log2_buckets() const { return 64 - shift_; }
+
   size_t entries() const { return live_; }
   size_t MemoryBytes() const;
 
@@ -90,6 +101,31 @@ class InvertedIndex {
   };
   static constexpr uint32_t kNil = 0xFFFFFFFFu;
 
+  // The entries, in blocks of 2^16 (768 KiB) that never move: growing a single array by
+  // doubling would copy it and, for a moment, hold it twice (at 100,000 pages the pool is
+  // about 9 GB). Small indexes (a tracking stream's) take one block.
+  class EntryPool {
+   public:
+    Entry& operator[](uint32_t e) { return blocks_[e >> kBlockBits][e & kBlockMask]; }
+    const Entry& operator[](uint32_t e) const { return blocks_[e >> kBlockBits][e & kBlockMask]; }
+    size_t size() const { return size_; }
+    size_t capacity() const { return blocks_.size() << kBlockBits; }
+    // Room for n entries without moving any.
+    void reserve(size_t n) {
+      while (capacity() < n) blocks_.push_back(std::make_unique<Entry[]>(size_t{1} << kBlockBits));
+    }
+    void resize(size_t n) {
+      reserve(n);
+      size_ = n;
+    }
+
+   private:
+    static constexpr int kBlockBits = 16;
+    static constexpr uint32_t kBlockMask = (1u << kBlockBits) - 1;
+    std::vector<std::unique_ptr<Entry[]>> blocks_;
+    size_t size_ = 0;
+  };
+
   size_t Bucket(uint64_t hash) const { return static_cast<size_t>(hash >> shift_); }
   static uint16_t Check(uint64_t hash) { return static_cast<uint16_t>(hash & 0xFFFF); }
   uint32_t Allocate();
@@ -100,7 +136,7 @@ class InvertedIndex {
 
   int shift_;
   std::vector<uint32_t> heads_;
-  std::vector<Entry> pool_;
+  EntryPool pool_;
   int sketch_bits_;
   std::vector<uint16_t> sketch_;  // two rows
   uint32_t free_ = kNil;

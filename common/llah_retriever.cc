@@ -213,7 +213,9 @@ double WeakMatchLog10Nfa(int correspondences, int inliers, double threshold_px, 
 }
 
 LlahRetriever::LlahRetriever(LlahOptions options, InvariantQuantizer quantizer, int log2_buckets)
-    : describer_(options, std::move(quantizer)), index_(log2_buckets) {}
+    : describer_(options, std::move(quantizer)),
+      min_log2_buckets_(log2_buckets),
+      index_(log2_buckets) {}
 
 int64_t LlahRetriever::BaseLayerSize(size_t points, const std::vector<uint32_t> &extra_layers) {
   uint64_t extra = 0;
@@ -333,6 +335,8 @@ absl::Status LlahRetriever::AddDocuments(
   for (const DocumentKeypoints &d : documents)
     new_entries += d.hashes.size() - std::count(d.hashes.begin(), d.hashes.end(), uint64_t{0});
   std::unique_lock lock(mutex_);
+  if (index_.entries() == 0)
+    index_.Rebucket(InvertedIndex::Log2BucketsFor(new_entries, min_log2_buckets_));
   index_.Reserve(index_.entries() + new_entries);
   // A known id is reported; the other documents are still added.
   absl::Status status;

@@ -292,13 +292,17 @@ struct DocumentKeypoints {
 // it).
 class LlahRetriever {
  public:
+  // log2_buckets: the index's least table size (InvertedIndex). A bulk load into an empty
+  // index sizes the table for what it loads (InvertedIndex::Log2BucketsFor).
   LlahRetriever(LlahOptions options, InvariantQuantizer quantizer, int log2_buckets = 22);
 
   // Fails with ALREADY_EXISTS for a known id, INVALID_ARGUMENT for over 65535
   // keypoints.
   absl::Status AddDocument(DocumentKeypoints document);
   // Bulk load at start-up: descriptors not given are computed on `threads` threads and
-  // handed to `computed(id, hashes)` (serialised) so the caller can store them.
+  // handed to `computed(id, hashes)` (serialised) so the caller can store them. Into an
+  // empty index, the hash table is first sized for the entries loaded (at least the
+  // constructor's size): at 100,000 pages 2^22 buckets would hold chains of ~180 entries.
   // `progress(done, total)` is called now and then.
   absl::Status AddDocuments(
       std::vector<DocumentKeypoints> documents, int threads,
@@ -402,6 +406,7 @@ class LlahRetriever {
   const Model *FindModel(uint32_t id) const;            // under a lock
   LlahDescriber describer_;
   mutable std::shared_mutex mutex_;
+  int min_log2_buckets_;
   InvertedIndex index_;
   std::unordered_map<uint32_t, std::shared_ptr<const Model>> models_;
   std::vector<const Model *> dense_models_;

@@ -211,20 +211,49 @@ TEST(InvertedIndexTest, CountStopsAtLimit) {
   EXPECT_EQ(index.ForEachUpTo(0x1234, 5, [&](uint32_t, uint16_t) { ++calls; }), 0);
 }
 
+// Memory is the table plus 12 bytes an entry, allocated in blocks of 2^16 entries that
+// never move (no doubling copy): never more than one block beyond the entries.
 TEST(InvertedIndexTest, MemoryGrowsWithEntries) {
   std::mt19937_64 rng(4);
   InvertedIndex index(12);
   const size_t empty = index.MemoryBytes();
   EXPECT_GE(empty, (size_t{1} << 12) * sizeof(uint32_t));
-  index.Add(1, RandomHashes(rng, 1000, 7), 7);
-  const size_t one = index.MemoryBytes();
-  EXPECT_GE(one, empty + 7000 * 12);
-  index.Add(2, RandomHashes(rng, 1000, 7), 7);
-  const size_t two = index.MemoryBytes();
-  EXPECT_GE(two, one + 7000 * 12 / 2);  // vector growth may have reserved some already
-  EXPECT_GE(two, empty + 14000 * 12);
-  // Proportional to entries: no more than ~2x (vector growth) of 12 bytes per entry.
-  EXPECT_LE(two, empty + 14000 * 12 * 2 + 64);
+  constexpr size_t kBlock = size_t{1} << 16;
+  size_t entries = 0;
+  for (uint32_t document = 1; document <= 40; ++document) {
+    index.Add(document, RandomHashes(rng, 1000, 7), 7);
+    entries += 7000;
+    const size_t bytes = index.MemoryBytes();
+    EXPECT_GE(bytes, empty + entries * 12);
+    EXPECT_LE(bytes, empty + (entries + kBlock) * 12) << "at " << entries << " entries";
+  }
+  // Entries added across many blocks are all found.
+  std::mt19937_64 again(4);
+  for (uint32_t document = 1; document <= 40; ++document) {
+    const auto hashes = RandomHashes(again, 1000, 7);
+    for (size_t i = 0; i < hashes.size(); i += 997)
+      EXPECT_EQ(Lookup(index, hashes[i]).count({document, static_cast<uint16_t>(i / 7)}), 1u);
+  }
+}
+
+// The table is sized for its entries (chains of ~16), within the given floor and the cap;
+// an empty index takes another size and finds what is added after, a filled one refuses.
+TEST(InvertedIndexTest, TableIsSizedForItsEntries) {
+  EXPECT_EQ(InvertedIndex::Log2BucketsFor(0, 22), 22);
+  EXPECT_EQ(InvertedIndex::Log2BucketsFor((size_t{16} << 22), 22), 22);
+  EXPECT_EQ(InvertedIndex::Log2BucketsFor((size_t{16} << 22) + 1, 22), 23);
+  EXPECT_EQ(InvertedIndex::Log2BucketsFor(size_t{750'000'000}, 22), 26);  // 100,000 pages
+  EXPECT_EQ(InvertedIndex::Log2BucketsFor(size_t{1} << 40, 22), InvertedIndex::kMaxLog2Buckets);
+  EXPECT_EQ(InvertedIndex::Log2BucketsFor(1000, 10), 10);
+
+  InvertedIndex index(10);
+  ASSERT_TRUE(index.Rebucket(14));
+  EXPECT_EQ(index.log2_buckets(), 14);
+  EXPECT_GE(index.MemoryBytes(), (size_t{1} << 14) * sizeof(uint32_t));
+  index.Add(3, {0x123456789ABCDEFull, 0xFEDCBA9876543210ull}, 1);
+  EXPECT_EQ(Lookup(index, 0xFEDCBA9876543210ull), (std::multiset<Entry>{{3, 1}}));
+  EXPECT_FALSE(index.Rebucket(16));
+  EXPECT_EQ(index.log2_buckets(), 14);
 }
 
 TEST(InvertedIndexTest, ReserveDoesNotChangeContents) {
