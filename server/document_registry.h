@@ -170,7 +170,9 @@ struct DocumentRegistryOptions {
   // Registering a page that retrieves a registered one with this many inliers
   // is refused.
   int duplicate_min_inliers = 16;
-  // Index hash table size: 2^log2_buckets heads (16 MiB at 22).
+  // Least index hash table size: 2^log2_buckets heads (16 MiB at 22). The start-up
+  // rebuild sizes the table for the entries it loads (about 16 a chain), so a database that
+  // has grown is served with short chains from its next start.
   int log2_buckets = 22;
   // Threads computing descriptors during the start-up rebuild.
   int rebuild_threads = 2;
