@@ -335,8 +335,10 @@ absl::Status LlahRetriever::AddDocuments(
   for (const DocumentKeypoints &d : documents)
     new_entries += d.hashes.size() - std::count(d.hashes.begin(), d.hashes.end(), uint64_t{0});
   std::unique_lock lock(mutex_);
-  if (index_.entries() == 0)
-    index_.Rebucket(InvertedIndex::Log2BucketsFor(new_entries, min_log2_buckets_));
+  if (index_.entries() == 0) {
+    const int log2_buckets = InvertedIndex::Log2BucketsFor(new_entries, min_log2_buckets_);
+    if (log2_buckets != index_.log2_buckets()) index_.Rebucket(log2_buckets);
+  }
   index_.Reserve(index_.entries() + new_entries);
   // A known id is reported; the other documents are still added.
   absl::Status status;

@@ -1439,13 +1439,18 @@ std::vector<PoolDetectedBall> DetectPoolBallsOnce(const cv::Mat& image, const cv
       continue;
     }
     const int count = std::max(1, static_cast<int>(std::floor(area / expected + 0.35)));
+    // A single ball's blob needs its distance transform only for the size ratio.
+    if (count == 1 && !ball_size_ratio) {
+      seeds.push_back(xy);
+      continue;
+    }
     const cv::Rect box(stats.at<int>(i, cv::CC_STAT_LEFT), stats.at<int>(i, cv::CC_STAT_TOP),
                        stats.at<int>(i, cv::CC_STAT_WIDTH), stats.at<int>(i, cv::CC_STAT_HEIGHT));
     cv::Mat blob;
     cv::copyMakeBorder(labels(box) == i, blob, 1, 1, 1, 1, cv::BORDER_CONSTANT, 0);
     cv::Mat dist;
     cv::distanceTransform(blob, dist, cv::DIST_L2, 3);
-    {
+    if (ball_size_ratio) {
       double inscribed = 0;
       cv::minMaxLoc(dist, nullptr, &inscribed);
       size_ratios.push_back(inscribed / r_px);

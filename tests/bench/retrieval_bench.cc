@@ -709,6 +709,15 @@ int main(int argc, char **argv) {
     return std::move(*registry);
   };
 
+  // Page n as it is registered: rendered, grey, scaled by --register-scale.
+  const auto registration_image = [&](int n) {
+    const auto page = texfree::testdata::RenderTextPage(n, page_options);
+    cv::Mat gray;
+    cv::cvtColor(page.image, gray, cv::COLOR_BGR2GRAY);
+    if (register_scale != 1.0)
+      cv::resize(gray, gray, cv::Size(), register_scale, register_scale, cv::INTER_AREA);
+    return gray;
+  };
   auto registry = open();
   int registered = static_cast<int>(*registry->Count());
   std::vector<std::string> ids;
@@ -737,12 +746,7 @@ int main(int argc, char **argv) {
     std::atomic<int> done{0};
     auto register_pages = [&]() {
       for (int n = next_page++; n < target; n = next_page++) {
-        auto page = texfree::testdata::RenderTextPage(n, page_options);
-        cv::Mat gray;
-        cv::cvtColor(page.image, gray, cv::COLOR_BGR2GRAY);
-        if (register_scale != 1.0)
-          cv::resize(gray, gray, cv::Size(), register_scale, register_scale, cv::INTER_AREA);
-        auto record = registry->Register(gray, "page " + std::to_string(n), {});
+        auto record = registry->Register(registration_image(n), "page " + std::to_string(n), {});
         if (!record.ok())
           std::fprintf(stderr, "register page %d: %s\n", n, record.status().ToString().c_str());
         const int d = ++done;
@@ -918,11 +922,7 @@ int main(int argc, char **argv) {
           std::fprintf(stderr, "delete page %d: %s\n", p, deleted.ToString().c_str());
           continue;
         }
-        auto page = texfree::testdata::RenderTextPage(p, page_options);
-        cv::Mat gray;
-        cv::cvtColor(page.image, gray, cv::COLOR_BGR2GRAY);
-        if (register_scale != 1.0)
-          cv::resize(gray, gray, cv::Size(), register_scale, register_scale, cv::INTER_AREA);
+        const cv::Mat gray = registration_image(p);
         const auto t_register = Clock::now();
         auto record = registry->Register(gray, "page " + std::to_string(p), {});
         reregister_ms.push_back(texfree::MillisecondsSince(t_register));
