@@ -161,21 +161,32 @@ cv::Matx33d Denormalise(const cv::Matx33d &Hn, const Normalisation &ns, const No
   return H;
 }
 
-// The minimal sample's homography in normalised coordinates (H(2, 2) = 1): the 8x8 linear
-// system of four pairs.
-bool SolveFour(const cv::Point2d *s, const cv::Point2d *d, Vec8 *h) {
-  Mat8 A;
-  Vec8 b;
-  for (int i = 0; i < 4; ++i) {
-    const double x = s[i].x, y = s[i].y, u = d[i].x, v = d[i].y;
-    A.row(2 * i) << x, y, 1, 0, 0, 0, -u * x, -u * y;
-    A.row(2 * i + 1) << 0, 0, 0, x, y, 1, -v * x, -v * y;
-    b[2 * i] = u;
-    b[2 * i + 1] = v;
+// The minimal sample's homography in normalised coordinates (H(2, 2) = 1), as the product of
+// two projective bases (Hartley and Zisserman, 2.7; Heckbert, 1989): B maps the canonical
+// basis (e1, e2, e3, e1 + e2 + e3) onto the four points, and H = B_dst B_src⁻¹. Two 3x3
+// solves instead of an 8x8 one; false when three points of either set are collinear.
+bool ProjectiveBasis(const cv::Point2d *p, cv::Matx33d *B) {
+  const cv::Matx33d M(p[0].x, p[1].x, p[2].x, p[0].y, p[1].y, p[2].y, 1, 1, 1);
+  const double det = cv::determinant(M);
+  double scale = 0;
+  for (int i = 0; i < 3; ++i) scale = std::max(scale, std::abs(p[i].x) + std::abs(p[i].y) + 1);
+  if (!(std::abs(det) > 1e-12 * scale * scale * scale)) return false;
+  const cv::Vec3d lambda = M.inv() * cv::Vec3d(p[3].x, p[3].y, 1);
+  for (int i = 0; i < 3; ++i) {
+    if (!(std::abs(lambda[i]) > 1e-12)) return false;
+    for (int r = 0; r < 3; ++r) (*B)(r, i) = M(r, i) * lambda[i];
   }
-  Eigen::FullPivLU<Mat8> lu(A);
-  if (!lu.isInvertible()) return false;
-  *h = lu.solve(b);
+  return true;
+}
+
+bool SolveFour(const cv::Point2d *s, const cv::Point2d *d, Vec8 *h) {
+  cv::Matx33d Bs, Bd;
+  if (!ProjectiveBasis(s, &Bs) || !ProjectiveBasis(d, &Bd)) return false;
+  const cv::Matx33d H = Bd * Bs.inv();
+  if (!(std::abs(H(2, 2)) > 1e-12 * cv::norm(H))) return false;
+  const double k = 1 / H(2, 2);
+  *h << H(0, 0) * k, H(0, 1) * k, H(0, 2) * k, H(1, 0) * k, H(1, 1) * k, H(1, 2) * k, H(2, 0) * k,
+      H(2, 1) * k;
   return h->allFinite();
 }
 
@@ -235,6 +246,138 @@ bool FitHomography(const std::vector<cv::Point2f> &src, const std::vector<cv::Po
   return std::isfinite(cv::norm(*H));
 }
 
+namespace {
+
+// What RANSAC and PROSAC share: the pairs normalised, a hypothesis from four of them, its
+// consensus, and the final refit.
+class HypothesisTester {
+ public:
+  HypothesisTester(const std::vector<cv::Point2f> &src, const std::vector<cv::Point2f> &dst,
+                   double threshold)
+      : src_(src), dst_(dst) {
+    NormalisePairs(src, dst, &ns_, &nd_, &s_, &d_);
+    gate2_ = threshold * nd_.scale * threshold * nd_.scale;
+  }
+
+  // Whether the four pairs `idx` are a usable sample (GoodSample).
+  bool Usable(const int *idx) const {
+    cv::Point2f ps[4], pd[4];
+    for (int k = 0; k < 4; ++k) {
+      ps[k] = src_[idx[k]];
+      pd[k] = dst_[idx[k]];
+    }
+    return GoodSample(ps, pd);
+  }
+
+  // The homography of the four pairs `idx`, false when their system is singular.
+  bool Solve(const int *idx, Vec8 *h) const {
+    cv::Point2d ss[4], sd[4];
+    for (int k = 0; k < 4; ++k) {
+      ss[k] = s_[idx[k]];
+      sd[k] = d_[idx[k]];
+    }
+    return SolveFour(ss, sd, h);
+  }
+
+  // The pairs `h` maps within the threshold (mask), their number, and their MSAC cost (the
+  // squared errors, each capped at the threshold's square, in normalised units).
+  // With `widen` > 1 the threshold is that many times wider.
+  int Consensus(const Vec8 &h, std::vector<char> *mask, double *msac = nullptr,
+                double widen = 1) const {
+    const double gate2 = gate2_ * widen * widen;
+    int found = 0;
+    double cost = 0;
+    for (size_t i = 0; i < s_.size(); ++i) {
+      cv::Point2d q;
+      double w, e2 = gate2;
+      bool in = false;
+      if (Project(h, s_[i], &q, &w)) {
+        const double r2 = (q - d_[i]).dot(q - d_[i]);
+        in = r2 <= gate2;
+        if (in) e2 = r2;
+      }
+      (*mask)[i] = in;
+      found += in;
+      cost += e2;
+    }
+    if (msac) *msac = cost;
+    return found;
+  }
+
+  // Consensus under Wald's sequential test (SPRT; Matas and Chum, "Randomized RANSAC with
+  // Sequential Probability Ratio Test", ICCV 2005): the pairs are checked in order and the
+  // model given up, returning -1, as soon as the likelihood ratio of "bad model" (each pair
+  // agrees with `delta`) over "good model" (with `epsilon`) passes `decision`. `*checked`
+  // and `*agreed` receive how many pairs were checked and agreed.
+  int SequentialConsensus(const Vec8 &h, double epsilon, double delta, double decision,
+                          std::vector<char> *mask, double *msac, int *checked, int *agreed) const {
+    const double agree_ratio = delta / epsilon, disagree_ratio = (1 - delta) / (1 - epsilon);
+    double lambda = 1, cost = 0;
+    int found = 0;
+    for (size_t i = 0; i < s_.size(); ++i) {
+      cv::Point2d q;
+      double w, e2 = gate2_;
+      bool in = false;
+      if (Project(h, s_[i], &q, &w)) {
+        const double r2 = (q - d_[i]).dot(q - d_[i]);
+        in = r2 <= gate2_;
+        if (in) e2 = r2;
+      }
+      (*mask)[i] = in;
+      found += in;
+      cost += e2;
+      lambda *= in ? agree_ratio : disagree_ratio;
+      if (lambda > decision) {
+        *checked = static_cast<int>(i + 1);
+        *agreed = found;
+        return -1;
+      }
+    }
+    *checked = static_cast<int>(s_.size());
+    *agreed = found;
+    *msac = cost;
+    return found;
+  }
+
+  // Least squares (with `iterations` of refinement) on the pairs of `mask`: normalised
+  // parameters in `h`, false when they do not fit.
+  bool FitMask(const std::vector<char> &mask, int iterations, Vec8 *h) const {
+    std::vector<cv::Point2d> is, id;
+    for (size_t i = 0; i < s_.size(); ++i)
+      if (mask[i]) {
+        is.push_back(s_[i]);
+        id.push_back(d_[i]);
+      }
+    cv::Matx33d Hn;
+    if (!FitNormalised(is, id, iterations, &Hn) || !(std::abs(Hn(2, 2)) > 0)) return false;
+    Hn *= 1.0 / Hn(2, 2);
+    *h << Hn(0, 0), Hn(0, 1), Hn(0, 2), Hn(1, 0), Hn(1, 1), Hn(1, 2), Hn(2, 0), Hn(2, 1);
+    return h->allFinite();
+  }
+
+  // The final homography: the least-squares fit of `mask`'s pairs, in pixels.
+  bool Finish(const std::vector<char> &mask, cv::Matx33d *H) const {
+    std::vector<cv::Point2d> is, id;
+    for (size_t i = 0; i < s_.size(); ++i)
+      if (mask[i]) {
+        is.push_back(s_[i]);
+        id.push_back(d_[i]);
+      }
+    cv::Matx33d Hn;
+    if (!FitNormalised(is, id, 10, &Hn)) return false;
+    *H = Denormalise(Hn, ns_, nd_);
+    return std::isfinite(cv::norm(*H));
+  }
+
+ private:
+  const std::vector<cv::Point2f> &src_, &dst_;
+  Normalisation ns_, nd_;
+  std::vector<cv::Point2d> s_, d_;
+  double gate2_ = 0;
+};
+
+}  // namespace
+
 bool FitHomographyRansac(const std::vector<cv::Point2f> &src, const std::vector<cv::Point2f> &dst,
                          double threshold, int max_iterations, cv::Matx33d *H,
                          std::vector<char> *inliers) {
@@ -245,10 +388,7 @@ bool FitHomographyRansac(const std::vector<cv::Point2f> &src, const std::vector<
     if (inliers) inliers->assign(4, 1);
     return true;
   }
-  Normalisation ns, nd;
-  std::vector<cv::Point2d> s, d;
-  NormalisePairs(src, dst, &ns, &nd, &s, &d);
-  const double gate2 = threshold * nd.scale * threshold * nd.scale;
+  const HypothesisTester tester(src, dst, threshold);
   // The samples are drawn as cv::findHomography draws them (its generator and seed, the
   // same tests), so that both find the same consensus and a caller moving from it keeps
   // its inliers.
@@ -258,7 +398,6 @@ bool FitHomographyRansac(const std::vector<cv::Point2f> &src, const std::vector<
   int iterations = max_iterations;
   for (int it = 0; it < iterations; ++it) {
     int idx[4];
-    cv::Point2f ps[4], pd[4];
     bool drawn = false;
     for (int attempt = 0; attempt < 10000 && !drawn; ++attempt) {
       for (int k = 0; k < 4; ++k) {
@@ -268,27 +407,13 @@ bool FitHomographyRansac(const std::vector<cv::Point2f> &src, const std::vector<
           repeated = false;
           for (int j = 0; j < k; ++j) repeated |= idx[j] == idx[k];
         } while (repeated);
-        ps[k] = src[idx[k]];
-        pd[k] = dst[idx[k]];
       }
-      drawn = GoodSample(ps, pd);
+      drawn = tester.Usable(idx);
     }
     if (!drawn) break;
-    cv::Point2d ss[4], sd[4];
-    for (int k = 0; k < 4; ++k) {
-      ss[k] = s[idx[k]];
-      sd[k] = d[idx[k]];
-    }
     Vec8 h;
-    if (!SolveFour(ss, sd, &h)) continue;
-    int found = 0;
-    for (size_t i = 0; i < count; ++i) {
-      cv::Point2d q;
-      double w;
-      const bool in = Project(h, s[i], &q, &w) && (q - d[i]).dot(q - d[i]) <= gate2;
-      mask[i] = in;
-      found += in;
-    }
+    if (!tester.Solve(idx, &h)) continue;
+    const int found = tester.Consensus(h, &mask);
     if (found > std::max(best, 3)) {
       best = found;
       best_mask = mask;
@@ -296,18 +421,149 @@ bool FitHomographyRansac(const std::vector<cv::Point2f> &src, const std::vector<
                             UpdateIterations(0.995, double(count - found) / count, max_iterations));
     }
   }
-  if (best < 4) return false;
-  std::vector<cv::Point2d> is, id;
-  for (size_t i = 0; i < count; ++i)
-    if (best_mask[i]) {
-      is.push_back(s[i]);
-      id.push_back(d[i]);
-    }
-  cv::Matx33d Hn;
-  if (!FitNormalised(is, id, 10, &Hn)) return false;
-  *H = Denormalise(Hn, ns, nd);
+  if (best < 4 || !tester.Finish(best_mask, H)) return false;
   if (inliers) *inliers = std::move(best_mask);
-  return std::isfinite(cv::norm(*H));
+  return true;
+}
+
+namespace {
+
+// SPRT's decision threshold A for the chances `epsilon` (a pair agrees with a good model)
+// and `delta` (with a bad one): the fixed point of A = t_M C + 1 + log A (Chum and Matas,
+// "Optimal Randomized RANSAC", PAMI 2008, eq. 16), t_M a model's cost in pair checks.
+double SprtDecisionThreshold(double epsilon, double delta) {
+  constexpr double kModelCost = 200;  // a 4-pair solve against one pair's projection
+  const double c =
+      (1 - delta) * std::log((1 - delta) / (1 - epsilon)) + delta * std::log(delta / epsilon);
+  double a = kModelCost * c + 1;
+  for (int i = 0; i < 10; ++i) a = kModelCost * c + 1 + std::log(a);
+  return a;
+}
+
+}  // namespace
+
+bool FitHomographyProsac(const std::vector<cv::Point2f> &src, const std::vector<cv::Point2f> &dst,
+                         double threshold, int max_iterations, cv::Matx33d *H,
+                         std::vector<char> *inliers, double confidence) {
+  constexpr int m = 4;
+  const int count = static_cast<int>(src.size());
+  if (static_cast<int>(dst.size()) != count || count < m || max_iterations < 1) return false;
+  if (count == m) return FitHomographyRansac(src, dst, threshold, max_iterations, H, inliers);
+  const HypothesisTester tester(src, dst, threshold);
+
+  // Chance of an unrelated pair falling within the threshold (SPRT's first guess of a bad
+  // model's agreement): the threshold's disc over the area the dst points spread over.
+  float x0 = dst[0].x, x1 = x0, y0 = dst[0].y, y1 = y0;
+  for (const cv::Point2f &p : dst) {
+    x0 = std::min(x0, p.x), x1 = std::max(x1, p.x);
+    y0 = std::min(y0, p.y), y1 = std::max(y1, p.y);
+  }
+  const double area = std::max((double(x1) - x0) * (double(y1) - y0), 1.0);
+  const double beta = std::min(1.0, CV_PI * threshold * threshold / area);
+
+  // PROSAC's growth schedule (Chum and Matas, "Matching with PROSAC", CVPR 2005): T_n of
+  // the T_N samples that uniform sampling would draw from the first n pairs.
+  constexpr double kGrowthSamples = 200000;
+  int n = m;
+  double t_n = kGrowthSamples;
+  for (int i = 0; i < m; ++i) t_n *= double(n - i) / (count - i);
+  int t_n_prime = 1;
+
+  // SPRT's chances. epsilon, a good model's agreement rate, is bounded from below by the
+  // best consensus' share; until a consensus of more than 4 is found there is no bound and
+  // every model is checked in full. delta, a bad model's rate, is the mean agreement of the
+  // models that were not the best. The test runs only while epsilon is well above delta.
+  constexpr double kMinDelta = 1e-3;
+  double delta = std::max(beta, kMinDelta), epsilon = 0;
+  double decision = std::numeric_limits<double>::infinity();
+  int64_t bad_checked = 0, bad_agreed = 0;
+  auto update_test = [&] {
+    decision = epsilon > 1.5 * delta ? SprtDecisionThreshold(epsilon, delta)
+                                     : std::numeric_limits<double>::infinity();
+  };
+
+  cv::RNG rng(0x9e3779b97f4a7c15ULL);
+  std::vector<char> mask(count), lo_mask(count), best_mask;
+  int best = 0;
+  double best_cost = std::numeric_limits<double>::infinity();
+  int k_max = max_iterations;
+  for (int t = 1; t <= k_max; ++t) {
+    if (t == t_n_prime && n < count) {
+      const double t_next = t_n * (n + 1) / (n + 1 - m);
+      t_n_prime += static_cast<int>(std::ceil(t_next - t_n));
+      t_n = t_next;
+      ++n;
+    }
+    // While the schedule has not caught up, the newest pair is in every sample.
+    const bool with_newest = t <= t_n_prime;
+    const int pool = with_newest ? n - 1 : n;
+    const int draw = with_newest ? m - 1 : m;
+    // An unusable sample counts as drawn: among few pairs, most of which disagree, redrawing
+    // until one passes would cost more than the models.
+    int idx[m];
+    for (int k = 0; k < draw; ++k) {
+      bool repeated;
+      do {
+        idx[k] = rng.uniform(0, pool);
+        repeated = false;
+        for (int j = 0; j < k; ++j) repeated |= idx[j] == idx[k];
+      } while (repeated);
+    }
+    if (with_newest) idx[m - 1] = n - 1;
+    Vec8 h;
+    if (!tester.Usable(idx) || !tester.Solve(idx, &h)) continue;
+    double cost;
+    int checked, agreed;
+    int found =
+        tester.SequentialConsensus(h, epsilon, delta, decision, &mask, &cost, &checked, &agreed);
+    const bool new_best = found > m && (found > best || (found == best && cost < best_cost));
+    if (!new_best) {
+      // A rejected or lesser model: its agreement updates the bad models' rate.
+      bad_checked += checked;
+      bad_agreed += agreed;
+      const double estimate = std::max(double(bad_agreed) / bad_checked, kMinDelta);
+      if (bad_checked >= 50 && std::abs(estimate - delta) > 0.05 * delta) {
+        delta = estimate;
+        update_test();
+      }
+      continue;
+    }
+    // Local optimisation (Chum, Matas and Kittler, "Locally optimized RANSAC", 2003, its
+    // iterative form): least squares on the consensus of a threshold that narrows from 3
+    // times to the real one, each refit kept when it gathers a better real consensus. A
+    // model that fits one corner of the view well grows into the whole view's.
+    Vec8 current = h;
+    for (const double widen : {3.0, 2.0, 1.5, 1.0}) {
+      Vec8 refit;
+      double refit_cost;
+      tester.Consensus(current, &lo_mask, nullptr, widen);
+      if (!tester.FitMask(lo_mask, 3, &refit)) continue;
+      const int refit_found = tester.Consensus(refit, &lo_mask, &refit_cost);
+      if (refit_found < found || (refit_found == found && refit_cost >= cost)) continue;
+      current = refit;
+      found = refit_found;
+      cost = refit_cost;
+      mask.swap(lo_mask);
+    }
+    best = found;
+    best_cost = cost;
+    best_mask = mask;
+    epsilon = double(best) / count;
+    update_test();
+    // Termination by the whole list's inlier share, as RANSAC's. PROSAC's own rule (stop
+    // once the first n* pairs hold a non-random consensus with enough samples drawn for
+    // their share) stops among a few dozen pairs at the first model that fits the head of
+    // the list, while a larger consensus of the whole list is still to be drawn; under
+    // SPRT the extra samples are cheap.
+    // A good model is drawn with share^4 and kept by the test with 1 - 1/A.
+    const double good = std::pow(double(best) / count, 4) * (1 - 1 / decision);
+    const int k_best = UpdateIterations(confidence, 1 - std::pow(good, 0.25), max_iterations);
+    k_max = std::min(k_max, std::max(k_best, t));
+  }
+  // Four pairs fit any sample's homography: a consensus of four is no evidence.
+  if (best <= m || !tester.Finish(best_mask, H)) return false;
+  if (inliers) *inliers = std::move(best_mask);
+  return true;
 }
 
 }  // namespace texfree

@@ -1,6 +1,6 @@
-// Homography fitting for the many small point sets of guided matching: least squares
-// (normalised DLT, then Levenberg-Marquardt on the reprojection error) and RANSAC over
-// minimal four-point samples, in fixed-size arithmetic.
+// Homography fitting for the many small point sets of guided matching and verification:
+// least squares (normalised DLT, then Levenberg-Marquardt on the reprojection error), and
+// RANSAC and PROSAC over minimal four-point samples, in fixed-size arithmetic.
 #pragma once
 
 #include <opencv2/core.hpp>
@@ -26,5 +26,20 @@ bool FitHomography(const std::vector<cv::Point2f> &src, const std::vector<cv::Po
 bool FitHomographyRansac(const std::vector<cv::Point2f> &src, const std::vector<cv::Point2f> &dst,
                          double threshold, int max_iterations, cv::Matx33d *H,
                          std::vector<char> *inliers = nullptr);
+
+// PROSAC (Chum and Matas, CVPR 2005) for pairs ordered best first (e.g. by how many
+// descriptors agree on them): samples are drawn from a growing head of the list, so that a
+// good model comes from the likeliest pairs first. Each model's consensus is checked under
+// Wald's sequential test (SPRT), so that a bad model costs a few pairs' checks; every new
+// best one is locally optimised (refitted on the consensus of a narrowing threshold while
+// that gathers more pairs). Sampling stops when enough samples were drawn for `confidence`
+// given the best consensus' share of all pairs (at most `max_iterations`). The consensus are
+// the pairs mapped within `threshold` pixels of their dst; the answer is FitHomography of
+// the best one. Deterministic: a fixed seed. False when no consensus has more than the four
+// pairs that define its homography (for 4 pairs: when they have none). `inliers` (optional)
+// receives the final consensus, one flag per pair.
+bool FitHomographyProsac(const std::vector<cv::Point2f> &src, const std::vector<cv::Point2f> &dst,
+                         double threshold, int max_iterations, cv::Matx33d *H,
+                         std::vector<char> *inliers = nullptr, double confidence = 0.995);
 
 }  // namespace texfree

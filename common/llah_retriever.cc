@@ -1109,11 +1109,8 @@ std::vector<DocumentHit> LlahRetriever::RetrieveDescribed(const std::vector<cv::
           sample_ref.push_back(ref_pts[i]);
           sample_query.push_back(query_pts[i]);
         }
-        std::vector<uchar> mask;
-        cv::Mat Hm = cv::findHomography(sample_ref, sample_query, cv::USAC_PROSAC, threshold, mask,
-                                        o.ransac_iterations, 0.995);
-        if (Hm.empty()) continue;
-        H = cv::Matx33d(Hm);
+        if (!FitHomographyProsac(sample_ref, sample_query, threshold, o.ransac_iterations, &H))
+          continue;
       }
       auto inliers_of = [&](const cv::Matx33d &h, std::vector<std::pair<int, int>> *inlier_pairs,
                             std::vector<cv::Point2f> *inlier_ref) {

@@ -1,5 +1,6 @@
 // Tests of the homography fits against a synthetic camera over a page: exact pairs, noisy
-// pairs (least squares against OpenCV's), outliers (RANSAC) and degenerate input.
+// pairs (least squares against OpenCV's), outliers (RANSAC, and PROSAC on ranked pairs) and
+// degenerate input.
 #include "common/homography_fit.h"
 
 #include <gtest/gtest.h>
@@ -143,16 +144,89 @@ TEST(HomographyFitTest, RansacDrawsTheSamplesOpenCvDraws) {
   EXPECT_EQ(same_mask, trials);
   EXPECT_LT(worst_gap, 0.05);
 }
+// Pairs ranked best first as LLAH ranks them: most of the head are true, the tail mostly
+// unrelated (60% of all pairs are outliers).
+TEST(HomographyFitTest, ProsacFindsTheHomographyAmongRankedOutliersDeterministically) {
+  std::vector<cv::Point2f> page, view;
+  MakePairs(40, 0.3, 21, &page, &view);
+  std::mt19937 rng(22);
+  std::uniform_real_distribution<float> x(0, 1000), y(0, 1400), u(0, 640), v(0, 480);
+  std::vector<cv::Point2f> src, dst;
+  std::vector<bool> truth;
+  size_t next_true = 0;
+  for (int rank = 0; rank < 100; ++rank) {
+    // Of the first 20 ranks, one in four is an outlier; after them, two in three.
+    const bool outlier = next_true == page.size() || (rank < 20 ? rank % 4 == 3 : rank % 3 != 0);
+    if (outlier) {
+      src.emplace_back(x(rng), y(rng));
+      dst.emplace_back(u(rng), v(rng));
+    } else {
+      src.push_back(page[next_true]);
+      dst.push_back(view[next_true++]);
+    }
+    truth.push_back(!outlier);
+  }
+  ASSERT_EQ(next_true, page.size());
+  cv::Matx33d H, again;
+  std::vector<char> inliers;
+  ASSERT_TRUE(FitHomographyProsac(src, dst, 2.0, 1000, &H, &inliers));
+  ASSERT_EQ(inliers.size(), src.size());
+  int true_kept = 0, false_kept = 0;
+  for (size_t i = 0; i < src.size(); ++i) (truth[i] ? true_kept : false_kept) += inliers[i];
+  EXPECT_EQ(true_kept, 40);
+  EXPECT_LE(false_kept, 1);  // an unrelated pair may fall within 2 px by chance
+  EXPECT_LT(CornerGap(H, PageToView()), 1.5);
+  ASSERT_TRUE(FitHomographyProsac(src, dst, 2.0, 1000, &again));
+  EXPECT_EQ(CornerGap(H, again), 0);
+}
+
+// The best-ranked pairs all lie in one corner of the page, so that their minimal samples'
+// homographies are exact there and several pixels off across the page. Local optimisation
+// grows such a model into the whole page's consensus instead of stopping at the corner's.
+TEST(HomographyFitTest, ProsacGrowsACornersModelIntoTheWholePage) {
+  const cv::Matx33d H_true = PageToView();
+  std::mt19937 rng(31);
+  std::normal_distribution<float> noise(0, 0.5f);
+  std::uniform_real_distribution<float> corner(100, 250), x(100, 900), y(100, 1300);
+  std::uniform_real_distribution<float> u(0, 640), v(0, 480);
+  std::vector<cv::Point2f> src, dst;
+  std::vector<bool> truth;
+  auto add_true = [&](const cv::Point2f &p) {
+    src.push_back(p);
+    dst.push_back(Map(H_true, p) + cv::Point2f(noise(rng), noise(rng)));
+    truth.push_back(true);
+  };
+  for (int i = 0; i < 10; ++i) add_true({corner(rng), corner(rng)});
+  for (int i = 0; i < 90; ++i) {
+    add_true({x(rng), y(rng)});
+    if (i % 3 == 0) {  // 30 unrelated pairs among them
+      src.emplace_back(x(rng), y(rng));
+      dst.emplace_back(u(rng), v(rng));
+      truth.push_back(false);
+    }
+  }
+  cv::Matx33d H;
+  std::vector<char> inliers;
+  ASSERT_TRUE(FitHomographyProsac(src, dst, 2.0, 1000, &H, &inliers));
+  int true_kept = 0, false_kept = 0;
+  for (size_t i = 0; i < src.size(); ++i) (truth[i] ? true_kept : false_kept) += inliers[i];
+  EXPECT_GE(true_kept, 97);  // of 100; 0.5 px noise puts a few beyond 2 px
+  EXPECT_LE(false_kept, 1);
+  EXPECT_LT(CornerGap(H, H_true), 1.5);
+}
+
 TEST(HomographyFitTest, TooFewMismatchedOrCollinearPairsAreRefused) {
   std::vector<cv::Point2f> src, dst;
   cv::Matx33d H;
   MakePairs(3, 0, 3, &src, &dst);
   EXPECT_FALSE(FitHomography(src, dst, &H));
   EXPECT_FALSE(FitHomographyRansac(src, dst, 2, 50, &H));
+  EXPECT_FALSE(FitHomographyProsac(src, dst, 2, 50, &H));
   MakePairs(10, 0, 3, &src, &dst);
   dst.pop_back();
   EXPECT_FALSE(FitHomography(src, dst, &H));
   EXPECT_FALSE(FitHomographyRansac(src, dst, 2, 50, &H));
+  EXPECT_FALSE(FitHomographyProsac(src, dst, 2, 50, &H));
   // All on one line: no homography is determined.
   src.clear();
   dst.clear();
@@ -162,6 +236,7 @@ TEST(HomographyFitTest, TooFewMismatchedOrCollinearPairsAreRefused) {
   }
   EXPECT_FALSE(FitHomography(src, dst, &H));
   EXPECT_FALSE(FitHomographyRansac(src, dst, 2, 50, &H));
+  EXPECT_FALSE(FitHomographyProsac(src, dst, 2, 50, &H));
 }
 
 }  // namespace

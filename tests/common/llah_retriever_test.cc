@@ -345,9 +345,9 @@ TEST_P(LlahRetrieverTest, LayoutCheckConfirmsWeaklyMatchedWindowsAndNoWrongDocum
 }
 
 // Guided matching that keeps its full gate while it grows, and that also starts from a
-// similarity when the homography's matches stay few, confirms at least the windows that one
-// round from the homography does, with as accurate homographies, and never a wrong
-// document.
+// similarity when the homography's matches stay few, finds at least the windows that one
+// round from the homography finds accurately, with as accurate homographies, and never a
+// wrong document.
 TEST_P(LlahRetrieverTest, GuidedGrowthKeepsWeakWindowsAccurateAndNoWrongDocument) {
   constexpr Disturbance kSevere{25, 0.7, 0.25, 0.15};
   RetrievalOptions grown;
@@ -371,8 +371,10 @@ TEST_P(LlahRetrieverTest, GuidedGrowthKeepsWeakWindowsAccurateAndNoWrongDocument
       EXPECT_LT(MaxHomographyError(h.homography, q), std::max(2.0, single_error + 0.5))
           << "document " << d << " inliers " << h.inliers << " matches " << h.matches.size();
     }
-    found_grown += !a.empty();
-    found_single += !b.empty();
+    // A window counts as found when its homography is within 3 px over it: one round can
+    // confirm a page under a homography 12 px off, which growth then rightly refuses.
+    found_grown += !a.empty() && MaxHomographyError(a[0].homography, q) < 3;
+    found_single += !b.empty() && MaxHomographyError(b[0].homography, q) < 3;
     if (!a.empty() && !b.empty()) {
       matches_grown += static_cast<int>(a[0].matches.size());
       matches_single += static_cast<int>(b[0].matches.size());
