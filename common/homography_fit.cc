@@ -284,22 +284,11 @@ class HypothesisTester {
   // With `widen` > 1 the threshold is that many times wider.
   int Consensus(const Vec8 &h, std::vector<char> *mask, double *msac = nullptr,
                 double widen = 1) const {
-    const double gate2 = gate2_ * widen * widen;
-    int found = 0;
-    double cost = 0;
-    for (size_t i = 0; i < s_.size(); ++i) {
-      cv::Point2d q;
-      double w, e2 = gate2;
-      bool in = false;
-      if (Project(h, s_[i], &q, &w)) {
-        const double r2 = (q - d_[i]).dot(q - d_[i]);
-        in = r2 <= gate2;
-        if (in) e2 = r2;
-      }
-      (*mask)[i] = in;
-      found += in;
-      cost += e2;
-    }
+    int checked, agreed;
+    double cost;
+    const int found =
+        CheckPairs(h, gate2_ * widen * widen, 1, 1, std::numeric_limits<double>::infinity(), mask,
+                   &cost, &checked, &agreed);
     if (msac) *msac = cost;
     return found;
   }
@@ -307,20 +296,61 @@ class HypothesisTester {
   // Consensus under Wald's sequential test (SPRT; Matas and Chum, "Randomized RANSAC with
   // Sequential Probability Ratio Test", ICCV 2005): the pairs are checked in order and the
   // model given up, returning -1, as soon as the likelihood ratio of "bad model" (each pair
-  // agrees with `delta`) over "good model" (with `epsilon`) passes `decision`. `*checked`
-  // and `*agreed` receive how many pairs were checked and agreed.
+  // agrees with `delta`) over "good model" (with `epsilon`) passes `decision` (never when
+  // it is infinite). `*checked` and `*agreed` receive how many pairs were checked and agreed.
   int SequentialConsensus(const Vec8 &h, double epsilon, double delta, double decision,
                           std::vector<char> *mask, double *msac, int *checked, int *agreed) const {
-    const double agree_ratio = delta / epsilon, disagree_ratio = (1 - delta) / (1 - epsilon);
+    if (!std::isfinite(decision))
+      return CheckPairs(h, gate2_, 1, 1, decision, mask, msac, checked, agreed);
+    return CheckPairs(h, gate2_, delta / epsilon, (1 - delta) / (1 - epsilon), decision, mask, msac,
+                      checked, agreed);
+  }
+
+  // Least squares (with `iterations` of refinement) on the pairs of `mask`: normalised
+  // parameters in `h`, false when they do not fit.
+  bool FitMask(const std::vector<char> &mask, int iterations, Vec8 *h) const {
+    cv::Matx33d Hn;
+    if (!FitNormalisedMask(mask, iterations, &Hn) || !(std::abs(Hn(2, 2)) > 0)) return false;
+    Hn *= 1.0 / Hn(2, 2);
+    *h << Hn(0, 0), Hn(0, 1), Hn(0, 2), Hn(1, 0), Hn(1, 1), Hn(1, 2), Hn(2, 0), Hn(2, 1);
+    return h->allFinite();
+  }
+
+  // The final homography: the least-squares fit of `mask`'s pairs, in pixels.
+  bool Finish(const std::vector<char> &mask, cv::Matx33d *H) const {
+    cv::Matx33d Hn;
+    if (!FitNormalisedMask(mask, 10, &Hn)) return false;
+    *H = Denormalise(Hn, ns_, nd_);
+    return std::isfinite(cv::norm(*H));
+  }
+
+ private:
+  // FitNormalised on the pairs of `mask`.
+  bool FitNormalisedMask(const std::vector<char> &mask, int iterations, cv::Matx33d *Hn) const {
+    std::vector<cv::Point2d> is, id;
+    for (size_t i = 0; i < s_.size(); ++i)
+      if (mask[i]) {
+        is.push_back(s_[i]);
+        id.push_back(d_[i]);
+      }
+    return FitNormalised(is, id, iterations, Hn);
+  }
+
+  // The pairs within sqrt(gate2) of h's projection, checked in order with the likelihood
+  // ratio multiplied by `agree_ratio` or `disagree_ratio` at each; -1 once it passes
+  // `decision`.
+  int CheckPairs(const Vec8 &h, double gate2, double agree_ratio, double disagree_ratio,
+                 double decision, std::vector<char> *mask, double *msac, int *checked,
+                 int *agreed) const {
     double lambda = 1, cost = 0;
     int found = 0;
     for (size_t i = 0; i < s_.size(); ++i) {
       cv::Point2d q;
-      double w, e2 = gate2_;
+      double w, e2 = gate2;
       bool in = false;
       if (Project(h, s_[i], &q, &w)) {
         const double r2 = (q - d_[i]).dot(q - d_[i]);
-        in = r2 <= gate2_;
+        in = r2 <= gate2;
         if (in) e2 = r2;
       }
       (*mask)[i] = in;
@@ -339,37 +369,6 @@ class HypothesisTester {
     return found;
   }
 
-  // Least squares (with `iterations` of refinement) on the pairs of `mask`: normalised
-  // parameters in `h`, false when they do not fit.
-  bool FitMask(const std::vector<char> &mask, int iterations, Vec8 *h) const {
-    std::vector<cv::Point2d> is, id;
-    for (size_t i = 0; i < s_.size(); ++i)
-      if (mask[i]) {
-        is.push_back(s_[i]);
-        id.push_back(d_[i]);
-      }
-    cv::Matx33d Hn;
-    if (!FitNormalised(is, id, iterations, &Hn) || !(std::abs(Hn(2, 2)) > 0)) return false;
-    Hn *= 1.0 / Hn(2, 2);
-    *h << Hn(0, 0), Hn(0, 1), Hn(0, 2), Hn(1, 0), Hn(1, 1), Hn(1, 2), Hn(2, 0), Hn(2, 1);
-    return h->allFinite();
-  }
-
-  // The final homography: the least-squares fit of `mask`'s pairs, in pixels.
-  bool Finish(const std::vector<char> &mask, cv::Matx33d *H) const {
-    std::vector<cv::Point2d> is, id;
-    for (size_t i = 0; i < s_.size(); ++i)
-      if (mask[i]) {
-        is.push_back(s_[i]);
-        id.push_back(d_[i]);
-      }
-    cv::Matx33d Hn;
-    if (!FitNormalised(is, id, 10, &Hn)) return false;
-    *H = Denormalise(Hn, ns_, nd_);
-    return std::isfinite(cv::norm(*H));
-  }
-
- private:
   const std::vector<cv::Point2f> &src_, &dst_;
   Normalisation ns_, nd_;
   std::vector<cv::Point2d> s_, d_;
