@@ -192,6 +192,34 @@ TEST(HomographyFitTest, ProsacFindsTheHomographyAmongRankedOutliersDeterministic
       truth);
 }
 
+// Few pairs with few of them right, as a candidate page's LLAH correspondences often are: 8
+// right of 20, the 5th to 10th ranks wrong. PROSAC must still reach the right model within
+// its budget (its growth schedule spread over the budget, not over 200,000 samples).
+TEST(HomographyFitTest, ProsacFindsFewRightPairsAmongFewPairs) {
+  std::vector<cv::Point2f> page, view;
+  MakePairs(8, 0.5, 41, &page, &view);
+  std::mt19937 rng(42);
+  std::uniform_real_distribution<float> x(0, 1000), y(0, 1400), u(0, 640), v(0, 480);
+  std::vector<cv::Point2f> src, dst;
+  std::vector<bool> truth;
+  for (int rank = 0, next = 0; rank < 20; ++rank) {
+    const bool right = rank % 10 < 4;
+    if (right) {
+      src.push_back(page[next]);
+      dst.push_back(view[next++]);
+    } else {
+      src.emplace_back(x(rng), y(rng));
+      dst.emplace_back(u(rng), v(rng));
+    }
+    truth.push_back(right);
+  }
+  ExpectKeepsTheTruePairs(
+      [&](cv::Matx33d *H, std::vector<char> *inliers) {
+        return FitHomographyProsac(src, dst, 2.0, 1000, H, inliers);
+      },
+      truth);
+}
+
 // The best-ranked pairs all lie in one corner of the page, so that their minimal samples'
 // homographies are exact there and several pixels off across the page. Local optimisation
 // grows such a model into the whole page's consensus instead of stopping at the corner's.
