@@ -28,16 +28,17 @@ bool FitHomographyRansac(const std::vector<cv::Point2f> &src, const std::vector<
                          std::vector<char> *inliers = nullptr);
 
 // PROSAC (Chum and Matas, CVPR 2005) for pairs ordered best first (e.g. by how many
-// descriptors agree on them): samples are drawn from a growing head of the list, so that a
-// good model comes from the likeliest pairs first. Each model's consensus is checked under
+// descriptors agree on them): the first sample is the four best pairs, and later ones are
+// drawn from a head of the list that grows to the whole list over the sample budget, so
+// that a good model comes from the likeliest pairs first. Each model's consensus is checked under
 // Wald's sequential test (SPRT), so that a bad model costs a few pairs' checks; every new
 // best one is locally optimised (refitted on the consensus of a narrowing threshold while
 // that gathers more pairs). Sampling stops when enough samples were drawn for `confidence`
-// given the best consensus' share of all pairs (at most `max_iterations`). The consensus are
-// the pairs mapped within `threshold` pixels of their dst; the answer is FitHomography of
-// the best one. Deterministic: a fixed seed. False when no consensus has more than the four
-// pairs that define its homography (for 4 pairs: when they have none). `inliers` (optional)
-// receives the final consensus, one flag per pair.
+// given the best consensus' share of all pairs (at least 100, at most `max_iterations`). The
+// consensus are the pairs mapped within `threshold` pixels of their dst; the answer is
+// FitHomography of the best one. Deterministic: a fixed seed. False when no consensus has more than
+// the four pairs that define its homography (for 4 pairs: when they have none). `inliers`
+// (optional) receives the final consensus, one flag per pair.
 bool FitHomographyProsac(const std::vector<cv::Point2f> &src, const std::vector<cv::Point2f> &dst,
                          double threshold, int max_iterations, cv::Matx33d *H,
                          std::vector<char> *inliers = nullptr, double confidence = 0.995);

@@ -63,6 +63,31 @@ void MakePairs(int count, double sigma, uint32_t seed, std::vector<cv::Point2f> 
   }
 }
 
+// `ranks` pairs ranked best first, as LLAH ranks a page's correspondences: at the ranks
+// where `right(rank)` holds, the next of `true_count` true pairs (MakePairs, `seed`), while
+// they last; unrelated pairs elsewhere. `truth` flags the true ones; returns their number.
+int MakeRankedPairs(int ranks, int true_count, double sigma, uint32_t seed,
+                    const std::function<bool(int)> &right, std::vector<cv::Point2f> *src,
+                    std::vector<cv::Point2f> *dst, std::vector<bool> *truth) {
+  std::vector<cv::Point2f> page, view;
+  MakePairs(true_count, sigma, seed, &page, &view);
+  std::mt19937 rng(seed + 1);
+  std::uniform_real_distribution<float> x(0, 1000), y(0, 1400), u(0, 640), v(0, 480);
+  size_t next = 0;
+  for (int rank = 0; rank < ranks; ++rank) {
+    const bool is_true = next < page.size() && right(rank);
+    if (is_true) {
+      src->push_back(page[next]);
+      dst->push_back(view[next++]);
+    } else {
+      src->emplace_back(x(rng), y(rng));
+      dst->emplace_back(u(rng), v(rng));
+    }
+    truth->push_back(is_true);
+  }
+  return static_cast<int>(next);
+}
+
 // A robust fit (`fit(H, inliers)`) of pairs whose true ones are flagged in `truth`: every
 // true pair kept, at most one unrelated one (it may fall within 2 px by chance), the page's
 // corners within 1.5 px, and the same answer from a second run.
@@ -162,29 +187,17 @@ TEST(HomographyFitTest, RansacDrawsTheSamplesOpenCvDraws) {
   EXPECT_EQ(same_mask, trials);
   EXPECT_LT(worst_gap, 0.05);
 }
+
 // Pairs ranked best first as LLAH ranks them: most of the head are true, the tail mostly
 // unrelated (60% of all pairs are outliers).
 TEST(HomographyFitTest, ProsacFindsTheHomographyAmongRankedOutliersDeterministically) {
-  std::vector<cv::Point2f> page, view;
-  MakePairs(40, 0.3, 21, &page, &view);
-  std::mt19937 rng(22);
-  std::uniform_real_distribution<float> x(0, 1000), y(0, 1400), u(0, 640), v(0, 480);
   std::vector<cv::Point2f> src, dst;
   std::vector<bool> truth;
-  size_t next_true = 0;
-  for (int rank = 0; rank < 100; ++rank) {
-    // Of the first 20 ranks, one in four is an outlier; after them, two in three.
-    const bool outlier = next_true == page.size() || (rank < 20 ? rank % 4 == 3 : rank % 3 != 0);
-    if (outlier) {
-      src.emplace_back(x(rng), y(rng));
-      dst.emplace_back(u(rng), v(rng));
-    } else {
-      src.push_back(page[next_true]);
-      dst.push_back(view[next_true++]);
-    }
-    truth.push_back(!outlier);
-  }
-  ASSERT_EQ(next_true, page.size());
+  // Of the first 20 ranks, one in four is an outlier; after them, two in three.
+  const int true_pairs = MakeRankedPairs(
+      100, 40, 0.3, 21, [](int rank) { return rank < 20 ? rank % 4 != 3 : rank % 3 == 0; }, &src,
+      &dst, &truth);
+  ASSERT_EQ(true_pairs, 40);
   ExpectKeepsTheTruePairs(
       [&](cv::Matx33d *H, std::vector<char> *inliers) {
         return FitHomographyProsac(src, dst, 2.0, 1000, H, inliers);
@@ -196,23 +209,11 @@ TEST(HomographyFitTest, ProsacFindsTheHomographyAmongRankedOutliersDeterministic
 // right of 20, the 5th to 10th ranks wrong. PROSAC must still reach the right model within
 // its budget (its growth schedule spread over the budget, not over 200,000 samples).
 TEST(HomographyFitTest, ProsacFindsFewRightPairsAmongFewPairs) {
-  std::vector<cv::Point2f> page, view;
-  MakePairs(8, 0.5, 41, &page, &view);
-  std::mt19937 rng(42);
-  std::uniform_real_distribution<float> x(0, 1000), y(0, 1400), u(0, 640), v(0, 480);
   std::vector<cv::Point2f> src, dst;
   std::vector<bool> truth;
-  for (int rank = 0, next = 0; rank < 20; ++rank) {
-    const bool right = rank % 10 < 4;
-    if (right) {
-      src.push_back(page[next]);
-      dst.push_back(view[next++]);
-    } else {
-      src.emplace_back(x(rng), y(rng));
-      dst.emplace_back(u(rng), v(rng));
-    }
-    truth.push_back(right);
-  }
+  ASSERT_EQ(MakeRankedPairs(
+                20, 8, 0.5, 41, [](int rank) { return rank % 10 < 4; }, &src, &dst, &truth),
+            8);
   ExpectKeepsTheTruePairs(
       [&](cv::Matx33d *H, std::vector<char> *inliers) {
         return FitHomographyProsac(src, dst, 2.0, 1000, H, inliers);
