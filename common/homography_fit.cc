@@ -221,11 +221,11 @@ bool GoodSample(const cv::Point2f *s, const cv::Point2f *d) {
   return reversed == 0 || reversed == 4;
 }
 
-// Samples needed to draw an all-inlier sample of 4 with `confidence`, given the outlier
-// share (cv::RANSACUpdateNumIters).
-int UpdateIterations(double confidence, double outliers, int max_iterations) {
+// Samples needed to draw a good sample with `confidence`, given the chance `good` that one
+// sample is (cv::RANSACUpdateNumIters with good = (1 - outlier share)^4).
+int SamplesFor(double confidence, double good, int max_iterations) {
   const double num = std::log(std::max(1 - confidence, DBL_MIN));
-  const double denom_arg = 1 - std::pow(1 - outliers, 4);
+  const double denom_arg = 1 - good;
   if (denom_arg < DBL_MIN) return 0;
   const double denom = std::log(denom_arg);
   if (denom >= 0 || -num >= max_iterations * (-denom)) return max_iterations;
@@ -417,7 +417,7 @@ bool FitHomographyRansac(const std::vector<cv::Point2f> &src, const std::vector<
       best = found;
       best_mask = mask;
       iterations = std::min(iterations,
-                            UpdateIterations(0.995, double(count - found) / count, max_iterations));
+                            SamplesFor(0.995, std::pow(double(found) / count, 4), max_iterations));
     }
   }
   if (best < 4 || !tester.Finish(best_mask, H)) return false;
@@ -469,9 +469,8 @@ bool FitHomographyProsac(const std::vector<cv::Point2f> &src, const std::vector<
   // sample budget, so that sampling has grown to every pair when the budget is spent (with
   // the paper's 200,000 and 1,000 samples, 20 pairs whose 5th-7th are wrong never gave a
   // sample without one of them).
-  const double growth_samples = max_iterations;
   int n = m;
-  double t_n = growth_samples;
+  double t_n = max_iterations;
   for (int i = 0; i < m; ++i) t_n *= double(n - i) / (count - i);
   int t_n_prime = 2;  // the first sample is the four best pairs (the paper's T'_m = 1 grows
                       // the set to five before it is drawn)
@@ -543,8 +542,9 @@ bool FitHomographyProsac(const std::vector<cv::Point2f> &src, const std::vector<
     for (const double widen : {3.0, 2.0, 1.5, 1.0}) {
       Vec8 refit;
       double refit_cost;
-      tester.Consensus(current, &lo_mask, nullptr, widen);
-      if (!tester.FitMask(lo_mask, 3, &refit)) continue;
+      // At the real threshold the current model's consensus is `mask` already.
+      if (widen > 1) tester.Consensus(current, &lo_mask, nullptr, widen);
+      if (!tester.FitMask(widen > 1 ? lo_mask : mask, 3, &refit)) continue;
       const int refit_found = tester.Consensus(refit, &lo_mask, &refit_cost);
       if (refit_found < found || (refit_found == found && refit_cost >= cost)) continue;
       current = refit;
@@ -564,7 +564,7 @@ bool FitHomographyProsac(const std::vector<cv::Point2f> &src, const std::vector<
     // SPRT the extra samples are cheap.
     // A good model is drawn with share^4 and kept by the test with 1 - 1/A.
     const double good = std::pow(double(best) / count, 4) * (1 - 1 / decision);
-    const int k_best = UpdateIterations(confidence, 1 - std::pow(good, 0.25), max_iterations);
+    const int k_best = SamplesFor(confidence, good, max_iterations);
     k_max = std::min(k_max, std::max({k_best, t, kMinSamples}));
   }
   // Four pairs fit any sample's homography: a consensus of four is no evidence.
