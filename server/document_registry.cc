@@ -33,6 +33,8 @@ constexpr const char *kGroupingKey = "keypoints.grouping";
 constexpr const char *kFigureLlahKey = "figures.llah.options";
 // The figures' index holds a few dozen corners of the pages with figures: a smaller table.
 constexpr int kFigureLog2Buckets = 19;
+// The letters' index holds the large type of some pages: a few hundred letters of those.
+constexpr int kLetterLog2Buckets = 20;
 
 const char *GroupingName(WordGrouping g) {
   return g == WordGrouping::kLetterGraph ? "letter_graph" : "line_closing";
@@ -168,6 +170,21 @@ absl::Status DocumentRegistryOptions::Validate() const {
       return absl::InvalidArgumentError(
           absl::StrCat("figure_llah_n, figure_llah_m: ", s.message()));
   }
+  if (absl::Status s = letter_keypoints.Validate(); !s.ok())
+    return absl::InvalidArgumentError(absl::StrCat("letter_keypoints: ", s.message()));
+  if (!(letter_min_type_share > 0 && letter_min_type_share <= 0.5))
+    return absl::InvalidArgumentError(
+        absl::StrCat("letter_min_type_share must be in (0, 0.5] of the page's shorter side, got ",
+                     letter_min_type_share));
+  if (letter_min_keypoints < llah.n + 1)
+    return absl::InvalidArgumentError(absl::StrCat(
+        "letter_min_keypoints must exceed llah.n = ", llah.n, ", got ", letter_min_keypoints));
+  if (letter_max_keypoints < letter_min_keypoints)
+    return absl::InvalidArgumentError(absl::StrCat(
+        "letter_max_keypoints must be >= letter_min_keypoints, got ", letter_max_keypoints));
+  if (!(letter_inlier_share > 0 && letter_inlier_share <= 1))
+    return absl::InvalidArgumentError(
+        absl::StrCat("letter_inlier_share must be in (0, 1], got ", letter_inlier_share));
   if (figure_min_keypoints < figure_llah_n + 1)
     return absl::InvalidArgumentError(
         absl::StrCat("figure_min_keypoints must exceed figure_llah_n = ", figure_llah_n, ", got ",
@@ -196,7 +213,13 @@ DocumentRegistry::DocumentRegistry(std::unique_ptr<DocumentStore> store,
     : options_(std::move(options)),
       store_(std::move(store)),
       extractor_(options_.keypoints),
-      figure_extractor_(options_.figure_keypoints) {
+      figure_extractor_(options_.figure_keypoints),
+      letter_extractor_(options_.letter_keypoints),
+      page_letter_extractor_([this] {
+        LetterKeypointOptions o = options_.letter_keypoints;
+        o.max_keypoints = options_.letter_max_keypoints;
+        return o;
+      }()) {
   for (const WordKeypointOptions &o : options_.fallback_keypoints)
     fallback_extractors_.emplace_back(o);
   for (const RegistrationLayer &layer : options_.registration_layers)
@@ -251,17 +274,22 @@ absl::Status DocumentRegistry::LoadIndex() {
     ASSIGN_OR_RETURN(const LlahOptions figure_llah, FigureLlahOptions(llah));
     figures = std::make_shared<LlahRetriever>(figure_llah, quantizer, kFigureLog2Buckets);
   }
+  std::shared_ptr<LlahRetriever> letters;
+  if (options_.index_letters)
+    letters = std::make_shared<LlahRetriever>(llah, quantizer, kLetterLog2Buckets);
   auto retriever =
       std::make_shared<LlahRetriever>(llah, std::move(quantizer), options_.log2_buckets);
 
   ASSIGN_OR_RETURN(auto stored_hash_version, store_->GetSetting(kHashVersionKey));
   const bool hashes_valid = stored_hash_version && *stored_hash_version == kHashVersion;
-  std::vector<DocumentKeypoints> documents, figure_documents;
+  std::vector<DocumentKeypoints> documents, figure_documents, letter_documents;
   RETURN_IF_ERROR(
       store_->ForEachKeypoints([&](const DocumentSummary &s, DocumentStore::StoredKeypoints k) {
         summaries_[s.index_id] = s;
         if (figures && !k.figure_keypoints.empty())
           figure_documents.push_back({s.index_id, std::move(k.figure_keypoints), s.size, {}, {}});
+        if (letters && !k.letter_keypoints.empty())
+          letter_documents.push_back({s.index_id, std::move(k.letter_keypoints), s.size, {}, {}});
         if (!hashes_valid) k.hashes.clear();
         k.keypoints.insert(k.keypoints.end(), k.layer_keypoints.begin(), k.layer_keypoints.end());
         documents.push_back({s.index_id, std::move(k.keypoints), s.size, std::move(k.layer_sizes),
@@ -287,13 +315,18 @@ absl::Status DocumentRegistry::LoadIndex() {
   const size_t figure_pages = figure_documents.size();
   if (figures)
     RETURN_IF_ERROR(figures->AddDocuments(std::move(figure_documents), options_.rebuild_threads));
+  const size_t letter_pages = letter_documents.size();
+  if (letters)
+    RETURN_IF_ERROR(letters->AddDocuments(std::move(letter_documents), options_.rebuild_threads));
   retriever_ = std::move(retriever);
   figure_retriever_ = std::move(figures);
+  letter_retriever_ = std::move(letters);
   spdlog::info(
-      "document index: {} pages, {} entries, {:.1f} MiB ({} pages with figures, {:.1f} MiB), "
-      "read {:.0f} ms, rebuilt in {:.0f} ms",
+      "document index: {} pages, {} entries, {:.1f} MiB ({} pages with figures, {:.1f} MiB; "
+      "{} with large type, {:.1f} MiB), read {:.0f} ms, rebuilt in {:.0f} ms",
       n, retriever_->entries(), retriever_->MemoryBytes() / 1048576.0, figure_pages,
-      figure_retriever_ ? figure_retriever_->MemoryBytes() / 1048576.0 : 0.0, read_ms,
+      figure_retriever_ ? figure_retriever_->MemoryBytes() / 1048576.0 : 0.0, letter_pages,
+      letter_retriever_ ? letter_retriever_->MemoryBytes() / 1048576.0 : 0.0, read_ms,
       MillisecondsSince(t0));
   return absl::OkStatus();
 }
@@ -317,8 +350,12 @@ absl::Status DocumentRegistry::CreateRetriever(const std::vector<cv::Point2f> &t
     ASSIGN_OR_RETURN(const LlahOptions figure_llah, FigureLlahOptions(options_.llah));
     figures = std::make_shared<LlahRetriever>(figure_llah, quantizer, kFigureLog2Buckets);
   }
+  std::shared_ptr<LlahRetriever> letters;
+  if (options_.index_letters)
+    letters = std::make_shared<LlahRetriever>(options_.llah, quantizer, kLetterLog2Buckets);
   std::unique_lock lock(mutex_);
   figure_retriever_ = std::move(figures);
+  letter_retriever_ = std::move(letters);
   retriever_ =
       std::make_shared<LlahRetriever>(options_.llah, std::move(quantizer), options_.log2_buckets);
   return absl::OkStatus();
@@ -380,11 +417,12 @@ absl::StatusOr<DocumentRecord> DocumentRegistry::Register(
   record.keypoints = kp.points;
   ExtractLayers(gray, kp.points.size(), &record);
   record.figure_keypoints = std::move(figure_points);  // empty unless index_figures
+  if (options_.index_letters) record.letter_keypoints = PageLetters(gray);
   record.annotations = std::move(annotations);
   const double extract_ms = MillisecondsSince(t0);
 
   std::lock_guard registering(register_mutex_);
-  std::shared_ptr<LlahRetriever> retriever, figures;
+  std::shared_ptr<LlahRetriever> retriever, figures, letters;
   {
     std::shared_lock lock(mutex_);
     retriever = retriever_;
@@ -407,6 +445,7 @@ absl::StatusOr<DocumentRecord> DocumentRegistry::Register(
     std::shared_lock lock(mutex_);
     retriever = retriever_;
     figures = figure_retriever_;
+    letters = letter_retriever_;
   }
 
   std::vector<cv::Point2f> all = kp.points;
@@ -418,6 +457,13 @@ absl::StatusOr<DocumentRecord> DocumentRegistry::Register(
   if (added.ok() && figures && !record.figure_keypoints.empty()) {
     added = figures->AddDocument({record.index_id, record.figure_keypoints, gray.size(), {}, {}});
     if (!added.ok()) retriever->RemoveDocument(record.index_id);
+  }
+  if (added.ok() && letters && !record.letter_keypoints.empty()) {
+    added = letters->AddDocument({record.index_id, record.letter_keypoints, gray.size(), {}, {}});
+    if (!added.ok()) {
+      retriever->RemoveDocument(record.index_id);
+      if (figures) figures->RemoveDocument(record.index_id);
+    }
   }
   if (!added.ok()) {
     store_->Delete(record.id).IgnoreError();  // keep database and index in step
@@ -433,10 +479,11 @@ absl::StatusOr<DocumentRecord> DocumentRegistry::Register(
                                    record.created_unix_ms};
   }
   spdlog::info(
-      "registered document {} \"{}\": {}x{}, {} keypoints, {} figure keypoints, {} annotations "
-      "(extract {:.1f} ms, total {:.1f} ms)",
+      "registered document {} \"{}\": {}x{}, {} keypoints, {} figure keypoints, {} letters of "
+      "large type, {} annotations (extract {:.1f} ms, total {:.1f} ms)",
       record.id, record.title, gray.cols, gray.rows, record.keypoints.size(),
-      record.figure_keypoints.size(), record.annotations.size(), extract_ms, MillisecondsSince(t0));
+      record.figure_keypoints.size(), record.letter_keypoints.size(), record.annotations.size(),
+      extract_ms, MillisecondsSince(t0));
   return record;
 }
 
@@ -474,15 +521,17 @@ absl::Status DocumentRegistry::Delete(const std::string &id) {
   const auto t0 = Clock::now();
   std::lock_guard registering(register_mutex_);
   ASSIGN_OR_RETURN(uint32_t index_id, store_->Delete(id));
-  std::shared_ptr<LlahRetriever> retriever, figures;
+  std::shared_ptr<LlahRetriever> retriever, figures, letters;
   {
     std::unique_lock lock(mutex_);
     summaries_.erase(index_id);
     retriever = retriever_;
     figures = figure_retriever_;
+    letters = letter_retriever_;
   }
   if (retriever) retriever->RemoveDocument(index_id);
   if (figures) figures->RemoveDocument(index_id);
+  if (letters) letters->RemoveDocument(index_id);
   spdlog::info("deleted document {} in {:.1f} ms", id, MillisecondsSince(t0));
   return absl::OkStatus();
 }
@@ -660,11 +709,12 @@ void DocumentRegistry::RetrieveRectifiedPicture(
 absl::StatusOr<RetrievalResult> DocumentRegistry::RetrieveAsGiven(
     const cv::Mat &gray, const std::optional<CameraModel> &camera, int max_results) const {
   RetrievalResult result;
-  std::shared_ptr<LlahRetriever> retriever, figures;
+  std::shared_ptr<LlahRetriever> retriever, figures, letters;
   {
     std::shared_lock lock(mutex_);
     retriever = retriever_;
     figures = figure_retriever_;
+    letters = letter_retriever_;
   }
   RetrievalOptions ro = options_.retrieval;
   ro.max_results = max_results;
@@ -811,6 +861,28 @@ absl::StatusOr<RetrievalResult> DocumentRegistry::RetrieveAsGiven(
       }
     }
   }
+  // And the letters, for a close view of large type.
+  if (hits.empty() && letters && letters->documents() > 0) {
+    auto t = Clock::now();
+    const LetterKeypoints cut = letter_extractor_.Extract(gray);
+    extract_ms += MillisecondsSince(t);
+    if (static_cast<int>(cut.points.size()) > letters->describer().options().n) {
+      t = Clock::now();
+      RetrievalOptions lo = LetterRetrievalOptions(ro, cut.letter_size);
+      lo.text_angle_rad = measured.char_height > 0 ? measured.text_angle_rad
+                                                   : std::numeric_limits<double>::quiet_NaN();
+      hits = letters->Retrieve(cut.points, cut.letter_size, lo);
+      if (hits.empty() && options_.neighbourhood_pass_extractors > 0 &&
+          static_cast<int>(cut.points.size()) <= options_.retrieval.deep_max_keypoints)
+        hits = letters->RetrieveByNeighbourhoods(cut.points, cut.letter_size, lo);
+      match_ms += MillisecondsSince(t);
+      if (!hits.empty()) {
+        hits_kp.points = cut.points;
+        hits_kp.char_height = cut.letter_size;
+        hits_index = letters.get();
+      }
+    }
+  }
   kp = std::move(hits_kp);
   result.timings.Add("extract", extract_ms);
   if (!retriever) return result;
@@ -883,6 +955,25 @@ std::shared_ptr<const LlahRetriever> DocumentRegistry::figure_retriever() const 
   return figure_retriever_;
 }
 
+std::shared_ptr<const LlahRetriever> DocumentRegistry::letter_retriever() const {
+  std::shared_lock lock(mutex_);
+  return letter_retriever_;
+}
+
+std::vector<cv::Point2f> DocumentRegistry::PageLetters(const cv::Mat &gray) const {
+  const double min_type = options_.letter_min_type_share * std::min(gray.cols, gray.rows);
+  LetterKeypoints letters = page_letter_extractor_.Extract(gray, min_type);
+  if (static_cast<int>(letters.points.size()) < options_.letter_min_keypoints) return {};
+  return std::move(letters.points);
+}
+
+RetrievalOptions DocumentRegistry::LetterRetrievalOptions(RetrievalOptions ro,
+                                                          double letter_size) const {
+  ro.ransac_threshold_px = std::max(1.5, options_.letter_inlier_share * letter_size);
+  ro.deep_max_keypoints = options_.retrieval.deep_max_keypoints;
+  return ro;
+}
+
 std::shared_ptr<const LlahRetriever> DocumentRegistry::retriever() const {
   std::shared_lock lock(mutex_);
   return retriever_;
@@ -896,7 +987,8 @@ absl::StatusOr<std::vector<AnnotationRecord>> DocumentRegistry::AnnotationsByInd
 size_t DocumentRegistry::index_memory_bytes() const {
   std::shared_lock lock(mutex_);
   return (retriever_ ? retriever_->MemoryBytes() : 0) +
-         (figure_retriever_ ? figure_retriever_->MemoryBytes() : 0);
+         (figure_retriever_ ? figure_retriever_->MemoryBytes() : 0) +
+         (letter_retriever_ ? letter_retriever_->MemoryBytes() : 0);
 }
 
 size_t DocumentRegistry::index_entries() const {

@@ -15,6 +15,7 @@
 
 #include "absl/status/statusor.h"
 #include "common/figure_keypoints.h"
+#include "common/letter_keypoints.h"
 #include "common/llah.h"
 #include "common/llah_retriever.h"
 #include "common/planar_pose.h"
@@ -165,6 +166,23 @@ struct DocumentRegistryOptions {
   // database; an existing one keeps the ones it was built with.
   int figure_llah_n = 7;
   int figure_llah_m = 6;
+  // Large type (titles, headings, posters, slides, large body text): the centroids of its
+  // letters (LetterKeypointExtractor) are indexed apart from the words, with the words' LLAH
+  // settings and quantisation. A close view of large type holds a handful of words, too few
+  // whole neighbourhoods for any word cut, but dozens of letters. A page is registered with
+  // the letters of its type of at least letter_min_type_share of its shorter side (body text
+  // of 10-12 pt on an A4 page is 0.010-0.013; its views are found by their words and would
+  // multiply the index), the largest type first up to letter_max_keypoints, when they are
+  // at least letter_min_keypoints. A picture in which nothing else found a page is retrieved
+  // on every letter letter_keypoints cuts, with RANSAC's inlier distance at
+  // letter_inlier_share times the letters' size (a letter's centroid is located to a pixel
+  // or two; neighbouring letters are less than a letter's size apart).
+  bool index_letters = true;
+  LetterKeypointOptions letter_keypoints;
+  double letter_min_type_share = 0.016;
+  int letter_min_keypoints = 12;
+  int letter_max_keypoints = 1000;
+  double letter_inlier_share = 0.2;
   // A page with fewer word keypoints cannot be recognised reliably.
   int min_keypoints = 30;
   // Registering a page that retrieves a registered one with this many inliers
@@ -239,8 +257,13 @@ class DocumentRegistry {
     return figure_extractor_.Extract(gray, words.points, words.char_height);
   }
   RetrievalOptions FigureRetrievalOptions(RetrievalOptions ro) const;
+  // The letters' index (null until the first page is registered, or with index_letters off),
+  // the letters a page is registered with, and the options their retrieval runs with.
+  std::shared_ptr<const LlahRetriever> letter_retriever() const;
+  std::vector<cv::Point2f> PageLetters(const cv::Mat &gray) const;
+  RetrievalOptions LetterRetrievalOptions(RetrievalOptions ro, double letter_size) const;
 
-  // Both indexes' memory (words and figures).
+  // Every index's memory (words, figures and letters).
   size_t index_memory_bytes() const;
   size_t index_entries() const;
   const DocumentRegistryOptions &options() const { return options_; }
@@ -294,6 +317,10 @@ class DocumentRegistry {
   // The figures' index (index_figures), created with retriever_ and guarded alike.
   std::shared_ptr<LlahRetriever> figure_retriever_;
   FigureKeypointExtractor figure_extractor_;
+  // The letters' index (index_letters), created with retriever_ and guarded alike.
+  std::shared_ptr<LlahRetriever> letter_retriever_;
+  LetterKeypointExtractor letter_extractor_;       // a query's letters
+  LetterKeypointExtractor page_letter_extractor_;  // a registered page's (letter_max_keypoints)
   std::unordered_map<uint32_t, DocumentSummary> summaries_;
 };
 

@@ -61,6 +61,11 @@ ALTER TABLE documents ADD COLUMN layers BLOB;
     R"sql(
 ALTER TABLE documents ADD COLUMN figures BLOB;
 )sql",
+    // v5: the letters of the page's large type (LetterKeypointExtractor; NULL: none, or the
+    // page was registered before they were).
+    R"sql(
+ALTER TABLE documents ADD COLUMN letters BLOB;
+)sql",
 };
 
 int64_t NowUnixMs() {
@@ -209,9 +214,10 @@ absl::StatusOr<DocumentRecord> DocumentStore::Insert(DocumentRecord record) {
   SqliteTransaction tx(db_.get());
   RETURN_IF_ERROR(tx.Begin());
   {
-    ASSIGN_OR_RETURN(auto s, db_->Prepare("INSERT INTO documents (public_id, title, width, height, "
-                                          "created_unix_ms, keypoint_count, keypoints, hashes, "
-                                          "layers, figures) VALUES (?,?,?,?,?,?,?,?,?,?)"));
+    ASSIGN_OR_RETURN(auto s,
+                     db_->Prepare("INSERT INTO documents (public_id, title, width, height, "
+                                  "created_unix_ms, keypoint_count, keypoints, hashes, "
+                                  "layers, figures, letters) VALUES (?,?,?,?,?,?,?,?,?,?,?)"));
     const std::string blob = PackPoints(record.keypoints);
     const std::string hashes = PackHashes(record.hashes);
     RETURN_IF_ERROR(s.BindText(1, record.id));
@@ -237,6 +243,12 @@ absl::StatusOr<DocumentRecord> DocumentStore::Insert(DocumentRecord record) {
     } else {
       const std::string figures = PackPoints(record.figure_keypoints);
       RETURN_IF_ERROR(s.BindBlob(10, figures.data(), figures.size()));
+    }
+    if (record.letter_keypoints.empty()) {
+      RETURN_IF_ERROR(s.BindNull(11));
+    } else {
+      const std::string letters = PackPoints(record.letter_keypoints);
+      RETURN_IF_ERROR(s.BindBlob(11, letters.data(), letters.size()));
     }
     RETURN_IF_ERROR(s.Run());
   }
@@ -374,9 +386,10 @@ absl::Status DocumentStore::DeleteAnnotation(const std::string& document_id,
 absl::Status DocumentStore::ForEachKeypoints(
     const std::function<void(const DocumentSummary&, StoredKeypoints)>& f) {
   std::lock_guard lock(mutex_);
-  ASSIGN_OR_RETURN(auto s, db_->Prepare("SELECT index_id, public_id, title, width, height, "
-                                        "keypoint_count, created_unix_ms, keypoints, hashes, "
-                                        "layers, figures FROM documents ORDER BY index_id"));
+  ASSIGN_OR_RETURN(auto s,
+                   db_->Prepare("SELECT index_id, public_id, title, width, height, "
+                                "keypoint_count, created_unix_ms, keypoints, hashes, "
+                                "layers, figures, letters FROM documents ORDER BY index_id"));
   while (true) {
     ASSIGN_OR_RETURN(auto row, s.Step());
     if (!row) break;
@@ -393,6 +406,7 @@ absl::Status DocumentStore::ForEachKeypoints(
         !status.ok())
       return absl::DataLossError(absl::StrCat("document ", d.id, ": ", status.message()));
     k.figure_keypoints = UnpackPoints(s.ColumnBlob(10));
+    k.letter_keypoints = UnpackPoints(s.ColumnBlob(11));
     f(d, std::move(k));
   }
   return absl::OkStatus();

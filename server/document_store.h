@@ -28,7 +28,7 @@ struct DocumentSummary {
 class DocumentStore {
  public:
   // Current schema version; Open() migrates older files forward, refuses newer ones.
-  static constexpr int kSchemaVersion = 4;
+  static constexpr int kSchemaVersion = 5;
 
   static absl::StatusOr<std::unique_ptr<DocumentStore>> Open(const std::string& path);
 
@@ -54,6 +54,7 @@ class DocumentStore {
     std::vector<uint32_t> layer_sizes;
     std::vector<uint64_t> hashes;  // empty when none are stored
     std::vector<cv::Point2f> figure_keypoints;  // DocumentRecord's
+    std::vector<cv::Point2f> letter_keypoints;  // DocumentRecord's
   };
   // Streams every document's summary and keypoints for the start-up index rebuild.
   absl::Status ForEachKeypoints(

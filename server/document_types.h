@@ -53,6 +53,10 @@ struct DocumentRecord {
   // indexed apart from the words. Empty when the page has too few (or was registered
   // before figures were indexed).
   std::vector<cv::Point2f> figure_keypoints;
+  // Letters of the page's large type (LetterKeypointExtractor), in registration-image pixels,
+  // indexed apart from the words. Empty when the page has too few (or was registered before
+  // letters were indexed).
+  std::vector<cv::Point2f> letter_keypoints;
   std::vector<AnnotationRecord> annotations;
 };
 

@@ -185,6 +185,36 @@ TEST_F(DocumentStoreTest, FigureKeypointsAreStored) {
   EXPECT_TRUE(figures["text only"].empty());
 }
 
+// A page's large-type letters are stored apart from its words and figures and read back bit
+// for bit; a page without them (or from before schema version 5) reads back none.
+TEST_F(DocumentStoreTest, LetterKeypointsAreStored) {
+  {
+    auto store = DocumentStore::Open(path_);
+    ASSERT_TRUE(store.ok());
+    DocumentRecord poster = MakeRecord("poster", 3);
+    poster.letter_keypoints = {{110.5f, 20.25f}, {140.f, 21.75f}, {170.125f, 19.5f}};
+    poster.figure_keypoints = {{1.f, 2.f}};
+    ASSERT_TRUE((*store)->Insert(poster).ok());
+    ASSERT_TRUE((*store)->Insert(MakeRecord("small type", 3)).ok());
+  }
+  auto store = DocumentStore::Open(path_);
+  ASSERT_TRUE(store.ok());
+  std::map<std::string, DocumentStore::StoredKeypoints> read;
+  ASSERT_TRUE(
+      (*store)
+          ->ForEachKeypoints([&](const DocumentSummary& s, DocumentStore::StoredKeypoints k) {
+            read[s.title] = std::move(k);
+          })
+          .ok());
+  ASSERT_EQ(read.size(), 2u);
+  ASSERT_EQ(read["poster"].letter_keypoints.size(), 3u);
+  EXPECT_FLOAT_EQ(read["poster"].letter_keypoints[0].x, 110.5f);
+  EXPECT_FLOAT_EQ(read["poster"].letter_keypoints[2].x, 170.125f);
+  EXPECT_FLOAT_EQ(read["poster"].letter_keypoints[1].y, 21.75f);
+  ASSERT_EQ(read["poster"].figure_keypoints.size(), 1u);
+  EXPECT_TRUE(read["small type"].letter_keypoints.empty());
+}
+
 // A database written by schema version 1 (before hashes were stored) is migrated in place
 // and keeps its pages.
 TEST_F(DocumentStoreTest, MigratesVersionOneDatabase) {
