@@ -182,6 +182,12 @@ absl::Status DocumentRegistryOptions::Validate() const {
   if (letter_max_keypoints < letter_min_keypoints)
     return absl::InvalidArgumentError(absl::StrCat(
         "letter_max_keypoints must be >= letter_min_keypoints, got ", letter_max_keypoints));
+  if (letter_neighbourhood_min_tight < 8)
+    return absl::InvalidArgumentError(absl::StrCat(
+        "letter_neighbourhood_min_tight must be >= 8, got ", letter_neighbourhood_min_tight));
+  if (letter_max_word_keypoints < 0)
+    return absl::InvalidArgumentError(
+        absl::StrCat("letter_max_word_keypoints must be >= 0, got ", letter_max_word_keypoints));
   if (!(letter_inlier_share > 0 && letter_inlier_share <= 1))
     return absl::InvalidArgumentError(
         absl::StrCat("letter_inlier_share must be in (0, 1], got ", letter_inlier_share));
@@ -288,8 +294,11 @@ absl::Status DocumentRegistry::LoadIndex() {
         summaries_[s.index_id] = s;
         if (figures && !k.figure_keypoints.empty())
           figure_documents.push_back({s.index_id, std::move(k.figure_keypoints), s.size, {}, {}});
-        if (letters && !k.letter_keypoints.empty())
-          letter_documents.push_back({s.index_id, std::move(k.letter_keypoints), s.size, {}, {}});
+        if (letters && !k.letter_keypoints.empty()) {
+          if (!hashes_valid) k.letter_hashes.clear();
+          letter_documents.push_back(
+              {s.index_id, std::move(k.letter_keypoints), s.size, {}, std::move(k.letter_hashes)});
+        }
         if (!hashes_valid) k.hashes.clear();
         k.keypoints.insert(k.keypoints.end(), k.layer_keypoints.begin(), k.layer_keypoints.end());
         documents.push_back({s.index_id, std::move(k.keypoints), s.size, std::move(k.layer_sizes),
@@ -316,8 +325,18 @@ absl::Status DocumentRegistry::LoadIndex() {
   if (figures)
     RETURN_IF_ERROR(figures->AddDocuments(std::move(figure_documents), options_.rebuild_threads));
   const size_t letter_pages = letter_documents.size();
-  if (letters)
-    RETURN_IF_ERROR(letters->AddDocuments(std::move(letter_documents), options_.rebuild_threads));
+  if (letters) {
+    computed.clear();
+    RETURN_IF_ERROR(letters->AddDocuments(std::move(letter_documents), options_.rebuild_threads,
+                                          nullptr,
+                                          [&](uint32_t id, const std::vector<uint64_t> &hashes) {
+                                            computed.emplace_back(id, hashes);
+                                          }));
+    if (!computed.empty()) {
+      RETURN_IF_ERROR(store_->PutHashes(computed, DocumentStore::HashColumn::kLetters));
+      spdlog::info("document index: stored letter descriptors of {} pages", computed.size());
+    }
+  }
   retriever_ = std::move(retriever);
   figure_retriever_ = std::move(figures);
   letter_retriever_ = std::move(letters);
@@ -451,6 +470,8 @@ absl::StatusOr<DocumentRecord> DocumentRegistry::Register(
   std::vector<cv::Point2f> all = kp.points;
   all.insert(all.end(), record.layer_keypoints.begin(), record.layer_keypoints.end());
   retriever->DescribeLayers(all, record.layer_sizes, &record.hashes);
+  if (letters && !record.letter_keypoints.empty())
+    letters->DescribeLayers(record.letter_keypoints, {}, &record.letter_hashes);
   ASSIGN_OR_RETURN(record, store_->Insert(std::move(record)));
   absl::Status added = retriever->AddDocument(
       {record.index_id, std::move(all), gray.size(), record.layer_sizes, record.hashes});
@@ -459,7 +480,8 @@ absl::StatusOr<DocumentRecord> DocumentRegistry::Register(
     if (!added.ok()) retriever->RemoveDocument(record.index_id);
   }
   if (added.ok() && letters && !record.letter_keypoints.empty()) {
-    added = letters->AddDocument({record.index_id, record.letter_keypoints, gray.size(), {}, {}});
+    added = letters->AddDocument(
+        {record.index_id, record.letter_keypoints, gray.size(), {}, record.letter_hashes});
     if (!added.ok()) {
       retriever->RemoveDocument(record.index_id);
       if (figures) figures->RemoveDocument(record.index_id);
@@ -862,7 +884,8 @@ absl::StatusOr<RetrievalResult> DocumentRegistry::RetrieveAsGiven(
     }
   }
   // And the letters, for a close view of large type.
-  if (hits.empty() && letters && letters->documents() > 0) {
+  if (hits.empty() && letters && letters->documents() > 0 &&
+      static_cast<int>(first_points.size()) <= options_.letter_max_word_keypoints) {
     auto t = Clock::now();
     const LetterKeypoints cut = letter_extractor_.Extract(gray);
     extract_ms += MillisecondsSince(t);
@@ -970,6 +993,12 @@ std::vector<cv::Point2f> DocumentRegistry::PageLetters(const cv::Mat &gray) cons
 RetrievalOptions DocumentRegistry::LetterRetrievalOptions(RetrievalOptions ro,
                                                           double letter_size) const {
   ro.ransac_threshold_px = std::max(1.5, options_.letter_inlier_share * letter_size);
+  // The neighbourhood pass confirms a page on its tight matches alone: agreeing hits come by
+  // chance more often among letters, which are many and regularly spaced.
+  ro.neighbourhood_min_tight = options_.letter_neighbourhood_min_tight;
+  ro.neighbourhood_min_tight_wide =
+      std::max(ro.neighbourhood_min_tight_wide, ro.neighbourhood_min_tight);
+  ro.neighbourhood_min_tight_agreeing = 0;
   ro.deep_max_keypoints = options_.retrieval.deep_max_keypoints;
   return ro;
 }

@@ -179,10 +179,19 @@ struct DocumentRegistryOptions {
   // or two; neighbouring letters are less than a letter's size apart).
   bool index_letters = true;
   LetterKeypointOptions letter_keypoints;
-  double letter_min_type_share = 0.016;
+  double letter_min_type_share = 0.018;
   int letter_min_keypoints = 12;
   int letter_max_keypoints = 1000;
   double letter_inlier_share = 0.2;
+  // ...only for pictures whose first word cut has at most this many keypoints: type small
+  // enough for many words in view is found by them, and its letters would cost every
+  // unregistered view of small type another retrieval.
+  int letter_max_word_keypoints = 150;
+  // The neighbourhood pass (RetrievalOptions::neighbourhood_min_tight) on letters confirms
+  // a page from this many tight matches, without agreeing hits: a view of an unregistered
+  // page (10,000 pages, close views) grew a wrong page to 14 tight matches of its 112
+  // letters with 3 agreeing hits; the right pages it found had 20-38.
+  int letter_neighbourhood_min_tight = 20;
   // A page with fewer word keypoints cannot be recognised reliably.
   int min_keypoints = 30;
   // Registering a page that retrieves a registered one with this many inliers

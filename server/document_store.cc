@@ -62,9 +62,11 @@ ALTER TABLE documents ADD COLUMN layers BLOB;
 ALTER TABLE documents ADD COLUMN figures BLOB;
 )sql",
     // v5: the letters of the page's large type (LetterKeypointExtractor; NULL: none, or the
-    // page was registered before they were).
+    // page was registered before they were) and their LLAH descriptor hashes (NULL:
+    // recomputed at start-up and written back).
     R"sql(
 ALTER TABLE documents ADD COLUMN letters BLOB;
+ALTER TABLE documents ADD COLUMN letter_hashes BLOB;
 )sql",
 };
 
@@ -214,10 +216,10 @@ absl::StatusOr<DocumentRecord> DocumentStore::Insert(DocumentRecord record) {
   SqliteTransaction tx(db_.get());
   RETURN_IF_ERROR(tx.Begin());
   {
-    ASSIGN_OR_RETURN(auto s,
-                     db_->Prepare("INSERT INTO documents (public_id, title, width, height, "
-                                  "created_unix_ms, keypoint_count, keypoints, hashes, "
-                                  "layers, figures, letters) VALUES (?,?,?,?,?,?,?,?,?,?,?)"));
+    ASSIGN_OR_RETURN(auto s, db_->Prepare("INSERT INTO documents (public_id, title, width, height, "
+                                          "created_unix_ms, keypoint_count, keypoints, hashes, "
+                                          "layers, figures, letters, letter_hashes) "
+                                          "VALUES (?,?,?,?,?,?,?,?,?,?,?,?)"));
     const std::string blob = PackPoints(record.keypoints);
     const std::string hashes = PackHashes(record.hashes);
     RETURN_IF_ERROR(s.BindText(1, record.id));
@@ -249,6 +251,12 @@ absl::StatusOr<DocumentRecord> DocumentStore::Insert(DocumentRecord record) {
     } else {
       const std::string letters = PackPoints(record.letter_keypoints);
       RETURN_IF_ERROR(s.BindBlob(11, letters.data(), letters.size()));
+    }
+    if (record.letter_hashes.empty()) {
+      RETURN_IF_ERROR(s.BindNull(12));
+    } else {
+      const std::string letter_hashes = PackHashes(record.letter_hashes);
+      RETURN_IF_ERROR(s.BindBlob(12, letter_hashes.data(), letter_hashes.size()));
     }
     RETURN_IF_ERROR(s.Run());
   }
@@ -386,10 +394,10 @@ absl::Status DocumentStore::DeleteAnnotation(const std::string& document_id,
 absl::Status DocumentStore::ForEachKeypoints(
     const std::function<void(const DocumentSummary&, StoredKeypoints)>& f) {
   std::lock_guard lock(mutex_);
-  ASSIGN_OR_RETURN(auto s,
-                   db_->Prepare("SELECT index_id, public_id, title, width, height, "
-                                "keypoint_count, created_unix_ms, keypoints, hashes, "
-                                "layers, figures, letters FROM documents ORDER BY index_id"));
+  ASSIGN_OR_RETURN(auto s, db_->Prepare("SELECT index_id, public_id, title, width, height, "
+                                        "keypoint_count, created_unix_ms, keypoints, hashes, "
+                                        "layers, figures, letters, letter_hashes FROM documents "
+                                        "ORDER BY index_id"));
   while (true) {
     ASSIGN_OR_RETURN(auto row, s.Step());
     if (!row) break;
@@ -407,18 +415,22 @@ absl::Status DocumentStore::ForEachKeypoints(
       return absl::DataLossError(absl::StrCat("document ", d.id, ": ", status.message()));
     k.figure_keypoints = UnpackPoints(s.ColumnBlob(10));
     k.letter_keypoints = UnpackPoints(s.ColumnBlob(11));
+    k.letter_hashes = UnpackHashes(s.ColumnBlob(12));
     f(d, std::move(k));
   }
   return absl::OkStatus();
 }
 
 absl::Status DocumentStore::PutHashes(
-    const std::vector<std::pair<uint32_t, std::vector<uint64_t>>>& hashes) {
+    const std::vector<std::pair<uint32_t, std::vector<uint64_t>>>& hashes, HashColumn column) {
+  const char* sql = column == HashColumn::kLetters
+                        ? "UPDATE documents SET letter_hashes = ? WHERE index_id = ?"
+                        : "UPDATE documents SET hashes = ? WHERE index_id = ?";
   std::lock_guard lock(mutex_);
   SqliteTransaction tx(db_.get());
   RETURN_IF_ERROR(tx.Begin());
   for (const auto& [index_id, h] : hashes) {
-    ASSIGN_OR_RETURN(auto s, db_->Prepare("UPDATE documents SET hashes = ? WHERE index_id = ?"));
+    ASSIGN_OR_RETURN(auto s, db_->Prepare(sql));
     const std::string blob = PackHashes(h);
     RETURN_IF_ERROR(s.BindBlob(1, blob.data(), blob.size()));
     RETURN_IF_ERROR(s.BindInt(2, index_id));

@@ -55,13 +55,17 @@ class DocumentStore {
     std::vector<uint64_t> hashes;  // empty when none are stored
     std::vector<cv::Point2f> figure_keypoints;  // DocumentRecord's
     std::vector<cv::Point2f> letter_keypoints;  // DocumentRecord's
+    std::vector<uint64_t> letter_hashes;        // empty when none are stored
   };
   // Streams every document's summary and keypoints for the start-up index rebuild.
   absl::Status ForEachKeypoints(
       const std::function<void(const DocumentSummary&, StoredKeypoints)>& f);
 
-  // Stores descriptor hashes of documents (index_id -> hashes), in one transaction.
-  absl::Status PutHashes(const std::vector<std::pair<uint32_t, std::vector<uint64_t>>>& hashes);
+  // Stores descriptor hashes of documents (index_id -> hashes), in one transaction: of their
+  // words (DocumentRecord::hashes) or of their letters (DocumentRecord::letter_hashes).
+  enum class HashColumn { kWords, kLetters };
+  absl::Status PutHashes(const std::vector<std::pair<uint32_t, std::vector<uint64_t>>>& hashes,
+                         HashColumn column = HashColumn::kWords);
 
   absl::StatusOr<std::optional<std::string>> GetSetting(const std::string& key);
   absl::Status PutSetting(const std::string& key, const std::string& value);

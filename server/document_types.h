@@ -57,6 +57,9 @@ struct DocumentRecord {
   // indexed apart from the words. Empty when the page has too few (or was registered before
   // letters were indexed).
   std::vector<cv::Point2f> letter_keypoints;
+  // Their LLAH descriptor hashes (LlahRetriever::DescribeLayers layout, one layer). May be
+  // empty.
+  std::vector<uint64_t> letter_hashes;
   std::vector<AnnotationRecord> annotations;
 };
 

@@ -28,6 +28,7 @@
 #include <vector>
 
 #include "common/image_io.h"
+#include "common/letter_keypoints.h"
 #include "common/neighbor_grid.h"
 #include "common/planar_pose.h"
 #include "common/text_perspective.h"
@@ -299,6 +300,29 @@ void PrintMiss(const DocumentRegistry &registry, const Query &q, const cv::Mat &
                   nb.neighbourhood_other_inside);
     stats += line;
   }
+  // The letters of large type, as the registry's try after the figures cuts them.
+  if (const auto letters = registry.letter_retriever()) {
+    const texfree::LetterKeypoints cut =
+        texfree::LetterKeypointExtractor(registry.options().letter_keypoints).Extract(gray);
+    const auto letter_ref = letters->Keypoints(record->index_id);
+    stats += " | letters: page " + std::to_string(letter_ref.size()) + ", " +
+             RepeatStats(cut.points, cut.letter_size, letter_ref, q.truth, gray.size(),
+                         letters->describer());
+    texfree::RetrievalOptions ro = registry.options().retrieval;
+    ro.frame = gray.size();
+    ro = registry.LetterRetrievalOptions(ro, cut.letter_size);
+    texfree::RetrievalTrace t;
+    t.watch = record->index_id;
+    letters->Retrieve(cut.points, cut.letter_size, ro, &t);
+    char line[200];
+    std::snprintf(line, sizeof(line),
+                  " [stop %d, hits %d/%d, votes %d/%d/%d rank %d, candidate %d of %d, ransac %d "
+                  "final %d guided %d inside %d%s]",
+                  t.stop_word_lookups, t.hits, t.total_hits, t.coherent, t.strong, t.votes,
+                  t.rank_by_score, t.rank, t.candidates, t.ransac_inliers, t.final_inliers,
+                  t.guided, t.layout_inside, t.accepted ? " accepted" : "");
+    stats += line;
+  }
   std::fprintf(
       stderr,
       "miss page %d: tilt %.0f scale %.2f blur %.1f noise %.1f light %.2f (roll %.1f azimuth %.1f "
@@ -445,6 +469,14 @@ int main(int argc, char **argv) {
                  "RANSAC inlier distance of the figures' corners (px)");
   app.add_flag("!--no-figures", registry_options.index_figures,
                "no figure index (new database), no figure retrieval");
+  app.add_flag("!--no-letters", registry_options.index_letters,
+               "no index of large type's letters (new database: no letters stored), no letter "
+               "retrieval");
+  app.add_option("--letter-min-type", registry_options.letter_min_type_share,
+                 "type registered by its letters: at least this share of the page's shorter side "
+                 "(new pages only)");
+  app.add_option("--letter-inlier-share", registry_options.letter_inlier_share,
+                 "RANSAC inlier distance of the letters, times their size");
   app.add_option("--max-hits", registry_options.retrieval.max_hits_per_descriptor,
                  "descriptors with more index entries than this do not vote");
   app.add_option("--max-hits-per-1000", registry_options.retrieval.max_hits_per_1000_documents,
