@@ -193,6 +193,7 @@ TEST_F(DocumentStoreTest, LetterKeypointsAreStored) {
     ASSERT_TRUE(store.ok());
     DocumentRecord poster = MakeRecord("poster", 3);
     poster.letter_keypoints = {{110.5f, 20.25f}, {140.f, 21.75f}, {170.125f, 19.5f}};
+    poster.letter_hashes = {7, 0, 0x8000000000000001ull};
     poster.figure_keypoints = {{1.f, 2.f}};
     ASSERT_TRUE((*store)->Insert(poster).ok());
     ASSERT_TRUE((*store)->Insert(MakeRecord("small type", 3)).ok());
@@ -211,8 +212,32 @@ TEST_F(DocumentStoreTest, LetterKeypointsAreStored) {
   EXPECT_FLOAT_EQ(read["poster"].letter_keypoints[0].x, 110.5f);
   EXPECT_FLOAT_EQ(read["poster"].letter_keypoints[2].x, 170.125f);
   EXPECT_FLOAT_EQ(read["poster"].letter_keypoints[1].y, 21.75f);
+  EXPECT_EQ(read["poster"].letter_hashes, (std::vector<uint64_t>{7, 0, 0x8000000000000001ull}));
   ASSERT_EQ(read["poster"].figure_keypoints.size(), 1u);
   EXPECT_TRUE(read["small type"].letter_keypoints.empty());
+  EXPECT_TRUE(read["small type"].letter_hashes.empty());
+  // Hashes computed at start-up are written back into the letters' column, not the words'.
+  std::vector<uint64_t> words_before;
+  uint32_t poster_id = 0;
+  ASSERT_TRUE(
+      (*store)
+          ->ForEachKeypoints([&](const DocumentSummary& s, DocumentStore::StoredKeypoints k) {
+            if (s.title == "poster") {
+              poster_id = s.index_id;
+              words_before = k.hashes;
+            }
+          })
+          .ok());
+  ASSERT_TRUE(
+      (*store)->PutHashes({{poster_id, {1, 2, 3}}}, DocumentStore::HashColumn::kLetters).ok());
+  ASSERT_TRUE(
+      (*store)
+          ->ForEachKeypoints([&](const DocumentSummary& s, DocumentStore::StoredKeypoints k) {
+            if (s.index_id != poster_id) return;
+            EXPECT_EQ(k.letter_hashes, (std::vector<uint64_t>{1, 2, 3}));
+            EXPECT_EQ(k.hashes, words_before);
+          })
+          .ok());
 }
 
 // A database written by schema version 1 (before hashes were stored) is migrated in place
