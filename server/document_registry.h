@@ -173,10 +173,12 @@ struct DocumentRegistryOptions {
   // the letters of its type of at least letter_min_type_share of its shorter side (body text
   // of 10-12 pt on an A4 page is 0.010-0.013; its views are found by their words and would
   // multiply the index), the largest type first up to letter_max_keypoints, when they are
-  // at least letter_min_keypoints. A picture in which nothing else found a page is retrieved
-  // on every letter letter_keypoints cuts, with RANSAC's inlier distance at
-  // letter_inlier_share times the letters' size (a letter's centroid is located to a pixel
-  // or two; neighbouring letters are less than a letter's size apart).
+  // at least letter_min_keypoints. Rendered pages hold 73 such letters on average at 0.018
+  // (187 at 0.016, 877 at 0.012): at 10,000 pages the index is 967 MiB with them at 0.018,
+  // 1,086 at 0.016 (858 without), for 4,942 and 4,943 of 5,000 views (4,940 without). A picture in
+  // which nothing else found a page is retrieved on every letter letter_keypoints cuts, with
+  // RANSAC's inlier distance at letter_inlier_share times the letters' size (a letter's centroid is
+  // located to a pixel or two; neighbouring letters are less than a letter's size apart).
   bool index_letters = true;
   LetterKeypointOptions letter_keypoints;
   double letter_min_type_share = 0.018;

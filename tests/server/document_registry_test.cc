@@ -57,6 +57,33 @@ class DocumentRegistryTest : public ::testing::Test {
     return registry.ok() ? std::move(*registry) : nullptr;
   }
 
+  // The registry's index `index_of` (figures, letters) holds every page of `pages` that has
+  // a centre (not NaN) and maybe more; deleting the first of them takes it out, and a restart
+  // rebuilds the index from the database as it was.
+  using IndexOf = std::shared_ptr<const LlahRetriever> (DocumentRegistry::*)() const;
+  void ExpectDeleteAndRestartKeepIndex(std::unique_ptr<DocumentRegistry>* registry,
+                                       const DocumentRegistryOptions& options, IndexOf index_of,
+                                       const std::vector<cv::Point2f>& centres,
+                                       const std::vector<std::string>& ids) {
+    auto has = [](const cv::Point2f& c) { return !std::isnan(c.x); };
+    const auto index = ((**registry).*index_of)();
+    ASSERT_NE(index, nullptr);
+    const size_t documents = index->documents();
+    EXPECT_GE(documents, static_cast<size_t>(std::count_if(centres.begin(), centres.end(), has)));
+    const size_t first = std::find_if(centres.begin(), centres.end(), has) - centres.begin();
+    ASSERT_LT(first, ids.size());
+    ASSERT_TRUE((*registry)->Delete(ids[first]).ok());
+    EXPECT_EQ(index->documents(), documents - 1);
+    const size_t entries = index->entries();
+    registry->reset();
+    *registry = Open(options);
+    ASSERT_NE(*registry, nullptr);
+    const auto rebuilt = ((**registry).*index_of)();
+    ASSERT_NE(rebuilt, nullptr);
+    EXPECT_EQ(rebuilt->documents(), documents - 1);
+    EXPECT_EQ(rebuilt->entries(), entries);
+  }
+
   std::optional<std::string> Setting(const std::string& key) {
     auto store = DocumentStore::Open(path_);
     EXPECT_TRUE(store.ok()) << store.status();
@@ -796,28 +823,11 @@ TEST_F(DocumentRegistryTest, FigureViewsAreFoundByTheFiguresCorners) {
       std::printf("page %zu: found, homography %.2f px off\n", i, error);
       EXPECT_LT(error, 6.0) << "page " << i;
     }
-    if (!index_figures) return;
-    // Deleting a page takes its corners out of the figures' index; a restart rebuilds the
-    // index from the database as it was.
-    const auto figures_index = registry->figure_retriever();
-    ASSERT_NE(figures_index, nullptr);
-    const size_t documents = figures_index->documents();
-    // Every page with a figure, and pages with a few corners elsewhere (a table's rules).
-    EXPECT_GE(documents, static_cast<size_t>(
-                             std::count_if(centres.begin(), centres.end(),
-                                           [](const cv::Point2f& c) { return !std::isnan(c.x); })));
-    const size_t first_chart = std::find_if(centres.begin(), centres.end(),
-                                            [](const cv::Point2f& c) { return !std::isnan(c.x); }) -
-                               centres.begin();
-    ASSERT_TRUE(registry->Delete(ids[first_chart]).ok());
-    EXPECT_EQ(figures_index->documents(), documents - 1);
-    const size_t entries = figures_index->entries();
-    registry.reset();
-    registry = Open(options);
-    ASSERT_NE(registry, nullptr);
-    ASSERT_NE(registry->figure_retriever(), nullptr);
-    EXPECT_EQ(registry->figure_retriever()->documents(), documents - 1);
-    EXPECT_EQ(registry->figure_retriever()->entries(), entries);
+    // The figures' index holds every page with a figure, and pages with a few corners
+    // elsewhere (a table's rules).
+    if (index_figures)
+      ExpectDeleteAndRestartKeepIndex(&registry, options, &DocumentRegistry::figure_retriever,
+                                      centres, ids);
   };
   int found_with = 0, wrong_with = 0, found_without = 0, wrong_without = 0;
   run(true, &found_with, &wrong_with);
@@ -903,25 +913,9 @@ TEST_F(DocumentRegistryTest, LargeTypeViewsAreFoundByTheirLetters) {
       (*found)[i] = testdata::MeanHomographyError(result->documents[0].homography, photo.homography,
                                                   pages[i].size(), photo.image.size());
     }
-    if (!index_letters) return;
-    const auto letter_index = registry->letter_retriever();
-    ASSERT_NE(letter_index, nullptr);
-    const size_t documents = letter_index->documents();
-    EXPECT_GE(documents, static_cast<size_t>(
-                             std::count_if(centres.begin(), centres.end(),
-                                           [](const cv::Point2f& c) { return !std::isnan(c.x); })));
-    const size_t first = std::find_if(centres.begin(), centres.end(),
-                                      [](const cv::Point2f& c) { return !std::isnan(c.x); }) -
-                         centres.begin();
-    ASSERT_TRUE(registry->Delete(ids[first]).ok());
-    EXPECT_EQ(letter_index->documents(), documents - 1);
-    const size_t entries = letter_index->entries();
-    registry.reset();
-    registry = Open(options);
-    ASSERT_NE(registry, nullptr);
-    ASSERT_NE(registry->letter_retriever(), nullptr);
-    EXPECT_EQ(registry->letter_retriever()->documents(), documents - 1);
-    EXPECT_EQ(registry->letter_retriever()->entries(), entries);
+    if (index_letters)
+      ExpectDeleteAndRestartKeepIndex(&registry, options, &DocumentRegistry::letter_retriever,
+                                      centres, ids);
   };
   std::map<size_t, double> with, without;
   int wrong_with = 0, wrong_without = 0;
