@@ -182,6 +182,9 @@ absl::Status DocumentRegistryOptions::Validate() const {
   if (letter_max_keypoints < letter_min_keypoints)
     return absl::InvalidArgumentError(absl::StrCat(
         "letter_max_keypoints must be >= letter_min_keypoints, got ", letter_max_keypoints));
+  if (min_letters_alone < letter_min_keypoints)
+    return absl::InvalidArgumentError(
+        absl::StrCat("min_letters_alone must be >= letter_min_keypoints, got ", min_letters_alone));
   if (letter_neighbourhood_min_tight < 8)
     return absl::InvalidArgumentError(absl::StrCat(
         "letter_neighbourhood_min_tight must be >= 8, got ", letter_neighbourhood_min_tight));
@@ -413,11 +416,20 @@ absl::StatusOr<DocumentRecord> DocumentRegistry::Register(
   }
   if (title.size() > 1024) return absl::InvalidArgumentError("title is over 1024 bytes");
   WordKeypoints kp = extractor_.Extract(gray);
-  if (static_cast<int>(kp.points.size()) < options_.min_keypoints) {
-    return absl::FailedPreconditionError(
-        absl::StrCat("found ", kp.points.size(), " word keypoints in the ", gray.cols, "x",
-                     gray.rows, " image, at least ", options_.min_keypoints,
-                     " are needed: register a page of text, in focus, seen from above"));
+  LetterKeypoints page_letters;
+  if (options_.index_letters) page_letters = PageLetters(gray);
+  // A page of large type with few words (a poster, a title page, a slide) is carried by its
+  // letters: it needs enough words to be described at all, and min_letters_alone letters.
+  const int words = static_cast<int>(kp.points.size());
+  const bool by_letters =
+      words < options_.min_keypoints && words > options_.llah.n &&
+      static_cast<int>(page_letters.points.size()) >= options_.min_letters_alone;
+  if (words < options_.min_keypoints && !by_letters) {
+    return absl::FailedPreconditionError(absl::StrCat(
+        "found ", words, " word keypoints in the ", gray.cols, "x", gray.rows, " image, at least ",
+        options_.min_keypoints, " are needed (or, for a page of large type, ", options_.llah.n + 1,
+        " and ", options_.min_letters_alone, " letters of large type; found ",
+        page_letters.points.size(), "): register a page of text, in focus, seen from above"));
   }
 
   std::vector<cv::Point2f> figure_points;
@@ -436,7 +448,7 @@ absl::StatusOr<DocumentRecord> DocumentRegistry::Register(
   record.keypoints = kp.points;
   ExtractLayers(gray, kp.points.size(), &record);
   record.figure_keypoints = std::move(figure_points);  // empty unless index_figures
-  if (options_.index_letters) record.letter_keypoints = PageLetters(gray);
+  record.letter_keypoints = page_letters.points;       // empty unless index_letters
   record.annotations = std::move(annotations);
   const double extract_ms = MillisecondsSince(t0);
 
@@ -450,15 +462,33 @@ absl::StatusOr<DocumentRecord> DocumentRegistry::Register(
     RetrievalOptions check = options_.retrieval;
     check.max_results = 1;
     const auto hits = retriever->Retrieve(kp.points, kp.char_height, check);
-    if (!hits.empty() && hits[0].inliers >= options_.duplicate_min_inliers) {
-      const auto existing = Summary(hits[0].document);
+    std::vector<DocumentHit> letter_hits;
+    if (by_letters) {
+      // Its few words may not find it: its letters do (only for such a page: two pages of
+      // one report share headings, not whole pages).
+      std::shared_ptr<LlahRetriever> letter_index;
+      {
+        std::shared_lock lock(mutex_);
+        letter_index = letter_retriever_;
+      }
+      if (letter_index && letter_index->documents() > 0)
+        letter_hits =
+            letter_index->Retrieve(page_letters.points, page_letters.letter_size,
+                                   LetterRetrievalOptions(check, page_letters.letter_size));
+    }
+    const std::vector<DocumentHit> *answers[] = {&hits, &letter_hits};
+    for (const std::vector<DocumentHit> *found : answers) {
+      if (found->empty() || (*found)[0].inliers < options_.duplicate_min_inliers) continue;
+      const auto existing = Summary((*found)[0].document);
       return absl::AlreadyExistsError(absl::StrCat(
           "this page is already registered as document '", existing ? existing->id : "?", "' (\"",
-          existing ? existing->title : "", "\", ", hits[0].inliers,
+          existing ? existing->title : "", "\", ", (*found)[0].inliers,
           " matching keypoints); delete it first to register it again"));
     }
   } else {
-    RETURN_IF_ERROR(CreateRetriever(kp.points));
+    // The quantisation is learned from the first page's keypoints: its letters when they
+    // carry it.
+    RETURN_IF_ERROR(CreateRetriever(by_letters ? page_letters.points : kp.points));
   }
   {
     std::shared_lock lock(mutex_);
@@ -983,11 +1013,11 @@ std::shared_ptr<const LlahRetriever> DocumentRegistry::letter_retriever() const 
   return letter_retriever_;
 }
 
-std::vector<cv::Point2f> DocumentRegistry::PageLetters(const cv::Mat &gray) const {
+LetterKeypoints DocumentRegistry::PageLetters(const cv::Mat &gray) const {
   const double min_type = options_.letter_min_type_share * std::min(gray.cols, gray.rows);
   LetterKeypoints letters = page_letter_extractor_.Extract(gray, min_type);
   if (static_cast<int>(letters.points.size()) < options_.letter_min_keypoints) return {};
-  return std::move(letters.points);
+  return letters;
 }
 
 RetrievalOptions DocumentRegistry::LetterRetrievalOptions(RetrievalOptions ro,

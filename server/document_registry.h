@@ -194,8 +194,11 @@ struct DocumentRegistryOptions {
   // page (10,000 pages, close views) grew a wrong page to 14 tight matches of its 112
   // letters with 3 agreeing hits; the right pages it found had 20-38.
   int letter_neighbourhood_min_tight = 20;
-  // A page with fewer word keypoints cannot be recognised reliably.
+  // A page with fewer word keypoints cannot be recognised reliably by its words...
   int min_keypoints = 30;
+  // ...unless it is large type (a poster, a title page, a slide: index_letters) with at least
+  // this many letters registered and more than llah.n words.
+  int min_letters_alone = 60;
   // Registering a page that retrieves a registered one with this many inliers
   // is refused.
   int duplicate_min_inliers = 16;
@@ -271,7 +274,7 @@ class DocumentRegistry {
   // The letters' index (null until the first page is registered, or with index_letters off),
   // the letters a page is registered with, and the options their retrieval runs with.
   std::shared_ptr<const LlahRetriever> letter_retriever() const;
-  std::vector<cv::Point2f> PageLetters(const cv::Mat &gray) const;
+  LetterKeypoints PageLetters(const cv::Mat &gray) const;
   RetrievalOptions LetterRetrievalOptions(RetrievalOptions ro, double letter_size) const;
 
   // Every index's memory (words, figures and letters).

@@ -12,6 +12,7 @@
 #include <functional>
 #include <iterator>
 #include <map>
+#include <opencv2/freetype.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <set>
@@ -936,6 +937,66 @@ TEST_F(DocumentRegistryTest, LargeTypeViewsAreFoundByTheirLetters) {
     std::printf("page %zu: found by its letters, homography %.2f px off\n", page, error);
     EXPECT_LT(error, 1.5) << "page " << page;
   }
+}
+
+// A poster: a page of large type only, eleven words in 80 px bold and four in 40 px. Too
+// few words to be registered by them alone, its letters carry it.
+cv::Mat RenderPoster(const std::vector<std::string>& lines) {
+  cv::Mat page(1414, 1000, CV_8UC3, cv::Scalar(240, 240, 240));
+  auto ft = cv::freetype::createFreeType2();
+  ft->loadFontData("/usr/share/fonts/truetype/dejavu/DejaVuSans-Bold.ttf", 0);
+  int y = 300;
+  for (size_t i = 0; i < lines.size(); ++i) {
+    const int height = i + 1 < lines.size() ? 80 : 40;
+    ft->putText(page, lines[i], {70, y}, height, cv::Scalar(25, 25, 25), -1, cv::LINE_AA, true);
+    y += height * 2;
+  }
+  return page;
+}
+
+// Registered by its letters: found from a tilted, blurred view, refused as a duplicate, and
+// as the database's first page too (the quantisation then learned from its letters). A
+// page of a few words of small type is still refused.
+TEST_F(DocumentRegistryTest, PosterOfLargeTypeIsRegisteredByItsLetters) {
+  const cv::Mat poster = RenderPoster({"Summer Harbour", "Festival of", "Boats and Music",
+                                       "Saturday Night", "Market Square", "Free entry for all"});
+  const cv::Mat other = RenderPoster({"Winter Garden", "Lecture on", "Stars and Comets",
+                                      "Thursday Evening", "Town Library", "Doors open at seven"});
+  auto registry = Open(DocumentRegistryOptions());
+  ASSERT_NE(registry, nullptr);
+  // First in an empty database.
+  auto first = registry->Register(Gray(poster), "poster", {});
+  ASSERT_TRUE(first.ok()) << first.status();
+  EXPECT_LT(first->keypoints.size(), 30u);
+  EXPECT_GE(first->letter_keypoints.size(), 60u);
+  for (uint64_t seed = 0; seed < 6; ++seed) {
+    auto page = registry->Register(Gray(testdata::RenderTextPage(seed).image),
+                                   "page " + std::to_string(seed), {});
+    ASSERT_TRUE(page.ok()) << page.status();
+  }
+  auto second = registry->Register(Gray(other), "other poster", {});
+  ASSERT_TRUE(second.ok()) << second.status();
+
+  auto again = registry->Register(Gray(poster), "poster again", {});
+  EXPECT_EQ(again.status().code(), absl::StatusCode::kAlreadyExists) << again.status();
+  EXPECT_NE(again.status().message().find(first->id), std::string::npos) << again.status();
+
+  testdata::CameraViewOptions view = TiltedView();
+  view.scale = 0.55;  // the poster's text in a 640x480 picture
+  view.look_at = {500, 560};
+  ExpectFinds(*registry, testdata::RenderCameraView(poster, view, 5), poster, first->id, 2.0);
+  ExpectFinds(*registry, testdata::RenderCameraView(other, view, 6), other, second->id, 2.0);
+
+  // Ten words of body text: neither enough words nor large type.
+  cv::Mat note(1414, 1000, CV_8UC3, cv::Scalar(240, 240, 240));
+  auto ft = cv::freetype::createFreeType2();
+  ft->loadFontData("/usr/share/fonts/truetype/dejavu/DejaVuSerif.ttf", 0);
+  ft->putText(note, "a short note of ten words on an otherwise blank page", {70, 300}, 16,
+              cv::Scalar(25, 25, 25), -1, cv::LINE_AA, true);
+  auto refused = registry->Register(Gray(note), "note", {});
+  EXPECT_EQ(refused.status().code(), absl::StatusCode::kFailedPrecondition) << refused.status();
+  EXPECT_NE(refused.status().message().find("letters of large type"), std::string::npos)
+      << refused.status();
 }
 
 }  // namespace
