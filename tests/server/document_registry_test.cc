@@ -796,7 +796,7 @@ namespace {
 // Views of charts and photographs hold few words or none: the figures' corners find their
 // pages. 40 pages, 22 of them with a figure, each figure viewed close up (a phone held over
 // it, tilted 12 degrees, blurred, noisy, JPEG): with the figures indexed 14 views are found
-// (homographies 0.3-5.1 px off), without them 10; no view finds a wrong page either way.
+// (homographies 0.1-1.3 px off), without them 10; no view finds a wrong page either way.
 TEST_F(DocumentRegistryTest, FigureViewsAreFoundByTheFiguresCorners) {
   std::vector<cv::Mat> pages;
   std::vector<cv::Point2f> centres;  // of the page's figure corners (NaN: no figure)
