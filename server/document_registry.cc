@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <functional>
 #include <limits>
 #include <opencv2/imgproc.hpp>
 #include <sstream>
@@ -309,37 +310,37 @@ absl::Status DocumentRegistry::LoadIndex() {
       }));
   const double read_ms = MillisecondsSince(t0);
   const size_t n = documents.size();
-  std::vector<std::pair<uint32_t, std::vector<uint64_t>>> computed;
-  RETURN_IF_ERROR(retriever->AddDocuments(
-      std::move(documents), options_.rebuild_threads,
+  // Loads `loaded` into `index`; descriptors it had to compute are stored in `column` once,
+  // so that the next start-up reads them.
+  const auto load_and_store = [this](LlahRetriever *index, std::vector<DocumentKeypoints> loaded,
+                                     const std::function<void(size_t, size_t)> &progress,
+                                     DocumentStore::HashColumn column) -> absl::Status {
+    std::vector<std::pair<uint32_t, std::vector<uint64_t>>> computed;
+    RETURN_IF_ERROR(index->AddDocuments(std::move(loaded), options_.rebuild_threads, progress,
+                                        [&](uint32_t id, const std::vector<uint64_t> &hashes) {
+                                          computed.emplace_back(id, hashes);
+                                        }));
+    if (computed.empty()) return absl::OkStatus();
+    RETURN_IF_ERROR(store_->PutHashes(computed, column));
+    spdlog::info("document index: stored {} descriptors of {} pages",
+                 column == DocumentStore::HashColumn::kLetters ? "letter" : "word",
+                 computed.size());
+    return absl::OkStatus();
+  };
+  RETURN_IF_ERROR(load_and_store(
+      retriever.get(), std::move(documents),
       [](size_t done, size_t total) {
         spdlog::info("document index: rebuilt {}/{} pages", done, total);
       },
-      [&](uint32_t id, const std::vector<uint64_t> &hashes) {
-        computed.emplace_back(id, hashes);
-      }));
-  if (!computed.empty()) {
-    // Stored once, so that the next start-up reads them.
-    RETURN_IF_ERROR(store_->PutHashes(computed));
-    spdlog::info("document index: stored descriptors of {} pages", computed.size());
-  }
+      DocumentStore::HashColumn::kWords));
   RETURN_IF_ERROR(store_->PutSetting(kHashVersionKey, kHashVersion));
   const size_t figure_pages = figure_documents.size();
   if (figures)
     RETURN_IF_ERROR(figures->AddDocuments(std::move(figure_documents), options_.rebuild_threads));
   const size_t letter_pages = letter_documents.size();
-  if (letters) {
-    computed.clear();
-    RETURN_IF_ERROR(letters->AddDocuments(std::move(letter_documents), options_.rebuild_threads,
-                                          nullptr,
-                                          [&](uint32_t id, const std::vector<uint64_t> &hashes) {
-                                            computed.emplace_back(id, hashes);
-                                          }));
-    if (!computed.empty()) {
-      RETURN_IF_ERROR(store_->PutHashes(computed, DocumentStore::HashColumn::kLetters));
-      spdlog::info("document index: stored letter descriptors of {} pages", computed.size());
-    }
-  }
+  if (letters)
+    RETURN_IF_ERROR(load_and_store(letters.get(), std::move(letter_documents), nullptr,
+                                   DocumentStore::HashColumn::kLetters));
   retriever_ = std::move(retriever);
   figure_retriever_ = std::move(figures);
   letter_retriever_ = std::move(letters);
@@ -457,25 +458,18 @@ absl::StatusOr<DocumentRecord> DocumentRegistry::Register(
   {
     std::shared_lock lock(mutex_);
     retriever = retriever_;
+    letters = letter_retriever_;
   }
   if (retriever) {
     RetrievalOptions check = options_.retrieval;
     check.max_results = 1;
     const auto hits = retriever->Retrieve(kp.points, kp.char_height, check);
+    // A page carried by its letters may not be found by its few words: its letters find it
+    // (only for such a page: two pages of one report share headings, not whole pages).
     std::vector<DocumentHit> letter_hits;
-    if (by_letters) {
-      // Its few words may not find it: its letters do (only for such a page: two pages of
-      // one report share headings, not whole pages).
-      std::shared_ptr<LlahRetriever> letter_index;
-      {
-        std::shared_lock lock(mutex_);
-        letter_index = letter_retriever_;
-      }
-      if (letter_index && letter_index->documents() > 0)
-        letter_hits =
-            letter_index->Retrieve(page_letters.points, page_letters.letter_size,
-                                   LetterRetrievalOptions(check, page_letters.letter_size));
-    }
+    if (by_letters && letters && letters->documents() > 0)
+      letter_hits = letters->Retrieve(page_letters.points, page_letters.letter_size,
+                                      LetterRetrievalOptions(check, page_letters.letter_size));
     const std::vector<DocumentHit> *answers[] = {&hits, &letter_hits};
     for (const std::vector<DocumentHit> *found : answers) {
       if (found->empty() || (*found)[0].inliers < options_.duplicate_min_inliers) continue;
@@ -901,11 +895,7 @@ absl::StatusOr<RetrievalResult> DocumentRegistry::RetrieveAsGiven(
     extract_ms += MillisecondsSince(t);
     if (static_cast<int>(corners.points.size()) > figures->describer().options().n) {
       t = Clock::now();
-      const RetrievalOptions fo = FigureRetrievalOptions(ro);
-      hits = figures->Retrieve(corners.points, 0, fo);
-      if (hits.empty() && options_.neighbourhood_pass_extractors > 0 &&
-          static_cast<int>(corners.points.size()) <= options_.retrieval.deep_max_keypoints)
-        hits = figures->RetrieveByNeighbourhoods(corners.points, 0, fo);
+      hits = RetrieveWithNeighbourhoods(*figures, corners.points, 0, FigureRetrievalOptions(ro));
       match_ms += MillisecondsSince(t);
       if (!hits.empty()) {
         hits_kp = std::move(corners);
@@ -921,13 +911,8 @@ absl::StatusOr<RetrievalResult> DocumentRegistry::RetrieveAsGiven(
     extract_ms += MillisecondsSince(t);
     if (static_cast<int>(cut.points.size()) > letters->describer().options().n) {
       t = Clock::now();
-      RetrievalOptions lo = LetterRetrievalOptions(ro, cut.letter_size);
-      lo.text_angle_rad = measured.char_height > 0 ? measured.text_angle_rad
-                                                   : std::numeric_limits<double>::quiet_NaN();
-      hits = letters->Retrieve(cut.points, cut.letter_size, lo);
-      if (hits.empty() && options_.neighbourhood_pass_extractors > 0 &&
-          static_cast<int>(cut.points.size()) <= options_.retrieval.deep_max_keypoints)
-        hits = letters->RetrieveByNeighbourhoods(cut.points, cut.letter_size, lo);
+      hits = RetrieveWithNeighbourhoods(*letters, cut.points, cut.letter_size,
+                                        LetterRetrievalOptions(ro, cut.letter_size));
       match_ms += MillisecondsSince(t);
       if (!hits.empty()) {
         hits_kp.points = cut.points;
@@ -990,6 +975,16 @@ absl::StatusOr<AnnotationRecord> DocumentRegistry::AddAnnotation(const std::stri
 absl::Status DocumentRegistry::DeleteAnnotation(const std::string &id,
                                                 const std::string &annotation_id) {
   return store_->DeleteAnnotation(id, annotation_id);
+}
+
+std::vector<DocumentHit> DocumentRegistry::RetrieveWithNeighbourhoods(
+    const LlahRetriever &index, const std::vector<cv::Point2f> &points, double size,
+    const RetrievalOptions &o) const {
+  std::vector<DocumentHit> hits = index.Retrieve(points, size, o);
+  if (hits.empty() && options_.neighbourhood_pass_extractors > 0 &&
+      static_cast<int>(points.size()) <= options_.retrieval.deep_max_keypoints)
+    hits = index.RetrieveByNeighbourhoods(points, size, o);
+  return hits;
 }
 
 RetrievalOptions DocumentRegistry::FigureRetrievalOptions(RetrievalOptions ro) const {

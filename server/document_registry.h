@@ -315,6 +315,12 @@ class DocumentRegistry {
                                 const RetrievalOptions &ro, std::vector<DocumentHit> *hits,
                                 WordKeypoints *hits_kp, double *extract_ms, double *match_ms,
                                 std::vector<NeighbourhoodView> *small_views = nullptr) const;
+  // The last tries, on the figures' or the letters' own index: Retrieve(), then (for at most
+  // deep_max_keypoints points, when neighbourhood_pass_extractors allows the pass) the
+  // neighbourhood pass. `size`: the keypoints' text or letter size (0: none).
+  std::vector<DocumentHit> RetrieveWithNeighbourhoods(const LlahRetriever &index,
+                                                      const std::vector<cv::Point2f> &points,
+                                                      double size, const RetrievalOptions &o) const;
   // Retrieve() on the picture at the size given (Retrieve reduces large pictures first).
   absl::StatusOr<RetrievalResult> RetrieveAsGiven(const cv::Mat &gray,
                                                   const std::optional<CameraModel> &camera,

@@ -220,6 +220,18 @@ void PrintMiss(const DocumentRegistry &registry, const Query &q, const cv::Mat &
   if (!record.ok()) return;
   const auto ref = registry.retriever()->Keypoints(record->index_id);
   std::string stats;
+  // What happened at each gate of a Retrieve() (RetrievalTrace).
+  auto gates = [](const texfree::RetrievalTrace &t) {
+    char line[200];
+    std::snprintf(line, sizeof(line),
+                  " [%sstop %d, hits %d/%d, votes %d/%d/%d rank %d, candidate %d of %d, ransac "
+                  "%d final %d guided %d inside %d%s]",
+                  t.rectified ? "rectified, " : "", t.stop_word_lookups, t.hits, t.total_hits,
+                  t.coherent, t.strong, t.votes, t.rank_by_score, t.rank, t.candidates,
+                  t.ransac_inliers, t.final_inliers, t.guided, t.layout_inside,
+                  t.accepted ? " accepted" : "");
+    return std::string(line);
+  };
   std::vector<texfree::WordKeypointOptions> extractors{registry.options().keypoints};
   for (const auto &o : registry.options().fallback_keypoints) extractors.push_back(o);
   for (const auto &o : extractors) {
@@ -236,17 +248,6 @@ void PrintMiss(const DocumentRegistry &registry, const Query &q, const cv::Mat &
       ro.perspective.principal_point = {gray.cols / 2.0, gray.rows / 2.0};
     }
     registry.retriever()->Retrieve(kp.points, kp.char_height, ro, &t);
-    auto gates = [](const texfree::RetrievalTrace &t) {
-      char line[200];
-      std::snprintf(line, sizeof(line),
-                    " [%sstop %d, hits %d/%d, votes %d/%d/%d rank %d, candidate %d of %d, ransac "
-                    "%d final %d guided %d inside %d%s]",
-                    t.rectified ? "rectified, " : "", t.stop_word_lookups, t.hits, t.total_hits,
-                    t.coherent, t.strong, t.votes, t.rank_by_score, t.rank, t.candidates,
-                    t.ransac_inliers, t.final_inliers, t.guided, t.layout_inside,
-                    t.accepted ? " accepted" : "");
-      return std::string(line);
-    };
     stats += gates(t);
     if (static_cast<int>(kp.points.size()) <= ro.deep_max_keypoints) {
       texfree::RetrievalTrace nb;
@@ -314,14 +315,7 @@ void PrintMiss(const DocumentRegistry &registry, const Query &q, const cv::Mat &
     texfree::RetrievalTrace t;
     t.watch = record->index_id;
     letters->Retrieve(cut.points, cut.letter_size, ro, &t);
-    char line[200];
-    std::snprintf(line, sizeof(line),
-                  " [stop %d, hits %d/%d, votes %d/%d/%d rank %d, candidate %d of %d, ransac %d "
-                  "final %d guided %d inside %d%s]",
-                  t.stop_word_lookups, t.hits, t.total_hits, t.coherent, t.strong, t.votes,
-                  t.rank_by_score, t.rank, t.candidates, t.ransac_inliers, t.final_inliers,
-                  t.guided, t.layout_inside, t.accepted ? " accepted" : "");
-    stats += line;
+    stats += gates(t);
   }
   std::fprintf(
       stderr,
