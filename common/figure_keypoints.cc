@@ -29,6 +29,8 @@ absl::Status FigureKeypointOptions::Validate() const {
   if (!(min_eigenvalue >= 0)) return bad("min_eigenvalue must be >= 0");
   if (!(min_distance_px >= 1))
     return bad(absl::StrCat("min_distance_px must be >= 1, got ", min_distance_px));
+  if (!(centroid_max_blob_px >= 0))
+    return bad(absl::StrCat("centroid_max_blob_px must be >= 0, got ", centroid_max_blob_px));
   if (!(border_margin_px >= 0)) return bad("border_margin_px must be >= 0");
   if (max_keypoints < 1)
     return bad(absl::StrCat("max_keypoints must be >= 1, got ", max_keypoints));
@@ -100,36 +102,73 @@ std::vector<cv::Point2f> FigureKeypointExtractor::Extract(const cv::Mat &gray,
   const double floor = std::max(o.min_eigenvalue, o.min_quality * strongest);
   if (strongest < floor) return corners;
 
-  // Local maxima (3x3) above the floor, strongest first, then spaced min_distance_px apart:
-  // cv::goodFeaturesToTrack's selection, which takes only a floor relative to the strongest
-  // corner and would compute the eigenvalue map a second time for the absolute one.
+  // Candidates, strongest first, then spaced min_distance_px apart (cv::goodFeaturesToTrack's
+  // selection, which takes only a floor relative to the strongest corner and would compute
+  // the eigenvalue map a second time for the absolute one):
+  // - each blob of cornerness (connected pixels above the floor) at most
+  //   centroid_max_blob_px across gives its centroid, weighted by the eigenvalue;
+  // - the pixels of larger blobs give their local maxima (3x3), refined to sub-pixel.
   cv::Mat dilated;
   cv::dilate(eigen, dilated, cv::Mat());
   struct Candidate {
     float value;
-    cv::Point p;
+    cv::Point2f p;
+    bool centroid;  // a blob's centroid (sub-pixel already), else a local maximum
   };
   std::vector<Candidate> candidates;
+  cv::Mat above = (eigen >= floor) & mask;
+  std::vector<uint8_t> small_blob;
+  std::vector<cv::Vec4d> moments;  // per blob: sum e, sum e x, sum e y, max e
+  cv::Mat blob_labels;
+  if (o.centroid_max_blob_px > 0) {
+    cv::Mat blob_stats, blob_centroids;
+    const int blobs =
+        ConnectedComponentsWithStats(above, 8, &blob_labels, &blob_stats, &blob_centroids);
+    small_blob.assign(blobs, 0);
+    moments.assign(blobs, cv::Vec4d(0, 0, 0, 0));
+    for (int b = 1; b < blobs; ++b)
+      small_blob[b] = std::max(blob_stats.at<int>(b, cv::CC_STAT_WIDTH),
+                               blob_stats.at<int>(b, cv::CC_STAT_HEIGHT)) <= o.centroid_max_blob_px;
+  }
   for (int y = margin; y < gray.rows - margin; ++y) {
     const float *e = eigen.ptr<float>(y);
     const float *d = dilated.ptr<float>(y);
-    const uint8_t *m = mask.ptr<uint8_t>(y);
-    for (int x = margin; x < gray.cols - margin; ++x)
-      if (m[x] && e[x] >= floor && e[x] == d[x]) candidates.push_back({e[x], {x, y}});
+    const uint8_t *a = above.ptr<uint8_t>(y);
+    const int *b = blob_labels.empty() ? nullptr : blob_labels.ptr<int>(y);
+    for (int x = margin; x < gray.cols - margin; ++x) {
+      if (!a[x]) continue;
+      if (b != nullptr && small_blob[b[x]]) {
+        cv::Vec4d &mo = moments[b[x]];
+        mo[0] += e[x];
+        mo[1] += static_cast<double>(e[x]) * x;
+        mo[2] += static_cast<double>(e[x]) * y;
+        mo[3] = std::max<double>(mo[3], e[x]);
+      } else if (e[x] == d[x]) {
+        candidates.push_back(
+            {e[x], cv::Point2f(static_cast<float>(x), static_cast<float>(y)), false});
+      }
+    }
   }
+  for (size_t b = 1; b < moments.size(); ++b)
+    if (small_blob[b] && moments[b][0] > 0)
+      candidates.push_back({static_cast<float>(moments[b][3]),
+                            cv::Point2f(static_cast<float>(moments[b][1] / moments[b][0]),
+                                        static_cast<float>(moments[b][2] / moments[b][0])),
+                            true});
   std::sort(candidates.begin(), candidates.end(),
             [](const Candidate &a, const Candidate &b) { return a.value > b.value; });
   // Spacing through a coarse grid of cells min_distance_px wide.
   const double r2 = o.min_distance_px * o.min_distance_px;
   const int cell = std::max(1, static_cast<int>(std::ceil(o.min_distance_px)));
   const int gw = gray.cols / cell + 1, gh = gray.rows / cell + 1;
-  std::vector<std::vector<cv::Point>> grid(static_cast<size_t>(gw) * gh);
+  std::vector<std::vector<cv::Point2f>> grid(static_cast<size_t>(gw) * gh);
+  std::vector<char> refine;  // local maxima are refined to sub-pixel
   for (const Candidate &c : candidates) {
-    const int gx = c.p.x / cell, gy = c.p.y / cell;
+    const int gx = static_cast<int>(c.p.x) / cell, gy = static_cast<int>(c.p.y) / cell;
     bool free = true;
     for (int yy = std::max(0, gy - 1); free && yy <= std::min(gh - 1, gy + 1); ++yy)
       for (int xx = std::max(0, gx - 1); free && xx <= std::min(gw - 1, gx + 1); ++xx)
-        for (const cv::Point &q : grid[static_cast<size_t>(yy) * gw + xx]) {
+        for (const cv::Point2f &q : grid[static_cast<size_t>(yy) * gw + xx]) {
           const double dx = q.x - c.p.x, dy = q.y - c.p.y;
           if (dx * dx + dy * dy < r2) {
             free = false;
@@ -138,7 +177,8 @@ std::vector<cv::Point2f> FigureKeypointExtractor::Extract(const cv::Mat &gray,
         }
     if (!free) continue;
     grid[static_cast<size_t>(gy) * gw + gx].push_back(c.p);
-    corners.emplace_back(static_cast<float>(c.p.x), static_cast<float>(c.p.y));
+    corners.push_back(c.p);
+    refine.push_back(!c.centroid);
     if (static_cast<int>(corners.size()) >= o.max_keypoints) break;
   }
   if (!corners.empty()) {
@@ -148,7 +188,7 @@ std::vector<cv::Point2f> FigureKeypointExtractor::Extract(const cv::Mat &gray,
                      cv::TermCriteria(cv::TermCriteria::COUNT | cv::TermCriteria::EPS, 20, 0.03));
     // A weak or rounded corner can drift along an edge; such a refinement is not kept.
     for (size_t i = 0; i < corners.size(); ++i)
-      if (cv::norm(refined[i] - corners[i]) <= win) corners[i] = refined[i];
+      if (refine[i] && cv::norm(refined[i] - corners[i]) <= win) corners[i] = refined[i];
   }
   return corners;
 }

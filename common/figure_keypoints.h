@@ -38,6 +38,13 @@ struct FigureKeypointOptions {
   double min_quality = 0.02;
   double min_eigenvalue = 30.0;
   double min_distance_px = 8.0;
+  // A corner is the centroid of a blob of cornerness: the pixels above the floor around a
+  // local maximum, weighted by their eigenvalue, where the blob is at most
+  // centroid_max_blob_px across (larger ones, a cluttered photograph's, keep their local
+  // maxima). A plot's marker disc or a polyline's vertex drawn a few pixels wide has several
+  // maxima around its rim, and which of them is strongest changes with the view; the blob's
+  // centroid does not. 0: the local maxima only.
+  double centroid_max_blob_px = 24.0;
   // Corners within this many pixels of the image border are cut by the frame (a line that
   // leaves the picture makes a corner there) and dropped.
   double border_margin_px = 4.0;

@@ -214,8 +214,11 @@ std::string RepeatStats(const std::vector<cv::Point2f> &points, double char_heig
 }
 
 // One line per missed query: the view, and how each query extractor saw it.
+// save_figures: when not empty, the view is written there with its figure corners (red) and
+// the registered page's corners projected by the true homography (green).
 void PrintMiss(const DocumentRegistry &registry, const Query &q, const cv::Mat &gray,
-               const std::string &id, const texfree::server::RetrievalResult *result) {
+               const std::string &id, const texfree::server::RetrievalResult *result,
+               const std::string &save_figures) {
   auto record = registry.Get(id);
   if (!record.ok()) return;
   const auto ref = registry.retriever()->Keypoints(record->index_id);
@@ -280,6 +283,16 @@ void PrintMiss(const DocumentRegistry &registry, const Query &q, const cv::Mat &
     const auto figure_ref = figures->Keypoints(record->index_id);
     stats += " | figures: page " + std::to_string(figure_ref.size()) + ", " +
              RepeatStats(corners, 9.0, figure_ref, q.truth, gray.size(), figures->describer());
+    if (!save_figures.empty()) {
+      cv::Mat shown;
+      cv::cvtColor(gray, shown, cv::COLOR_GRAY2BGR);
+      for (const cv::Point2f &r : figure_ref) {
+        const cv::Point2d v = texfree::ApplyHomography(q.truth, cv::Point2d(r.x, r.y));
+        cv::circle(shown, v, 6, {0, 200, 0}, 1, cv::LINE_AA);
+      }
+      for (const cv::Point2f &c : corners) cv::circle(shown, c, 3, {0, 0, 255}, 1, cv::LINE_AA);
+      cv::imwrite(save_figures, shown);
+    }
     texfree::RetrievalOptions ro = registry.options().retrieval;
     ro.frame = gray.size();
     ro = registry.FigureRetrievalOptions(ro);
@@ -459,6 +472,15 @@ int main(int argc, char **argv) {
                  "LLAH neighbours of the figures' index (new database only)");
   app.add_option("--figure-llah-m", registry_options.figure_llah_m,
                  "LLAH neighbours per descriptor of the figures' index (new database only)");
+  app.add_option("--figure-llah-k", registry_options.figure_llah_k,
+                 "quantisation levels of the figures' index, a divisor of the words' (0: the "
+                 "words'; new database only)");
+  app.add_option("--figure-centroid-blob", registry_options.figure_keypoints.centroid_max_blob_px,
+                 "figure corners at the centroids of cornerness blobs up to this size (px; 0: "
+                 "local maxima only; new pages only)");
+  app.add_option("--figure-refit-min-matches", registry_options.figure_refit_min_matches,
+                 "refit a page found by its words on its figure's corners beyond them (or the "
+                 "reverse), from this many (0: off)");
   app.add_option("--figure-inlier-px", registry_options.figure_inlier_px,
                  "RANSAC inlier distance of the figures' corners (px)");
   app.add_flag("!--no-figures", registry_options.index_figures,
@@ -870,7 +892,10 @@ int main(int argc, char **argv) {
       } else if (misses || true_rectification) {
         if (true_rectification) PrintTrueRectification(*registry, q, *gray, id_of_page[q.page]);
         if (misses)
-          PrintMiss(*registry, q, *gray, id_of_page[q.page], result.ok() ? &*result : nullptr);
+          PrintMiss(*registry, q, *gray, id_of_page[q.page], result.ok() ? &*result : nullptr,
+                    save_misses.empty()
+                        ? std::string()
+                        : save_misses + "/figures_page" + std::to_string(q.page) + ".png");
         if (!save_misses.empty())
           cv::imwrite(save_misses + "/miss_page" + std::to_string(q.page) + ".png", *gray);
       }

@@ -585,6 +585,19 @@ TEST(DocumentRegistryOptionsTest, FigureOptionsAreValidated) {
   EXPECT_NE(message([](auto* o) { o->figure_min_keypoints = 5; }).find("figure_min_keypoints"),
             std::string::npos);
   EXPECT_NE(message([](auto* o) { o->figure_llah_m = 9; }).find("figure_llah"), std::string::npos);
+  EXPECT_NE(
+      message([](auto* o) { o->figure_refit_min_matches = 2; }).find("figure_refit_min_matches"),
+      std::string::npos);
+  EXPECT_NE(message([](auto* o) { o->figure_refit_search_px = 0; }).find("figure_refit_search_px"),
+            std::string::npos);
+  EXPECT_NE(message([](auto* o) { o->figure_llah_k = 3; }).find("figure_llah_k"),
+            std::string::npos);
+  EXPECT_NE(message([](auto* o) { o->figure_llah_k = 1; }).find("figure_llah_k"),
+            std::string::npos);
+  EXPECT_NE(message([](auto* o) {
+              o->figure_keypoints.centroid_max_blob_px = -1;
+            }).find("centroid_max_blob_px"),
+            std::string::npos);
   EXPECT_NE(message([](auto* o) { o->figure_query_probes = 9; }).find("figure_query_probes"),
             std::string::npos);
   EXPECT_NE(message([](auto* o) { o->figure_keypoints.block_size = 4; }).find("figure_keypoints"),
@@ -664,6 +677,48 @@ TEST_F(DocumentRegistryTest, DatabaseFromBeforeTheGroupingWasStoredKeepsTheLineC
   ASSERT_TRUE(record.ok()) << record.status();
   ExpectRetrieved(*registry, first.image, first_id, 6);
   ExpectRetrieved(*registry, second.image, record->id, 7);
+}
+
+// The figures' corner extraction and quantisation are the database's: a page's corners
+// must be cut and described as its views' are. A database from before the corner setting
+// was stored holds local maxima.
+TEST_F(DocumentRegistryTest, DatabaseKeepsItsFigureCornersAndLevels) {
+  const auto page = testdata::RenderTextPage(11);
+  {
+    DocumentRegistryOptions options;
+    options.figure_keypoints.centroid_max_blob_px = 16;
+    options.figure_llah_k = 4;
+    auto registry = Open(options);
+    ASSERT_NE(registry, nullptr);
+    ASSERT_TRUE(registry->Register(Gray(page.image), "eleven", {}).ok());
+  }
+  EXPECT_EQ(Setting("figures.corners.centroid_max_blob_px"), "16");
+  EXPECT_EQ(Setting("figures.llah.options"), "7,6,4");
+  {
+    DocumentRegistryOptions other;
+    other.figure_keypoints.centroid_max_blob_px = 0;
+    other.figure_llah_k = 8;
+    auto registry = Open(other);
+    ASSERT_NE(registry, nullptr);
+    EXPECT_EQ(registry->options().figure_keypoints.centroid_max_blob_px, 16);
+    ASSERT_NE(registry->figure_retriever(), nullptr);
+    EXPECT_EQ(registry->figure_retriever()->describer().options().k, 4);
+    EXPECT_EQ(registry->figure_retriever()->describer().quantizer().levels(), 4);
+  }
+  {  // What a database from before the setting looked like.
+    auto db = SqliteDb::Open(path_);
+    ASSERT_TRUE(db.ok()) << db.status();
+    ASSERT_TRUE(
+        (*db)
+            ->Exec("DELETE FROM settings WHERE key = 'figures.corners.centroid_max_blob_px'")
+            .ok());
+  }
+  DocumentRegistryOptions options;
+  options.figure_keypoints.centroid_max_blob_px = 16;
+  auto registry = Open(options);
+  ASSERT_NE(registry, nullptr);
+  EXPECT_EQ(registry->options().figure_keypoints.centroid_max_blob_px, 0);
+  EXPECT_EQ(Setting("figures.corners.centroid_max_blob_px"), "0");
 }
 
 TEST_F(DocumentRegistryTest, UnknownStoredGroupingIsDataLoss) {
@@ -854,10 +909,11 @@ TEST_F(DocumentRegistryTest, FigureViewsAreFoundByTheFiguresCorners) {
         RetrieveCloseViews(*registry, pages, centres, ids, 12, 1.3, 40, wrong);
     *found = static_cast<int>(views.size());
     for (const auto& [i, error] : views) {
-      // Corners are located to a pixel or two (a marker's on its rim): a few pixels over the
-      // view, against the fraction of a pixel of a page of words.
+      // Corners are located to a pixel or two (a right angle's blob centroid lies a pixel or
+      // two inside it, more in a blurred view than on the page): a few pixels over the view,
+      // against the fraction of a pixel of a page of words.
       std::printf("page %zu: found, homography %.2f px off\n", i, error);
-      EXPECT_LT(error, 6.0) << "page " << i;
+      EXPECT_LT(error, 8.0) << "page " << i;
     }
     // The figures' index holds every page with a figure, and pages with a few corners
     // elsewhere (a table's rules).
