@@ -561,6 +561,13 @@ bool LayoutConfirms(const std::vector<cv::Point2f> &reference, size_t count, con
              std::log10(o.max_layout_tail);
 }
 
+// The inlier distance in query pixels: RetrievalOptions::ransac_threshold_px, or derived from
+// the query's character height.
+double InlierThreshold(const RetrievalOptions &o, double query_char_height) {
+  return o.ransac_threshold_px > 0 ? o.ransac_threshold_px
+                                   : std::clamp(0.45 * query_char_height, 2.5, 12.0);
+}
+
 // The gate of guided matching once the matches stop growing: a few times the median
 // residual of the pairs (gr, gq) under H, so that extra keypoints a few pixels from a projected
 // word stop pulling the least-squares refit; within [1, threshold].
@@ -776,13 +783,6 @@ bool GrowNeighbourhood(const std::vector<cv::Point2f> &page, size_t base,
 }
 
 }  // namespace
-
-// The inlier distance in query pixels: RetrievalOptions::ransac_threshold_px, or derived from
-// the query's character height.
-double InlierThreshold(const RetrievalOptions &o, double query_char_height) {
-  return o.ransac_threshold_px > 0 ? o.ransac_threshold_px
-                                   : std::clamp(0.45 * query_char_height, 2.5, 12.0);
-}
 
 double NeighboursLostToFrame(const cv::Point2f &p, float radius, int n, const cv::Size &frame) {
   if (!(radius > 0)) return 0;

@@ -234,10 +234,6 @@ double NeighboursLostToFrame(const cv::Point2f &p, float radius, int n, const cv
 std::vector<char> CutByFrame(const std::vector<cv::Point2f> &points, const NeighborGrid &grid,
                              int n, const cv::Size &frame, double max_lost);
 
-// RANSAC's inlier distance in query pixels: RetrievalOptions::ransac_threshold_px, or
-// derived from the query's character height.
-double InlierThreshold(const RetrievalOptions &o, double query_char_height);
-
 struct DocumentHit {
   uint32_t document = 0;
   cv::Matx33d homography;  // reference keypoint frame -> query pixels

@@ -7,7 +7,6 @@
 #include <chrono>
 #include <functional>
 #include <limits>
-#include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 #include <sstream>
 
@@ -33,9 +32,18 @@ constexpr const char *kHashVersion = "1";
 // stored, which all used the line closing.
 constexpr const char *kGroupingKey = "keypoints.grouping";
 constexpr const char *kFigureLlahKey = "figures.llah.options";
-// RANSAC iterations of the refit on both kinds of keypoint (RefitWithOtherKeypoints).
-constexpr int kRefitIterations = 2000;
+// How the pages' figure corners were placed (FigureKeypointOptions::centroid_max_blob_px).
+// Absent in databases built before it was stored, which hold local maxima (0).
 constexpr const char *kFigureCornersKey = "figures.corners.centroid_max_blob_px";
+
+// The figures' index holds a few dozen corners of the pages with figures: a smaller table.
+constexpr int kFigureLog2Buckets = 19;
+// The letters' index holds the large type of some pages: a few hundred letters of those.
+constexpr int kLetterLog2Buckets = 20;
+
+const char *GroupingName(WordGrouping g) {
+  return g == WordGrouping::kLetterGraph ? "letter_graph" : "line_closing";
+}
 
 // The words' quantiser with every (levels / k)-th threshold: k levels at the same quantiles.
 InvariantQuantizer CoarserQuantizer(const InvariantQuantizer &words, int k) {
@@ -45,14 +53,6 @@ InvariantQuantizer CoarserQuantizer(const InvariantQuantizer &words, int k) {
   for (size_t i = step - 1; i < words.thresholds().size(); i += step)
     thresholds.push_back(words.thresholds()[i]);
   return InvariantQuantizer(std::move(thresholds));
-}
-// The figures' index holds a few dozen corners of the pages with figures: a smaller table.
-constexpr int kFigureLog2Buckets = 19;
-// The letters' index holds the large type of some pages: a few hundred letters of those.
-constexpr int kLetterLog2Buckets = 20;
-
-const char *GroupingName(WordGrouping g) {
-  return g == WordGrouping::kLetterGraph ? "letter_graph" : "line_closing";
 }
 
 std::string FormatOptions(const LlahOptions &o) { return absl::StrCat(o.n, ",", o.m, ",", o.k); }
@@ -185,12 +185,6 @@ absl::Status DocumentRegistryOptions::Validate() const {
       return absl::InvalidArgumentError(
           absl::StrCat("figure_llah_n, figure_llah_m: ", s.message()));
   }
-  if (figure_refit_min_matches != 0 && figure_refit_min_matches < 4)
-    return absl::InvalidArgumentError(absl::StrCat(
-        "figure_refit_min_matches must be 0 (off) or at least 4, got ", figure_refit_min_matches));
-  if (!(figure_refit_search_px > 0))
-    return absl::InvalidArgumentError(
-        absl::StrCat("figure_refit_search_px must be > 0, got ", figure_refit_search_px));
   if (figure_llah_k != 0 && (figure_llah_k < 2 || llah.k % figure_llah_k != 0))
     return absl::InvalidArgumentError(
         absl::StrCat("figure_llah_k must be 0 (the words' k) or a divisor of at least 2 of the "
@@ -975,34 +969,6 @@ absl::StatusOr<RetrievalResult> DocumentRegistry::RetrieveAsGiven(
     }
   }
   kp = std::move(hits_kp);
-  // A page found by one kind of keypoint (words or figure corners) with the other kind in
-  // the view beyond its matches: the homography is extrapolated there, and the other kind
-  // pins it down.
-  if (figures && options_.figure_refit_min_matches > 0 &&
-      (hits_index == retriever.get() || hits_index == figures.get())) {
-    const bool by_words = hits_index == retriever.get();
-    std::optional<std::vector<cv::Point2f>> corners;  // the picture's, cut once if needed
-    const auto query_other = [&]() -> const std::vector<cv::Point2f> & {
-      if (!by_words) return first_points;
-      if (!corners) {
-        const auto t = Clock::now();
-        corners = figure_extractor_.Extract(gray, first_points, measured.char_height);
-        extract_ms += MillisecondsSince(t);
-      }
-      return *corners;
-    };
-    const auto t = Clock::now();
-    for (DocumentHit &hit : hits) {
-      const std::vector<cv::Point2f> page_words = retriever->Keypoints(hit.document),
-                                     page_corners = figures->Keypoints(hit.document);
-      if (RefitWithOtherKeypoints(gray.size(), by_words ? page_words : page_corners, kp.points,
-                                  by_words ? page_corners : page_words, query_other,
-                                  InlierThreshold(ro, measured.char_height), &hit))
-        spdlog::debug("document index: page {} refit on its {}", hit.document,
-                      by_words ? "figure's corners" : "words");
-    }
-    match_ms += MillisecondsSince(t);
-  }
   result.timings.Add("extract", extract_ms);
   if (!retriever) return result;
   result.timings.Add("match", match_ms);
@@ -1066,89 +1032,6 @@ std::vector<DocumentHit> DocumentRegistry::RetrieveWithNeighbourhoods(
       static_cast<int>(points.size()) <= options_.retrieval.deep_max_keypoints)
     hits = index.RetrieveByNeighbourhoods(points, size, o);
   return hits;
-}
-
-bool DocumentRegistry::RefitWithOtherKeypoints(
-    const cv::Size &frame_size, const std::vector<cv::Point2f> &page_points,
-    const std::vector<cv::Point2f> &query_points, const std::vector<cv::Point2f> &page_other,
-    const std::function<const std::vector<cv::Point2f> &()> &query_other, double words_gate,
-    DocumentHit *hit) const {
-  const int min_matches = options_.figure_refit_min_matches;
-  if (page_other.size() < static_cast<size_t>(min_matches) || hit->matches.size() < 4) return false;
-  // The hit's matches and the hull they span in the picture.
-  std::vector<cv::Point2f> from, to, hull;
-  for (const auto &[q, r] : hit->matches) {
-    if (r >= static_cast<int>(page_points.size()) || q >= static_cast<int>(query_points.size()))
-      continue;
-    from.push_back(page_points[r]);
-    to.push_back(query_points[q]);
-  }
-  if (from.size() < 4) return false;
-  cv::convexHull(to, hull);
-  const cv::Rect frame(cv::Point(0, 0), frame_size);
-  // Both kinds' inlier distance: the corners' own, the words' from the text's height.
-  const double gate = std::max(options_.figure_inlier_px, words_gate);
-  // The other kind's keypoints the homography puts in the picture, beyond the matches.
-  int outside = 0;
-  std::vector<cv::Point2f> projected(page_other.size());
-  for (size_t i = 0; i < page_other.size(); ++i) {
-    const cv::Point2d p =
-        ApplyHomography(hit->homography, cv::Point2d(page_other[i].x, page_other[i].y));
-    projected[i] = cv::Point2f(static_cast<float>(p.x), static_cast<float>(p.y));
-    outside += frame.contains(cv::Point(cvRound(p.x), cvRound(p.y))) &&
-               cv::pointPolygonTest(hull, projected[i], true) < -gate;
-  }
-  if (outside < min_matches) return false;
-  const std::vector<cv::Point2f> &other = query_other();
-  if (other.empty()) return false;
-  // Each projected page keypoint paired with the nearest picture keypoint of its kind within
-  // the search radius (an extrapolated homography is a few pixels off), one to one.
-  std::vector<int> taken(other.size(), 0);
-  std::vector<cv::Point2f> other_from, other_to;
-  for (size_t i = 0; i < page_other.size(); ++i) {
-    if (!frame.contains(cv::Point(cvRound(projected[i].x), cvRound(projected[i].y)))) continue;
-    int best = -1;
-    double best_d = options_.figure_refit_search_px;
-    for (size_t c = 0; c < other.size(); ++c) {
-      const double d = cv::norm(other[c] - projected[i]);
-      if (d < best_d && !taken[c]) {
-        best_d = d;
-        best = static_cast<int>(c);
-      }
-    }
-    if (best < 0) continue;
-    taken[best] = 1;
-    other_from.push_back(page_other[i]);
-    other_to.push_back(other[best]);
-  }
-  if (static_cast<int>(other_from.size()) < min_matches) return false;
-  // A robust fit on both kinds: the hit's matches hold the page where they are, the other
-  // kind's beyond them.
-  std::vector<cv::Point2f> all_from = from, all_to = to;
-  all_from.insert(all_from.end(), other_from.begin(), other_from.end());
-  all_to.insert(all_to.end(), other_to.begin(), other_to.end());
-  const cv::Mat fit = cv::findHomography(all_from, all_to, cv::RANSAC, gate, cv::noArray(),
-                                         kRefitIterations, 0.999);
-  if (fit.empty()) return false;
-  const cv::Matx33d refit(fit);
-  auto count = [&](const cv::Matx33d &H, const std::vector<cv::Point2f> &a,
-                   const std::vector<cv::Point2f> &b) {
-    int n = 0;
-    for (size_t i = 0; i < a.size(); ++i)
-      n += cv::norm(ApplyHomography(H, cv::Point2d(a[i].x, a[i].y)) - cv::Point2d(b[i].x, b[i].y)) <
-           gate;
-    return n;
-  };
-  // Kept when it holds the hit's matches (all but one in 20) and min_matches / 2 more of the
-  // other kind's, at least min_matches in all.
-  const int held_before = count(hit->homography, from, to), held_after = count(refit, from, to);
-  const int other_before = count(hit->homography, other_from, other_to),
-            other_after = count(refit, other_from, other_to);
-  if (held_after < held_before - std::max(1, held_before / 20) ||
-      other_after < other_before + min_matches / 2 || other_after < min_matches)
-    return false;
-  hit->homography = refit * (1.0 / std::abs(refit(2, 2)));
-  return true;
 }
 
 RetrievalOptions DocumentRegistry::FigureRetrievalOptions(RetrievalOptions ro) const {

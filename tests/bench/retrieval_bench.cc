@@ -478,9 +478,6 @@ int main(int argc, char **argv) {
   app.add_option("--figure-centroid-blob", registry_options.figure_keypoints.centroid_max_blob_px,
                  "figure corners at the centroids of cornerness blobs up to this size (px; 0: "
                  "local maxima only; new pages only)");
-  app.add_option("--figure-refit-min-matches", registry_options.figure_refit_min_matches,
-                 "refit a page found by its words on its figure's corners beyond them (or the "
-                 "reverse), from this many (0: off)");
   app.add_option("--figure-inlier-px", registry_options.figure_inlier_px,
                  "RANSAC inlier distance of the figures' corners (px)");
   app.add_flag("!--no-figures", registry_options.index_figures,

@@ -585,11 +585,6 @@ TEST(DocumentRegistryOptionsTest, FigureOptionsAreValidated) {
   EXPECT_NE(message([](auto* o) { o->figure_min_keypoints = 5; }).find("figure_min_keypoints"),
             std::string::npos);
   EXPECT_NE(message([](auto* o) { o->figure_llah_m = 9; }).find("figure_llah"), std::string::npos);
-  EXPECT_NE(
-      message([](auto* o) { o->figure_refit_min_matches = 2; }).find("figure_refit_min_matches"),
-      std::string::npos);
-  EXPECT_NE(message([](auto* o) { o->figure_refit_search_px = 0; }).find("figure_refit_search_px"),
-            std::string::npos);
   EXPECT_NE(message([](auto* o) { o->figure_llah_k = 3; }).find("figure_llah_k"),
             std::string::npos);
   EXPECT_NE(message([](auto* o) { o->figure_llah_k = 1; }).find("figure_llah_k"),
@@ -703,7 +698,11 @@ TEST_F(DocumentRegistryTest, DatabaseKeepsItsFigureCornersAndLevels) {
     EXPECT_EQ(registry->options().figure_keypoints.centroid_max_blob_px, 16);
     ASSERT_NE(registry->figure_retriever(), nullptr);
     EXPECT_EQ(registry->figure_retriever()->describer().options().k, 4);
-    EXPECT_EQ(registry->figure_retriever()->describer().quantizer().levels(), 4);
+    // The words' thresholds, every other one: four levels at the same quantiles.
+    const auto& words = registry->retriever()->describer().quantizer().thresholds();
+    const auto& figures = registry->figure_retriever()->describer().quantizer().thresholds();
+    ASSERT_EQ(words.size(), 7u);
+    EXPECT_EQ(figures, (std::vector<float>{words[1], words[3], words[5]}));
   }
   {  // What a database from before the setting looked like.
     auto db = SqliteDb::Open(path_);
