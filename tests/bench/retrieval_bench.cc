@@ -477,7 +477,7 @@ int main(int argc, char **argv) {
                  "words'; new database only)");
   app.add_option("--figure-centroid-blob", registry_options.figure_keypoints.centroid_max_blob_px,
                  "figure corners at the centroids of cornerness blobs up to this size (px; 0: "
-                 "local maxima only; new pages only)");
+                 "local maxima only; new database only)");
   app.add_option("--figure-inlier-px", registry_options.figure_inlier_px,
                  "RANSAC inlier distance of the figures' corners (px)");
   app.add_flag("!--no-figures", registry_options.index_figures,
