@@ -29,6 +29,9 @@ absl::Status RetrievalOptions::Validate() const {
   if (!(polish_gate > 0 && polish_gate <= 1))
     return absl::InvalidArgumentError(
         "polish_gate must be in (0, 1] (a share of the inlier threshold)");
+  if (!(polish_match_gate >= 0 && polish_match_gate <= 5))
+    return absl::InvalidArgumentError(
+        "polish_match_gate must be in [0, 5] (times the inlier threshold; 0: the guided matches)");
   if (max_hits_per_1000_documents < 0)
     return absl::InvalidArgumentError("max_hits_per_1000_documents must be >= 0");
   if (stop_word_keypoints < 0)
@@ -1353,35 +1356,55 @@ std::vector<DocumentHit> LlahRetriever::RetrieveDescribed(const std::vector<cv::
       if (o.polish_homography && guided.size() >= 8) {
         const double gate = o.polish_gate * threshold;
         std::vector<cv::Point2f> gr, gq;
-        for (const auto &[qi, ri] : guided) {
-          gr.push_back(model.keypoints[ri]);
-          gq.push_back(query[qi]);
-        }
-        const cv::Mat robust =
-            cv::findHomography(gr, gq, cv::RANSAC, gate, cv::noArray(), kPolishIterations);
-        cv::Matx33d polished = robust.empty() ? H : cv::Matx33d(robust);
-        // How far the robust fit moves the corners of the view.
-        double moved = 0;
+        // Page keypoints within the gate of a query keypoint, now and for each refit (gr, gq
+        // are scratch here).
+        std::vector<std::pair<int, int>> before, after;
+        match_at(H, gate, &before, &gr, &gq);
+        size_t best = before.size();
         const cv::Matx33d to_page = H.inv();
-        for (const cv::Point2d corner :
-             {cv::Point2d(query_box.x, query_box.y), cv::Point2d(query_box.br().x, query_box.y),
-              cv::Point2d(query_box.x, query_box.br().y), cv::Point2d(query_box.br())}) {
-          moved = std::max(
-              moved,
-              cv::norm(ApplyHomography(polished, ApplyHomography(to_page, corner)) - corner));
-        }
-        if (moved > kPolishMinMove * gate && MakePlausibleHomography(&polished, gr)) {
-          std::vector<std::pair<int, int>> regrown = refine(&polished, inlier_pairs);
-          // Page keypoints within the gate of a query keypoint, before and after (gr, gq are
-          // scratch here).
-          std::vector<std::pair<int, int>> before, after;
-          match_at(H, gate, &before, &gr, &gq);
-          match_at(polished, gate, &after, &gr, &gq);
-          if (after.size() > before.size()) {
-            H = polished;
-            guided = std::move(regrown);
-            inliers = count_inliers(H);
+        cv::Matx33d best_h = H;
+        std::vector<std::pair<int, int>> best_guided;
+        // Two match sets to refit on: the guided matches, and (polish_match_gate) every page
+        // keypoint near a query keypoint, which reaches past the guided matches' region.
+        for (int set = 0; set < (o.polish_match_gate > 0 ? 2 : 1); ++set) {
+          gr.clear();
+          gq.clear();
+          if (set == 0) {
+            for (const auto &[qi, ri] : guided) {
+              gr.push_back(model.keypoints[ri]);
+              gq.push_back(query[qi]);
+            }
+          } else {
+            std::vector<std::pair<int, int>> wide;
+            match_at(H, o.polish_match_gate * threshold, &wide, &gr, &gq);
+            if (gr.size() < 8) continue;
           }
+          const cv::Mat robust =
+              cv::findHomography(gr, gq, cv::RANSAC, gate, cv::noArray(), kPolishIterations);
+          if (robust.empty()) continue;
+          cv::Matx33d polished(robust);
+          // How far the robust fit moves the corners of the view.
+          double moved = 0;
+          for (const cv::Point2d corner :
+               {cv::Point2d(query_box.x, query_box.y), cv::Point2d(query_box.br().x, query_box.y),
+                cv::Point2d(query_box.x, query_box.br().y), cv::Point2d(query_box.br())}) {
+            moved = std::max(
+                moved,
+                cv::norm(ApplyHomography(polished, ApplyHomography(to_page, corner)) - corner));
+          }
+          if (moved <= kPolishMinMove * gate || !MakePlausibleHomography(&polished, gr)) continue;
+          std::vector<std::pair<int, int>> regrown = refine(&polished, inlier_pairs);
+          match_at(polished, gate, &after, &gr, &gq);
+          if (after.size() > best) {
+            best = after.size();
+            best_h = polished;
+            best_guided = std::move(regrown);
+          }
+        }
+        if (best > before.size()) {
+          H = best_h;
+          guided = std::move(best_guided);
+          inliers = count_inliers(H);
         }
       }
       DocumentHit hit;

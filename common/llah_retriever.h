@@ -151,6 +151,14 @@ struct RetrievalOptions {
   // 55 at 27 px mean error over the view; the robust refit put it within 2 px.)
   bool polish_homography = true;
   double polish_gate = 0.5;
+  // ...and also RANSAC over every page keypoint within polish_match_gate times the inlier
+  // threshold of a query keypoint (0: not): guided matching grows from the consensus, and
+  // a homography extrapolated across a figure or a margin misses a second text block
+  // beyond it by more than the threshold. Of the two refits, the one that puts more of
+  // the page within the gate is kept. At 10,000 pages two views whose words lie on both
+  // sides of a photograph or a chart went from 10.1-10.4 px mean error over the view to
+  // 0.2 and 6.1 px.
+  double polish_match_gate = 2.0;
   // The few-keypoint pass. Views of large type, of a page's corner, or steep views of a
   // column keep few whole neighbourhoods: at 10,000 pages the right page's handful of
   // descriptor hits is cut by the hit prefilter among chance hits, or it has one strong

@@ -70,6 +70,8 @@ struct Query {
   texfree::testdata::CameraView camera;  // geometry only (no image), for the true projection
   // Rendered-page pixels -> registered-image pixels (--register-scale).
   cv::Matx33d page_to_registered = cv::Matx33d::eye();
+  uint64_t render_seed = 0;  // RenderCameraView's seed
+  int jpeg_quality = 0;
 };
 
 // How the camera views are drawn: `resolution` scales the camera's pixels (the same views,
@@ -150,11 +152,11 @@ std::vector<Query> MakeQueries(int count, int registered, uint64_t seed, bool un
     auto view = texfree::testdata::RenderCameraView(rendered.image, options, seed + i);
     if (range.undistort) view.image = texfree::testdata::UndistortView(view.image, view, &options);
     std::vector<uchar> bytes;
-    cv::imencode(".jpg", view.image, bytes,
-                 {cv::IMWRITE_JPEG_QUALITY, 60 + static_cast<int>(rng() % 36)});
+    const int quality = 60 + static_cast<int>(rng() % 36);
+    cv::imencode(".jpg", view.image, bytes, {cv::IMWRITE_JPEG_QUALITY, quality});
     view.image.release();
     out.push_back({std::string(bytes.begin(), bytes.end()), page, view.homography,
-                   rendered.image.size(), options, view});
+                   rendered.image.size(), options, view, cv::Matx33d::eye(), seed + i, quality});
   }
   return out;
 }
@@ -574,6 +576,9 @@ int main(int argc, char **argv) {
   app.add_flag("--no-similarity-start", no_similarity_start,
                "guided matching from the homography only, not also from a similarity");
   bool no_polish = false;
+  app.add_option("--polish-match-gate", registry_options.retrieval.polish_match_gate,
+                 "the robust refit of an accepted page over its keypoints within this many "
+                 "inlier thresholds of a query keypoint (0: over the guided matches)");
   app.add_flag("--no-polish", no_polish,
                "no robust refit of an accepted page's homography (RetrievalOptions::"
                "polish_homography)");
@@ -881,8 +886,18 @@ int main(int argc, char **argv) {
         if (err < 10) {
           ++correct;
         } else if (misses) {
-          std::fprintf(stderr, "off page %d: found, but %.1f px off (curl %.3f k1 %+.3f)\n", q.page,
-                       err, q.view.page_curl, q.view.radial_k1);
+          // The view's draws to the last digit (a test can render it again).
+          std::fprintf(stderr,
+                       "off page %d: found, but %.1f px off (render seed %llu, JPEG %d, fov "
+                       "%.17g tilt %.17g azimuth %.17g roll %.17g scale %.17g look-at %.17g,%.17g "
+                       "blur %.17g noise %.17g light %.17g desk %.17g,%.17g,%.17g curl %.3f k1 "
+                       "%+.3f)\n",
+                       q.page, err, static_cast<unsigned long long>(q.render_seed), q.jpeg_quality,
+                       q.view.horizontal_fov_deg, q.view.tilt_deg, q.view.tilt_azimuth_deg,
+                       q.view.roll_deg, q.view.scale, q.view.look_at.x, q.view.look_at.y,
+                       q.view.blur_sigma, q.view.noise_sigma, q.view.illumination_gradient,
+                       q.view.background[0], q.view.background[1], q.view.background[2],
+                       q.view.page_curl, q.view.radial_k1);
           if (!save_misses.empty())
             cv::imwrite(save_misses + "/off_page" + std::to_string(q.page) + ".png", *gray);
         }

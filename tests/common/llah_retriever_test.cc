@@ -966,6 +966,8 @@ TEST(RetrievalOptionsTest, ValidateRejectsBadValuesWithAMessage) {
       {"guided_growth_rounds", [](RetrievalOptions& o) { o.guided_growth_rounds = -1; }},
       {"polish_gate", [](RetrievalOptions& o) { o.polish_gate = 0; }},
       {"polish_gate", [](RetrievalOptions& o) { o.polish_gate = 1.5; }},
+      {"polish_match_gate", [](RetrievalOptions& o) { o.polish_match_gate = -1; }},
+      {"polish_match_gate", [](RetrievalOptions& o) { o.polish_match_gate = 6; }},
   };
   for (const Case& c : cases) {
     RetrievalOptions o;

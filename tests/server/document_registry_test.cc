@@ -778,16 +778,70 @@ TEST_F(DocumentRegistryTest, SteepViewIsFoundByTheHorizonsPerspectiveAlone) {
 // found 10 px off; the other two are found within 2 px at this size of database either way
 // and check that the refit keeps them so. The robust refit of the accepted page's
 // homography (RetrievalOptions::polish_homography) puts all three within 2 px.
+// A view of the retrieval benchmark, drawn to the last digit (texfree-bench-retrieval
+// --misses prints a view found off as "off page"), and the benchmark's path: the colour view
+// JPEG-encoded, decoded as grey.
+struct BenchmarkView {
+  uint64_t page, seed;
+  int jpeg_quality;
+  double fov, tilt, azimuth, roll, scale, look_x, look_y, blur, noise, light;
+  double desk_b, desk_g, desk_r;
+};
+
+// Each view's page registered in `registry`, and the views rendered.
+struct BenchmarkViews {
+  std::vector<std::string> ids;
+  std::vector<cv::Mat> pages, pictures;
+  std::vector<testdata::CameraView> photos;
+};
+
+BenchmarkViews RegisterAndRender(DocumentRegistry& registry,
+                                 const std::vector<BenchmarkView>& views) {
+  BenchmarkViews out;
+  for (const BenchmarkView& v : views) {
+    const auto rendered = testdata::RenderTextPage(v.page);
+    auto record = registry.Register(Gray(rendered.image), "page " + std::to_string(v.page), {});
+    EXPECT_TRUE(record.ok()) << record.status();
+    out.ids.push_back(record.ok() ? record->id : "");
+    out.pages.push_back(rendered.image);
+    testdata::CameraViewOptions view;
+    view.horizontal_fov_deg = v.fov;
+    view.tilt_deg = v.tilt;
+    view.tilt_azimuth_deg = v.azimuth;
+    view.roll_deg = v.roll;
+    view.scale = v.scale;
+    view.look_at = {v.look_x, v.look_y};
+    view.blur_sigma = v.blur;
+    view.noise_sigma = v.noise;
+    view.illumination_gradient = v.light;
+    view.background = {v.desk_b, v.desk_g, v.desk_r};
+    out.photos.push_back(testdata::RenderCameraView(rendered.image, view, v.seed));
+    std::vector<uchar> jpeg;
+    EXPECT_TRUE(cv::imencode(".jpg", out.photos.back().image, jpeg,
+                             {cv::IMWRITE_JPEG_QUALITY, v.jpeg_quality}));
+    out.pictures.push_back(cv::imdecode(jpeg, cv::IMREAD_GRAYSCALE));
+  }
+  return out;
+}
+
+// Mean homography error over the view of each picture's page (1e9: not found alone).
+std::vector<double> RetrievalErrors(const DocumentRegistry& registry, const BenchmarkViews& v) {
+  std::vector<double> out;
+  for (size_t i = 0; i < v.pictures.size(); ++i) {
+    auto result = registry.Retrieve(v.pictures[i], std::nullopt, 0);
+    EXPECT_TRUE(result.ok()) << result.status();
+    const bool alone = result.ok() && result->documents.size() == 1 &&
+                       result->documents[0].document.id == v.ids[i];
+    out.push_back(alone ? testdata::MeanHomographyError(result->documents[0].homography,
+                                                        v.photos[i].homography, v.pages[i].size(),
+                                                        v.pictures[i].size())
+                        : 1e9);
+  }
+  return out;
+}
+
 TEST_F(DocumentRegistryTest, HomographyOfAPageBesideAChartIsRefitRobustly) {
-  struct BenchmarkView {
-    uint64_t page, seed;
-    int jpeg_quality;
-    double fov, tilt, azimuth, roll, scale, look_x, look_y, blur, noise, light;
-    double desk_b, desk_g, desk_r;
-  };
-  // The benchmark's draws (texfree-bench-retrieval --view-set 1 and 2), to the last digit,
-  // and its path: the colour view JPEG-encoded, decoded as grey.
-  const BenchmarkView views[] = {
+  const std::vector<BenchmarkView> views = {
       {2447, 7919011750, 72, 66.779983032604775, 26.040662120843372, 94.394488039603232,
        114.25883047230593, 0.81302810869177911, 636.83546678139908, 572.10994827981119,
        1.2078088239921509, 0.40434047310238963, 0.22943636428976827, 63.022815974262933,
@@ -805,46 +859,8 @@ TEST_F(DocumentRegistryTest, HomographyOfAPageBesideAChartIsRefitRobustly) {
   options.retrieval.polish_homography = false;
   auto registry = Open(options);
   ASSERT_NE(registry, nullptr);
-  std::vector<std::string> ids;
-  std::vector<cv::Mat> pages, pictures;
-  std::vector<testdata::CameraView> photos;
-  for (const BenchmarkView& v : views) {
-    pages.emplace_back();
-    ids.push_back(RegisterPages(*registry, {v.page}, v.page, &pages.back()));
-    ASSERT_FALSE(ids.back().empty());
-    testdata::CameraViewOptions view;
-    view.horizontal_fov_deg = v.fov;
-    view.tilt_deg = v.tilt;
-    view.tilt_azimuth_deg = v.azimuth;
-    view.roll_deg = v.roll;
-    view.scale = v.scale;
-    view.look_at = {v.look_x, v.look_y};
-    view.blur_sigma = v.blur;
-    view.noise_sigma = v.noise;
-    view.illumination_gradient = v.light;
-    view.background = {v.desk_b, v.desk_g, v.desk_r};
-    photos.push_back(testdata::RenderCameraView(pages.back(), view, v.seed));
-    std::vector<uchar> jpeg;
-    ASSERT_TRUE(cv::imencode(".jpg", photos.back().image, jpeg,
-                             {cv::IMWRITE_JPEG_QUALITY, v.jpeg_quality}));
-    pictures.push_back(cv::imdecode(jpeg, cv::IMREAD_GRAYSCALE));
-  }
-  // Mean homography error over the view of each picture's page (1e9: not found alone).
-  const auto errors = [&](const DocumentRegistry& r) {
-    std::vector<double> out;
-    for (size_t i = 0; i < std::size(views); ++i) {
-      auto result = r.Retrieve(pictures[i], std::nullopt, 0);
-      EXPECT_TRUE(result.ok()) << result.status();
-      const bool alone = result.ok() && result->documents.size() == 1 &&
-                         result->documents[0].document.id == ids[i];
-      out.push_back(alone ? testdata::MeanHomographyError(result->documents[0].homography,
-                                                          photos[i].homography, pages[i].size(),
-                                                          pictures[i].size())
-                          : 1e9);
-    }
-    return out;
-  };
-  const std::vector<double> without = errors(*registry);
+  const BenchmarkViews rendered = RegisterAndRender(*registry, views);
+  const std::vector<double> without = RetrievalErrors(*registry, rendered);
   for (size_t i = 0; i < without.size(); ++i)
     std::printf("page %llu: %.2f px without the robust refit\n",
                 static_cast<unsigned long long>(views[i].page), without[i]);
@@ -855,7 +871,7 @@ TEST_F(DocumentRegistryTest, HomographyOfAPageBesideAChartIsRefitRobustly) {
   options.retrieval.polish_homography = true;
   registry = Open(options);
   ASSERT_NE(registry, nullptr);
-  const std::vector<double> with = errors(*registry);
+  const std::vector<double> with = RetrievalErrors(*registry, rendered);
   for (size_t i = 0; i < with.size(); ++i) EXPECT_LT(with[i], 2.0) << "page " << views[i].page;
 }
 
