@@ -1393,6 +1393,19 @@ std::vector<DocumentHit> LlahRetriever::RetrieveDescribed(const std::vector<cv::
                 cv::norm(ApplyHomography(polished, ApplyHomography(to_page, corner)) - corner));
           }
           if (moved <= kPolishMinMove * gate || !MakePlausibleHomography(&polished, gr)) continue;
+          // The wider set's refit must keep half the guided matches within the inlier
+          // threshold: chance pairs in a dense part of the view can outnumber them, and a
+          // refit on those keeps none (a test's cut of another layer: 1 of 37). Across a
+          // figure it keeps most (page 7027: 61 of 97, the rest being the extrapolated side).
+          if (set == 1) {
+            int held = 0, held_before = 0;
+            for (const auto &[qi, ri] : guided) {
+              const cv::Point2d q(query[qi].x, query[qi].y);
+              held += cv::norm(ApplyHomography(polished, model.keypoints[ri]) - q) < threshold;
+              held_before += cv::norm(ApplyHomography(H, model.keypoints[ri]) - q) < threshold;
+            }
+            if (2 * held < held_before) continue;
+          }
           std::vector<std::pair<int, int>> regrown = refine(&polished, inlier_pairs);
           match_at(polished, gate, &after, &gr, &gq);
           if (after.size() > best) {

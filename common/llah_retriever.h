@@ -154,8 +154,9 @@ struct RetrievalOptions {
   // ...and also RANSAC over every page keypoint within polish_match_gate times the inlier
   // threshold of a query keypoint (0: not): guided matching grows from the consensus, and
   // a homography extrapolated across a figure or a margin misses a second text block
-  // beyond it by more than the threshold. Of the two refits, the one that puts more of
-  // the page within the gate is kept. At 10,000 pages two views whose words lie on both
+  // beyond it by more than the threshold. That refit must keep half the guided matches
+  // within the threshold; of the two refits, the one that puts more of the page within the
+  // gate is kept. At 10,000 pages two views whose words lie on both
   // sides of a photograph or a chart went from 10.1-10.4 px mean error over the view to
   // 0.2 and 6.1 px.
   double polish_match_gate = 2.0;
