@@ -85,6 +85,14 @@ absl::StatusOr<InvariantQuantizer> InvariantQuantizer::Learn(std::vector<float> 
   return InvariantQuantizer(std::move(t));
 }
 
+InvariantQuantizer InvariantQuantizer::Coarser(int k) const {
+  if (k < 1 || k >= levels() || levels() % k != 0) return *this;
+  const size_t step = static_cast<size_t>(levels() / k);
+  std::vector<float> thresholds;
+  for (size_t i = step - 1; i < thresholds_.size(); i += step) thresholds.push_back(thresholds_[i]);
+  return InvariantQuantizer(std::move(thresholds));
+}
+
 int InvariantQuantizer::Quantize(float value) const {
   return static_cast<int>(std::upper_bound(thresholds_.begin(), thresholds_.end(), value) -
                           thresholds_.begin());

@@ -43,6 +43,9 @@ class InvariantQuantizer {
   static absl::StatusOr<InvariantQuantizer> Learn(std::vector<float> samples, int k);
 
   int Quantize(float value) const;
+  // This quantiser with every (levels() / k)-th threshold: k levels at the same quantiles
+  // (k must divide levels(); otherwise, or for k >= levels(), this quantiser).
+  InvariantQuantizer Coarser(int k) const;
   int levels() const { return static_cast<int>(thresholds_.size()) + 1; }
   const std::vector<float> &thresholds() const { return thresholds_; }
   bool empty() const { return thresholds_.empty(); }

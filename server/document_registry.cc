@@ -45,16 +45,6 @@ const char *GroupingName(WordGrouping g) {
   return g == WordGrouping::kLetterGraph ? "letter_graph" : "line_closing";
 }
 
-// The words' quantiser with every (levels / k)-th threshold: k levels at the same quantiles.
-InvariantQuantizer CoarserQuantizer(const InvariantQuantizer &words, int k) {
-  const int step = words.levels() / k;
-  if (step <= 1) return words;
-  std::vector<float> thresholds;
-  for (size_t i = step - 1; i < words.thresholds().size(); i += step)
-    thresholds.push_back(words.thresholds()[i]);
-  return InvariantQuantizer(std::move(thresholds));
-}
-
 std::string FormatOptions(const LlahOptions &o) { return absl::StrCat(o.n, ",", o.m, ",", o.k); }
 
 absl::StatusOr<LlahOptions> ParseOptions(const std::string &s) {
@@ -302,8 +292,8 @@ absl::Status DocumentRegistry::LoadIndex() {
   if (options_.index_figures) {
     RETURN_IF_ERROR(SettleFigureCorners(/*existing=*/true));
     ASSIGN_OR_RETURN(const LlahOptions figure_llah, FigureLlahOptions(llah));
-    figures = std::make_shared<LlahRetriever>(
-        figure_llah, CoarserQuantizer(quantizer, figure_llah.k), kFigureLog2Buckets);
+    figures = std::make_shared<LlahRetriever>(figure_llah, quantizer.Coarser(figure_llah.k),
+                                              kFigureLog2Buckets);
   }
   std::shared_ptr<LlahRetriever> letters;
   if (options_.index_letters)
@@ -393,8 +383,8 @@ absl::Status DocumentRegistry::CreateRetriever(const std::vector<cv::Point2f> &t
   if (options_.index_figures) {
     RETURN_IF_ERROR(SettleFigureCorners(/*existing=*/false));
     ASSIGN_OR_RETURN(const LlahOptions figure_llah, FigureLlahOptions(options_.llah));
-    figures = std::make_shared<LlahRetriever>(
-        figure_llah, CoarserQuantizer(quantizer, figure_llah.k), kFigureLog2Buckets);
+    figures = std::make_shared<LlahRetriever>(figure_llah, quantizer.Coarser(figure_llah.k),
+                                              kFigureLog2Buckets);
   }
   std::shared_ptr<LlahRetriever> letters;
   if (options_.index_letters)

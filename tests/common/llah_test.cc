@@ -174,6 +174,16 @@ TEST(AffineInvariantTest, DefinedForCollinearPoints) {
 // ----------------------------------------------------------------
 // InvariantQuantizer
 
+// Coarser levels keep every other (every k-th) threshold: the same quantiles, fewer levels.
+TEST(InvariantQuantizerTest, CoarserKeepsEveryStepThThreshold) {
+  const InvariantQuantizer q({1, 2, 3, 4, 5, 6, 7});
+  EXPECT_EQ(q.Coarser(4).thresholds(), (std::vector<float>{2, 4, 6}));
+  EXPECT_EQ(q.Coarser(2).thresholds(), (std::vector<float>{4}));
+  EXPECT_EQ(q.Coarser(4).Quantize(3.5f), 1);
+  EXPECT_EQ(q.Coarser(3).thresholds(), q.thresholds()) << "3 does not divide 8 levels";
+  EXPECT_EQ(q.Coarser(8).thresholds(), q.thresholds());
+}
+
 TEST(InvariantQuantizerTest, LearnSplitsSamplesIntoEqualLevels) {
   std::mt19937 rng(4);
   std::normal_distribution<float> g(0.3f, 1.1f);
