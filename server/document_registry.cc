@@ -220,6 +220,13 @@ absl::Status DocumentRegistryOptions::Validate() const {
   if (log2_buckets < 10 || log2_buckets > 30)
     return absl::InvalidArgumentError("log2_buckets must be in [10, 30]");
   if (rebuild_threads < 1) return absl::InvalidArgumentError("rebuild_threads must be >= 1");
+  if (!(small_type_below_px >= 0 && small_type_below_px <= 20))
+    return absl::InvalidArgumentError(
+        absl::StrCat("small_type_below_px must be in [0, 20] pixels (0: no small-type retry), got ",
+                     small_type_below_px));
+  if (!(small_type_upscale >= 1.5 && small_type_upscale <= 4))
+    return absl::InvalidArgumentError(
+        absl::StrCat("small_type_upscale must be in [1.5, 4], got ", small_type_upscale));
   if (!ValidMaxQueryPixels(max_query_pixels))
     return absl::InvalidArgumentError(absl::StrCat("max_query_pixels must be 0 (never reduce) or ",
                                                    "at least ", kMinMaxQueryPixels, ", got ",
@@ -619,6 +626,21 @@ absl::Status DocumentRegistry::Delete(const std::string &id) {
   return absl::OkStatus();
 }
 
+namespace {
+
+// `camera` (for pictures of `from` pixels) for the picture resized to `to`.
+std::optional<CameraModel> ScaledCamera(const std::optional<CameraModel> &camera,
+                                        const cv::Size &from, const cv::Size &to) {
+  if (!camera) return std::nullopt;
+  CameraModel scaled = *camera;
+  // The distortion coefficients act on normalised coordinates and stay as they are.
+  scaled.K = ScaledIntrinsics(camera->K, from, to);
+  scaled.size = to;
+  return scaled;
+}
+
+}  // namespace
+
 absl::StatusOr<RetrievalResult> DocumentRegistry::Retrieve(const cv::Mat &gray,
                                                            const std::optional<CameraModel> &camera,
                                                            int max_results) const {
@@ -628,23 +650,52 @@ absl::StatusOr<RetrievalResult> DocumentRegistry::Retrieve(const cv::Mat &gray,
     ASSIGN_OR_RETURN(picture_camera, CameraForImage(*camera, gray.size()));
   }
   const cv::Size working = WholeFactorWorkingSize(gray.size(), options_.max_query_pixels);
-  if (working == gray.size()) return RetrieveAsGiven(gray, picture_camera, max_results);
+  if (working == gray.size()) {
+    ASSIGN_OR_RETURN(RetrievalResult result, RetrieveAsGiven(gray, picture_camera, max_results));
+    RETURN_IF_ERROR(RetrieveSmallType(gray, picture_camera, max_results, &result));
+    return result;
+  }
   const auto t = Clock::now();
   cv::Mat reduced;
   cv::resize(gray, reduced, working, 0, 0, cv::INTER_AREA);
-  std::optional<CameraModel> reduced_camera = picture_camera;
-  if (reduced_camera) {
-    // The distortion coefficients act on normalised coordinates and stay as they are.
-    reduced_camera->K = ScaledIntrinsics(picture_camera->K, gray.size(), working);
-    reduced_camera->size = working;
-  }
+  const std::optional<CameraModel> reduced_camera =
+      ScaledCamera(picture_camera, gray.size(), working);
   const double reduce_ms = MillisecondsSince(t);
   ASSIGN_OR_RETURN(RetrievalResult result, RetrieveAsGiven(reduced, reduced_camera, max_results));
+  RETURN_IF_ERROR(RetrieveSmallType(reduced, reduced_camera, max_results, &result));
   // Homographies back to the picture's pixels; poses are the camera's and stay.
   const cv::Matx33d to_given = PixelScaling(working, gray.size());
   for (RetrievedDocument &doc : result.documents) doc.homography = to_given * doc.homography;
   result.timings.stages.insert(result.timings.stages.begin(), {"reduce", reduce_ms});
   return result;
+}
+
+absl::Status DocumentRegistry::RetrieveSmallType(const cv::Mat &gray,
+                                                 const std::optional<CameraModel> &camera,
+                                                 int max_results, RetrievalResult *result) const {
+  if (!result->documents.empty() || !(result->text_height_px > 0) ||
+      result->text_height_px >= options_.small_type_below_px)
+    return absl::OkStatus();
+  double factor = options_.small_type_upscale;
+  if (options_.max_query_pixels > 0)
+    factor = std::min(factor, std::sqrt(static_cast<double>(options_.max_query_pixels) /
+                                        static_cast<double>(gray.total())));
+  if (factor < 1.5) return absl::OkStatus();  // too little finer to cut differently
+  const auto t = Clock::now();
+  cv::Mat upscaled;
+  cv::resize(gray, upscaled, cv::Size(), factor, factor, cv::INTER_CUBIC);
+  const double upscale_ms = MillisecondsSince(t);
+  ASSIGN_OR_RETURN(RetrievalResult found,
+                   RetrieveAsGiven(upscaled, ScaledCamera(camera, gray.size(), upscaled.size()),
+                                   max_results, /*words_only=*/true));
+  const cv::Matx33d back = PixelScaling(upscaled.size(), gray.size());
+  for (RetrievedDocument &doc : found.documents) {
+    doc.homography = back * doc.homography;
+    result->documents.push_back(std::move(doc));
+  }
+  result->timings.Add("small type upscale", upscale_ms);
+  for (auto &[name, ms] : found.timings.stages) result->timings.Add("small type " + name, ms);
+  return absl::OkStatus();
 }
 
 namespace {
@@ -790,7 +841,8 @@ void DocumentRegistry::RetrieveRectifiedPicture(
 }
 
 absl::StatusOr<RetrievalResult> DocumentRegistry::RetrieveAsGiven(
-    const cv::Mat &gray, const std::optional<CameraModel> &camera, int max_results) const {
+    const cv::Mat &gray, const std::optional<CameraModel> &camera, int max_results,
+    bool words_only) const {
   RetrievalResult result;
   std::shared_ptr<LlahRetriever> retriever, figures, letters;
   {
@@ -837,7 +889,10 @@ absl::StatusOr<RetrievalResult> DocumentRegistry::RetrieveAsGiven(
       kp = fallback_extractors_[attempt - 1].Extract(gray, measured);
     }
     extract_ms += MillisecondsSince(t);
-    if (attempt == 0) result.query_keypoints = static_cast<int>(kp.points.size());
+    if (attempt == 0) {
+      result.query_keypoints = static_cast<int>(kp.points.size());
+      result.text_height_px = kp.char_height;
+    }
     if (measured.char_height <= 0) break;
     if (!retriever) break;
     // Two groupings often cut a view alike (the line closings at 0.25 and 0.35 text
@@ -925,7 +980,7 @@ absl::StatusOr<RetrievalResult> DocumentRegistry::RetrieveAsGiven(
   }
   // Last: the figures' corners, for a view of a chart or a photograph.
   const LlahRetriever *hits_index = retriever.get();
-  if (hits.empty() && figures && figures->documents() > 0) {
+  if (hits.empty() && !words_only && figures && figures->documents() > 0) {
     auto t = Clock::now();
     WordKeypoints corners;
     corners.points = figure_extractor_.Extract(gray, first_points, measured.char_height);
@@ -941,7 +996,7 @@ absl::StatusOr<RetrievalResult> DocumentRegistry::RetrieveAsGiven(
     }
   }
   // And the letters, for a close view of large type.
-  if (hits.empty() && letters && letters->documents() > 0 &&
+  if (hits.empty() && !words_only && letters && letters->documents() > 0 &&
       static_cast<int>(first_points.size()) <= options_.letter_max_word_keypoints) {
     auto t = Clock::now();
     const LetterKeypoints cut = letter_extractor_.Extract(gray);

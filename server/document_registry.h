@@ -141,6 +141,13 @@ struct DocumentRegistryOptions {
   // unregistered pages, which take every try, cost 102 ms median CPU with it, 131 ms with
   // none (every picture), 94 ms without the warp.
   double rectified_picture_projective_min_slope = 0.45;
+  // Small type: a picture in which nothing was found and whose text measured under
+  // small_type_below_px high is retrieved once more (word tries only) upscaled
+  // small_type_upscale times (bicubic), to at most max_query_pixels. The word closing joins
+  // letters across gaps of gap_factor text heights, under a pixel for 3-4 px type, which no
+  // kernel on the pixel grid can draw; on the upscaled picture it can. 0: never.
+  double small_type_below_px = 5.0;
+  double small_type_upscale = 3.0;
   static constexpr int64_t kDefaultMaxQueryPixels = 1920 * 1440;
   static constexpr int64_t kMinMaxQueryPixels = 320 * 240;  // smallest limit but 0
   static bool ValidMaxQueryPixels(int64_t n) { return n == 0 || n >= kMinMaxQueryPixels; }
@@ -237,6 +244,7 @@ struct RetrievedDocument {
 struct RetrievalResult {
   std::vector<RetrievedDocument> documents;
   int query_keypoints = 0;
+  double text_height_px = 0;  // as the first extractor measured it (0: no text)
   StageTimes timings;
 };
 
@@ -335,9 +343,14 @@ class DocumentRegistry {
                                                       const std::vector<cv::Point2f> &points,
                                                       double size, const RetrievalOptions &o) const;
   // Retrieve() on the picture at the size given (Retrieve reduces large pictures first).
+  // `words_only`: no figure or letter try.
   absl::StatusOr<RetrievalResult> RetrieveAsGiven(const cv::Mat &gray,
                                                   const std::optional<CameraModel> &camera,
-                                                  int max_results) const;
+                                                  int max_results, bool words_only = false) const;
+  // The small-type retry (small_type_below_px) of `gray`, a picture as RetrieveAsGiven took
+  // it that found nothing: found pages are added to `result`, in `gray`'s pixels.
+  absl::Status RetrieveSmallType(const cv::Mat &gray, const std::optional<CameraModel> &camera,
+                                 int max_results, RetrievalResult *result) const;
 
   DocumentRegistryOptions options_;
   std::unique_ptr<DocumentStore> store_;

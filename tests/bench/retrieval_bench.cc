@@ -492,6 +492,11 @@ int main(int argc, char **argv) {
                  "(new pages only)");
   app.add_option("--letter-inlier-share", registry_options.letter_inlier_share,
                  "RANSAC inlier distance of the letters, times their size");
+  app.add_option("--small-type-below", registry_options.small_type_below_px,
+                 "views that found nothing with text under this height (px) are retrieved again "
+                 "upscaled (0: never)");
+  app.add_option("--small-type-upscale", registry_options.small_type_upscale,
+                 "the small-type retry's upscaling factor");
   app.add_option("--max-hits", registry_options.retrieval.max_hits_per_descriptor,
                  "descriptors with more index entries than this do not vote");
   app.add_option("--max-hits-per-1000", registry_options.retrieval.max_hits_per_1000_documents,
