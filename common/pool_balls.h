@@ -101,6 +101,13 @@ struct PoolBallOptions {
   // separated 8 unnamed; at 0.5 no other ball of the ten green, the 9-ft, the blue or the
   // burgundy sets is named otherwise.
   double moved_number_weight = 0.5;
+  // Fits still closer than two radii at the end are moved apart along the line between
+  // them, each by half the overlap (SeparateOverlappingBalls): two balls cannot
+  // interpenetrate, and the fits of a touching pair seen one behind the other slide into
+  // each other (the nearer one's far side and the farther one's near side are against
+  // ball, not cloth). On the ten green sets: 61 -> 55 balls over 10 mm, mean 2.57 -> 2.52
+  // mm; ten held-out sets: 96 -> 90, 2.70 -> 2.65 mm; no ball named otherwise.
+  bool separate_overlapping_fits = true;
   // Two fits of different colours closer than the overlap rule allows: the worse fit is
   // moved out to touch the better one, except for a touching pair seen one behind the
   // other (the line between them within this many degrees of the line of sight, and more
@@ -254,6 +261,13 @@ std::vector<PoolDetectedBall> DetectPoolBalls(
     IdealView* view, const cv::Matx33d& K, const PlanarPose& pose, const PoolTableProfile& profile,
     const cv::Vec3b& cloth_bgr, const PoolBallOptions& options = {},
     cv::Vec3f* light_gains = nullptr, double* ball_size_ratio = nullptr);
+
+// Moves balls whose centres are closer than 2 * `radius` (mm, on the table) apart along the
+// line between them, each by half the overlap, until they touch (within 0.01 mm; in rounds,
+// as a moved ball may meet a third). Their ideal pixels and apparent radii follow (`pose`,
+// `K`).
+void SeparateOverlappingBalls(const PlanarPose& pose, const cv::Matx33d& K, double radius,
+                              std::vector<PoolDetectedBall>* balls);
 
 // Seed eq. 4.3 and the nearest-colour votes: a score for each number 0..9.
 // `white_outward` as PoolDetectedBall's (0: no information on where the white lies).

@@ -413,21 +413,25 @@ int main(int argc, char** argv) {
           // The nearest other ball: the gap between the two (0: touching).
           int nearest = -1;
           double gap_mm = 1e9;
+          cv::Point2d towards(0, 0);  // unit vector to the nearest ball
           for (const auto& b : view.balls) {
             const double gap = std::hypot(b.x_mm - truth->x_mm, b.y_mm - truth->y_mm) - 2 * r;
             if (&b != truth && gap < gap_mm) {
               gap_mm = gap;
               nearest = b.number;
+              towards = cv::Point2d(b.x_mm - truth->x_mm, b.y_mm - truth->y_mm);
+              towards *= 1.0 / std::max(1e-9, cv::norm(towards));
             }
           }
           std::printf(
               "    ball %d%s at px (%.1f, %.1f) mm (%.1f, %.1f): found as %d at px (%.1f, %.1f), "
               "error %.1f mm (%.1f, %.1f), %.1f mm away from the camera; 1 px = %.1f mm along "
-              "it; nearest ball %d, %.1f mm apart\n",
+              "it; nearest ball %d, %.1f mm apart (%.1f mm towards it, which lies %+.2f of the "
+              "way behind)\n",
               m.truth_number, m.separated ? " (separated)" : "", p0.x, p0.y, truth->x_mm,
               truth->y_mm, m.estimated_number, found.x, found.y, m.error_mm, m.dx_mm, m.dy_mm,
               m.dx_mm * away.x + m.dy_mm * away.y, 10 / std::max(1e-9, cv::norm(p1 - p0)), nearest,
-              gap_mm);
+              gap_mm, m.dx_mm * towards.x + m.dy_mm * towards.y, towards.dot(away));
         }
       for (const auto& m : score.matches) {
         if (m.estimated_index < 0) continue;

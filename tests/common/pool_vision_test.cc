@@ -417,6 +417,56 @@ TEST(PoolProfileNote, OptionsOutOfRangeAreRefused) {
   EXPECT_EQ(options.Validate().code(), absl::StatusCode::kInvalidArgument);
 }
 
+// Fits closer than two radii are moved apart along their line, each by half the overlap,
+// until they touch; their pixels follow. Balls apart are left where they are.
+TEST(PoolOverlap, OverlappingFitsAreMovedApartToTouch) {
+  constexpr double kR = 24;
+  // A camera 2 m above (665, 350) looking straight down.
+  PlanarPose pose;
+  pose.R = cv::Matx33d(1, 0, 0, 0, -1, 0, 0, 0, -1);
+  pose.t = cv::Vec3d(-665, 350, 2000);
+  const cv::Matx33d K(800, 0, 320, 0, 800, 240, 0, 0, 1);
+  auto ball = [](double x, double y) {
+    PoolDetectedBall b;
+    b.x_mm = x;
+    b.y_mm = y;
+    return b;
+  };
+  // A pair 40 mm apart along a diagonal, a ball far from both, and a chain of three.
+  std::vector<PoolDetectedBall> balls = {
+      ball(300, 300), ball(300 + 40 / std::sqrt(2.0), 300 + 40 / std::sqrt(2.0)),
+      ball(900, 200), ball(600, 500),
+      ball(640, 500), ball(680, 500)};
+  SeparateOverlappingBalls(pose, K, kR, &balls);
+  // The pair: 48 mm apart, about the same midpoint, along the same line.
+  const cv::Point2d a(balls[0].x_mm, balls[0].y_mm), b(balls[1].x_mm, balls[1].y_mm);
+  EXPECT_NEAR(cv::norm(b - a), 2 * kR, 1e-9);
+  const cv::Point2d mid = 0.5 * (a + b);
+  EXPECT_NEAR(mid.x, 300 + 20 / std::sqrt(2.0), 1e-9);
+  EXPECT_NEAR(mid.y, 300 + 20 / std::sqrt(2.0), 1e-9);
+  EXPECT_NEAR(b.x - a.x, b.y - a.y, 1e-9);
+  // The far ball has not moved.
+  EXPECT_EQ(balls[2].x_mm, 900);
+  EXPECT_EQ(balls[2].y_mm, 200);
+  // The chain: no two of its balls overlap by more than a hundredth of a millimetre after
+  // the rounds, and it stays on its line.
+  for (int i = 3; i < 6; ++i) {
+    EXPECT_NEAR(balls[i].y_mm, 500, 1e-9);
+    for (int j = i + 1; j < 6; ++j)
+      EXPECT_GT(std::abs(balls[j].x_mm - balls[i].x_mm), 2 * kR - 0.011) << i << " " << j;
+  }
+  // Pixels follow the moved centres: 800 px per 1976 mm of depth at Z = r.
+  for (size_t i = 0; i < balls.size(); ++i) {
+    if (i == 2) continue;  // not moved, its pixels left as they were
+    const PoolDetectedBall& m = balls[i];
+    const cv::Point2d p = ProjectIdeal(pose, K, {m.x_mm, m.y_mm, kR});
+    EXPECT_NEAR(m.ideal_pixel.x, p.x, 1e-9);
+    EXPECT_NEAR(m.ideal_pixel.y, p.y, 1e-9);
+    EXPECT_NEAR(m.ideal_pixel.x, 320 + 800 * (m.x_mm - 665) / (2000 - kR), 1e-6);
+    EXPECT_NEAR(m.radius_px, 800 * kR / (2000 - kR), 0.5);
+  }
+}
+
 TEST(PoolBackground, BallsAreReplacedByTheCloth) {
   const PoolScene scene = Scene(PoolViewSide::kLongNear, 50);
   const PoolView view = testdata::RenderPoolView(scene, 9);
