@@ -265,6 +265,9 @@ int main(int argc, char** argv) {
               "radii either side of its outline (0: no edge fit)");
   ball_option("--edge-point-prior", &analyzer_options.balls.edge_point_prior,
               "The edge fit's start counts as this many points on its outline");
+  app.add_flag("!--no-fit-separation", analyzer_options.balls.separate_overlapping_fits,
+               "Leave fits closer than two radii where they are (PoolBallOptions::"
+               "separate_overlapping_fits)");
   app.add_option("--max-working-pixels", analyzer_options.max_working_pixels,
                  "Larger images are analysed reduced to this many pixels (0: never)")
       ->capture_default_str();
