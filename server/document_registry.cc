@@ -227,6 +227,10 @@ absl::Status DocumentRegistryOptions::Validate() const {
   if (!(small_type_upscale >= 1.5 && small_type_upscale <= 4))
     return absl::InvalidArgumentError(
         absl::StrCat("small_type_upscale must be in [1.5, 4], got ", small_type_upscale));
+  if (small_type_max_pixels != 0 && small_type_max_pixels < kMinMaxQueryPixels)
+    return absl::InvalidArgumentError(
+        absl::StrCat("small_type_max_pixels must be 0 (no limit) or at least ", kMinMaxQueryPixels,
+                     ", got ", small_type_max_pixels));
   if (!ValidMaxQueryPixels(max_query_pixels))
     return absl::InvalidArgumentError(absl::StrCat("max_query_pixels must be 0 (never reduce) or ",
                                                    "at least ", kMinMaxQueryPixels, ", got ",
@@ -652,7 +656,7 @@ absl::StatusOr<RetrievalResult> DocumentRegistry::Retrieve(const cv::Mat &gray,
   const cv::Size working = WholeFactorWorkingSize(gray.size(), options_.max_query_pixels);
   if (working == gray.size()) {
     ASSIGN_OR_RETURN(RetrievalResult result, RetrieveAsGiven(gray, picture_camera, max_results));
-    RETURN_IF_ERROR(RetrieveSmallType(gray, picture_camera, max_results, &result));
+    RETURN_IF_ERROR(RetrieveSmallType(gray, gray.size(), picture_camera, max_results, &result));
     return result;
   }
   const auto t = Clock::now();
@@ -662,7 +666,7 @@ absl::StatusOr<RetrievalResult> DocumentRegistry::Retrieve(const cv::Mat &gray,
       ScaledCamera(picture_camera, gray.size(), working);
   const double reduce_ms = MillisecondsSince(t);
   ASSIGN_OR_RETURN(RetrievalResult result, RetrieveAsGiven(reduced, reduced_camera, max_results));
-  RETURN_IF_ERROR(RetrieveSmallType(reduced, reduced_camera, max_results, &result));
+  RETURN_IF_ERROR(RetrieveSmallType(gray, working, reduced_camera, max_results, &result));
   // Homographies back to the picture's pixels; poses are the camera's and stay.
   const cv::Matx33d to_given = PixelScaling(working, gray.size());
   for (RetrievedDocument &doc : result.documents) doc.homography = to_given * doc.homography;
@@ -670,25 +674,29 @@ absl::StatusOr<RetrievalResult> DocumentRegistry::Retrieve(const cv::Mat &gray,
   return result;
 }
 
-absl::Status DocumentRegistry::RetrieveSmallType(const cv::Mat &gray,
+absl::Status DocumentRegistry::RetrieveSmallType(const cv::Mat &finest, const cv::Size &working,
                                                  const std::optional<CameraModel> &camera,
                                                  int max_results, RetrievalResult *result) const {
   if (!result->documents.empty() || !(result->text_height_px > 0) ||
       result->text_height_px >= options_.small_type_below_px)
     return absl::OkStatus();
+  const double pixels = static_cast<double>(working.width) * working.height;
   double factor = options_.small_type_upscale;
-  if (options_.max_query_pixels > 0)
-    factor = std::min(factor, std::sqrt(static_cast<double>(options_.max_query_pixels) /
-                                        static_cast<double>(gray.total())));
+  if (options_.small_type_max_pixels > 0)
+    factor = std::min(factor, std::sqrt(options_.small_type_max_pixels / pixels));
   if (factor < 1.5) return absl::OkStatus();  // too little finer to cut differently
+  const cv::Size size(static_cast<int>(std::lround(working.width * factor)),
+                      static_cast<int>(std::lround(working.height * factor)));
   const auto t = Clock::now();
   cv::Mat upscaled;
-  cv::resize(gray, upscaled, cv::Size(), factor, factor, cv::INTER_CUBIC);
+  // Reduced from the picture as given: taken again from it, with its own detail.
+  cv::resize(finest, upscaled, size, 0, 0,
+             size.area() < finest.size().area() ? cv::INTER_AREA : cv::INTER_CUBIC);
   const double upscale_ms = MillisecondsSince(t);
   ASSIGN_OR_RETURN(RetrievalResult found,
-                   RetrieveAsGiven(upscaled, ScaledCamera(camera, gray.size(), upscaled.size()),
+                   RetrieveAsGiven(upscaled, ScaledCamera(camera, working, upscaled.size()),
                                    max_results, /*words_only=*/true));
-  const cv::Matx33d back = PixelScaling(upscaled.size(), gray.size());
+  const cv::Matx33d back = PixelScaling(upscaled.size(), working);
   for (RetrievedDocument &doc : found.documents) {
     doc.homography = back * doc.homography;
     result->documents.push_back(std::move(doc));

@@ -142,12 +142,16 @@ struct DocumentRegistryOptions {
   // none (every picture), 94 ms without the warp.
   double rectified_picture_projective_min_slope = 0.45;
   // Small type: a picture in which nothing was found and whose text measured under
-  // small_type_below_px high is retrieved once more (word tries only) upscaled
-  // small_type_upscale times (bicubic), to at most max_query_pixels. The word closing joins
-  // letters across gaps of gap_factor text heights, under a pixel for 3-4 px type, which no
-  // kernel on the pixel grid can draw; on the upscaled picture it can. 0: never.
+  // small_type_below_px high is retrieved once more (word tries only) at
+  // small_type_upscale times the size it was retrieved at, to at most
+  // small_type_max_pixels: from the picture as given when it was reduced
+  // (max_query_pixels; a 12 MP photo of a page far away has the detail the reduction took),
+  // else upscaled (bicubic). The word closing joins letters across gaps of gap_factor text
+  // heights, under a pixel for 3-4 px type, which no kernel on the pixel grid can draw; at
+  // the larger size it can. Under 1.5 times larger the retry is skipped. 0: never.
   double small_type_below_px = 5.0;
   double small_type_upscale = 3.0;
+  int64_t small_type_max_pixels = 4 * 1920 * 1440;
   static constexpr int64_t kDefaultMaxQueryPixels = 1920 * 1440;
   static constexpr int64_t kMinMaxQueryPixels = 320 * 240;  // smallest limit but 0
   static bool ValidMaxQueryPixels(int64_t n) { return n == 0 || n >= kMinMaxQueryPixels; }
@@ -347,10 +351,13 @@ class DocumentRegistry {
   absl::StatusOr<RetrievalResult> RetrieveAsGiven(const cv::Mat &gray,
                                                   const std::optional<CameraModel> &camera,
                                                   int max_results, bool words_only = false) const;
-  // The small-type retry (small_type_below_px) of `gray`, a picture as RetrieveAsGiven took
-  // it that found nothing: found pages are added to `result`, in `gray`'s pixels.
-  absl::Status RetrieveSmallType(const cv::Mat &gray, const std::optional<CameraModel> &camera,
-                                 int max_results, RetrievalResult *result) const;
+  // The small-type retry (small_type_below_px) of a picture that RetrieveAsGiven took at
+  // `working` size and found nothing in; `finest` is the picture as given (the same or
+  // larger), `camera` the intrinsics at `working` size. Found pages are added to `result`,
+  // in `working` pixels.
+  absl::Status RetrieveSmallType(const cv::Mat &finest, const cv::Size &working,
+                                 const std::optional<CameraModel> &camera, int max_results,
+                                 RetrievalResult *result) const;
 
   DocumentRegistryOptions options_;
   std::unique_ptr<DocumentStore> store_;
