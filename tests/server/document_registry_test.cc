@@ -1108,6 +1108,81 @@ TEST_F(DocumentRegistryTest, PosterOfLargeTypeIsRegisteredByItsLetters) {
 namespace texfree::server {
 namespace {
 
+// Pages registered and far views of them, `per_page` each: tilt up to 30 degrees, any
+// azimuth and roll, the page scale, aim and blur drawn from the ranges, noise 3, uneven light
+// 0.3, JPEG.
+struct FarViewDraws {
+  cv::Size image_size{640, 480};
+  double scale_min = 0, scale_max = 0, blur_min = 0, blur_max = 0;
+  cv::Rect2d look_at;  // page points the views are centred on
+  int jpeg_quality = 75;
+};
+struct FarViews {
+  std::vector<std::string> ids;
+  std::vector<cv::Mat> pages;
+  std::vector<testdata::CameraView> photos;
+  std::vector<size_t> page_of;
+};
+
+FarViews RegisterFarViews(DocumentRegistry& registry, uint64_t first_page, int pages, int per_page,
+                          const FarViewDraws& draws, uint64_t draw_seed, uint64_t view_seed) {
+  FarViews out;
+  for (uint64_t seed = first_page; seed < first_page + pages; ++seed) {
+    const auto rendered = testdata::RenderTextPage(seed);
+    auto record = registry.Register(Gray(rendered.image), "page", {});
+    EXPECT_TRUE(record.ok()) << record.status();
+    out.ids.push_back(record.ok() ? record->id : "");
+    out.pages.push_back(rendered.image);
+  }
+  std::mt19937_64 rng(draw_seed);
+  auto uniform = [&rng](double a, double b) {
+    return std::uniform_real_distribution<double>(a, b)(rng);
+  };
+  for (size_t i = 0; i < out.pages.size(); ++i)
+    for (int k = 0; k < per_page; ++k) {
+      testdata::CameraViewOptions view;
+      view.image_size = draws.image_size;
+      view.tilt_deg = uniform(0, 30);
+      view.tilt_azimuth_deg = uniform(-180, 180);
+      view.roll_deg = uniform(-180, 180);
+      view.scale = uniform(draws.scale_min, draws.scale_max);
+      view.look_at = {uniform(draws.look_at.x, draws.look_at.br().x),
+                      uniform(draws.look_at.y, draws.look_at.br().y)};
+      view.blur_sigma = uniform(draws.blur_min, draws.blur_max);
+      view.noise_sigma = 3;
+      view.illumination_gradient = 0.3;
+      view.jpeg_quality = draws.jpeg_quality;
+      out.photos.push_back(
+          testdata::RenderCameraView(out.pages[i], view, view_seed + per_page * i + k));
+      out.page_of.push_back(i);
+    }
+  return out;
+}
+
+// Views of `views` that `registry` finds, each on its own page alone with a homography
+// within `max_error_px` (in the view's pixels); `small` counts those of text under 5 px.
+int CountFarViewsFound(const DocumentRegistry& registry, const FarViews& views, double max_error_px,
+                       int* small) {
+  int found = 0;
+  *small = 0;
+  for (size_t v = 0; v < views.photos.size(); ++v) {
+    const testdata::CameraView& photo = views.photos[v];
+    auto result = registry.Retrieve(Gray(photo.image), std::nullopt, 0);
+    EXPECT_TRUE(result.ok()) << result.status();
+    if (!result.ok() || result->documents.empty()) continue;
+    EXPECT_EQ(result->documents.size(), 1u) << "view " << v;
+    EXPECT_EQ(result->documents[0].document.id, views.ids[views.page_of[v]]) << "view " << v;
+    EXPECT_LT(
+        testdata::MeanHomographyError(result->documents[0].homography, photo.homography,
+                                      views.pages[views.page_of[v]].size(), photo.image.size()),
+        max_error_px)
+        << "view " << v;
+    ++found;
+    *small += result->text_height_px < 5;
+  }
+  return found;
+}
+
 // A large photo (2560x1920, retrieved reduced to 1280x960 by max_query_pixels) of pages far
 // away, blurred by 1.8-2.6 px: their text is 3-3.5 px high after the reduction. The
 // small-type retry takes the photo's own pixels again (at 2.6 times the reduced size, within
@@ -1119,58 +1194,23 @@ TEST_F(DocumentRegistryTest, SmallTypeOfALargePhotoIsRetriedFromItsOwnPixels) {
   options.small_type_below_px = 0;
   auto registry = Open(options);
   ASSERT_NE(registry, nullptr);
-  std::vector<std::string> ids;
-  std::vector<cv::Mat> pages;
-  for (uint64_t seed = 20; seed < 26; ++seed) {
-    const auto rendered = testdata::RenderTextPage(seed);
-    auto record = registry->Register(Gray(rendered.image), "page", {});
-    ASSERT_TRUE(record.ok()) << record.status();
-    ids.push_back(record->id);
-    pages.push_back(rendered.image);
-  }
-  std::vector<testdata::CameraView> photos;
-  std::mt19937_64 rng(11);
-  auto uniform = [&rng](double a, double b) {
-    return std::uniform_real_distribution<double>(a, b)(rng);
-  };
-  for (size_t i = 0; i < pages.size(); ++i)
-    for (int k = 0; k < 2; ++k) {
-      testdata::CameraViewOptions view;
-      view.image_size = {2560, 1920};
-      view.tilt_deg = uniform(0, 30);
-      view.tilt_azimuth_deg = uniform(-180, 180);
-      view.roll_deg = uniform(-180, 180);
-      view.scale = uniform(0.4, 0.55);
-      view.look_at = {uniform(400, 600), uniform(500, 900)};
-      view.blur_sigma = uniform(1.8, 2.6);
-      view.noise_sigma = 3;
-      view.illumination_gradient = 0.3;
-      view.jpeg_quality = 80;
-      photos.push_back(testdata::RenderCameraView(pages[i], view, 300 + 2 * i + k));
-    }
-  auto count = [&](const DocumentRegistry& r) {
-    int found = 0;
-    for (size_t v = 0; v < photos.size(); ++v) {
-      auto result = r.Retrieve(Gray(photos[v].image), std::nullopt, 0);
-      EXPECT_TRUE(result.ok()) << result.status();
-      if (!result.ok() || result->documents.empty()) continue;
-      EXPECT_EQ(result->documents.size(), 1u) << "view " << v;
-      EXPECT_EQ(result->documents[0].document.id, ids[v / 2]) << "view " << v;
-      const double error =
-          testdata::MeanHomographyError(result->documents[0].homography, photos[v].homography,
-                                        pages[v / 2].size(), photos[v].image.size());
-      EXPECT_LT(error, 6.0) << "view " << v << ", in the photo's pixels";
-      ++found;
-    }
-    return found;
-  };
-  const int without = count(*registry);
+  FarViewDraws draws;
+  draws.image_size = {2560, 1920};
+  draws.scale_min = 0.4;
+  draws.scale_max = 0.55;
+  draws.look_at = {400, 500, 200, 400};
+  draws.blur_min = 1.8;
+  draws.blur_max = 2.6;
+  draws.jpeg_quality = 80;
+  const FarViews views = RegisterFarViews(*registry, 20, 6, 2, draws, 11, 300);
+  int small = 0;
+  const int without = CountFarViewsFound(*registry, views, 6.0, &small);
   registry.reset();
   registry = Open(DocumentRegistryOptions());
   ASSERT_NE(registry, nullptr);
-  const int with = count(*registry);
+  const int with = CountFarViewsFound(*registry, views, 6.0, &small);
   std::printf("%d of %zu large photos found without the small-type retry, %d with\n", without,
-              photos.size(), with);
+              views.photos.size(), with);
   EXPECT_GT(with, without);
 }
 
@@ -1184,64 +1224,22 @@ TEST_F(DocumentRegistryTest, SmallTypeIsFoundUpscaled) {
   options.small_type_below_px = 0;
   auto registry = Open(options);
   ASSERT_NE(registry, nullptr);
-  std::vector<std::string> ids;
-  std::vector<cv::Mat> pages;
-  for (uint64_t seed = 0; seed < 12; ++seed) {
-    const auto rendered = testdata::RenderTextPage(seed);
-    auto record = registry->Register(Gray(rendered.image), "page", {});
-    ASSERT_TRUE(record.ok()) << record.status();
-    ids.push_back(record->id);
-    pages.push_back(rendered.image);
-  }
-  std::vector<testdata::CameraView> photos;
-  std::vector<size_t> page_of;
-  std::mt19937_64 rng(5);
-  auto uniform = [&rng](double a, double b) {
-    return std::uniform_real_distribution<double>(a, b)(rng);
-  };
-  for (size_t i = 0; i < pages.size(); ++i)
-    for (int k = 0; k < 3; ++k) {
-      testdata::CameraViewOptions view;
-      view.tilt_deg = uniform(0, 30);
-      view.tilt_azimuth_deg = uniform(-180, 180);
-      view.roll_deg = uniform(-180, 180);
-      view.scale = uniform(0.45, 0.55);
-      view.look_at = {uniform(350, 650), uniform(400, 1000)};
-      view.blur_sigma = uniform(1.4, 1.8);
-      view.noise_sigma = 3;
-      view.illumination_gradient = 0.3;
-      view.jpeg_quality = 75;
-      photos.push_back(testdata::RenderCameraView(pages[i], view, 100 + 3 * i + k));
-      page_of.push_back(i);
-    }
-  // Views found, each on its page alone; `small` counts those of text under 5 px.
-  auto count = [&](const DocumentRegistry& r, int* small) {
-    int found = 0;
-    *small = 0;
-    for (size_t v = 0; v < photos.size(); ++v) {
-      auto result = r.Retrieve(Gray(photos[v].image), std::nullopt, 0);
-      EXPECT_TRUE(result.ok()) << result.status();
-      if (!result.ok() || result->documents.empty()) continue;
-      EXPECT_EQ(result->documents.size(), 1u) << "view " << v;
-      EXPECT_EQ(result->documents[0].document.id, ids[page_of[v]]) << "view " << v;
-      EXPECT_LT(testdata::MeanHomographyError(result->documents[0].homography, photos[v].homography,
-                                              pages[page_of[v]].size(), photos[v].image.size()),
-                3.0)
-          << "view " << v;
-      ++found;
-      *small += result->text_height_px < 5;
-    }
-    return found;
-  };
+  FarViewDraws draws;
+  draws.scale_min = 0.45;
+  draws.scale_max = 0.55;
+  draws.look_at = {350, 400, 300, 600};
+  draws.blur_min = 1.4;
+  draws.blur_max = 1.8;
+  const FarViews views = RegisterFarViews(*registry, 0, 12, 3, draws, 5, 100);
   int small_without = 0, small_with = 0;
-  const int without = count(*registry, &small_without);
-  ASSERT_LT(without, static_cast<int>(photos.size())) << "some views must need the retry";
+  const int without = CountFarViewsFound(*registry, views, 3.0, &small_without);
+  ASSERT_LT(without, static_cast<int>(views.photos.size())) << "some views must need the retry";
   registry.reset();
   registry = Open(DocumentRegistryOptions());
   ASSERT_NE(registry, nullptr);
-  const int with = count(*registry, &small_with);
+  const int with = CountFarViewsFound(*registry, views, 3.0, &small_with);
   std::printf("%d of %zu views found without the small-type retry, %d with\n", without,
-              photos.size(), with);
+              views.photos.size(), with);
   EXPECT_GE(with, without + 4);
   EXPECT_EQ(with - without, small_with - small_without) << "the retry is for small type only";
 }
