@@ -301,10 +301,7 @@ absl::Status DocumentRegistry::LoadIndex() {
   ASSIGN_OR_RETURN(InvariantQuantizer quantizer, ParseThresholds(*stored_thresholds, llah.k));
   std::shared_ptr<LlahRetriever> figures;
   if (options_.index_figures) {
-    RETURN_IF_ERROR(SettleFigureCorners(/*existing=*/true));
-    ASSIGN_OR_RETURN(const LlahOptions figure_llah, FigureLlahOptions(llah));
-    figures = std::make_shared<LlahRetriever>(figure_llah, quantizer.Coarser(figure_llah.k),
-                                              kFigureLog2Buckets);
+    ASSIGN_OR_RETURN(figures, CreateFigureIndex(llah, quantizer, /*existing=*/true));
   }
   std::shared_ptr<LlahRetriever> letters;
   if (options_.index_letters)
@@ -392,10 +389,7 @@ absl::Status DocumentRegistry::CreateRetriever(const std::vector<cv::Point2f> &t
                FormatThresholds(quantizer.thresholds()));
   std::shared_ptr<LlahRetriever> figures;
   if (options_.index_figures) {
-    RETURN_IF_ERROR(SettleFigureCorners(/*existing=*/false));
-    ASSIGN_OR_RETURN(const LlahOptions figure_llah, FigureLlahOptions(options_.llah));
-    figures = std::make_shared<LlahRetriever>(figure_llah, quantizer.Coarser(figure_llah.k),
-                                              kFigureLog2Buckets);
+    ASSIGN_OR_RETURN(figures, CreateFigureIndex(options_.llah, quantizer, /*existing=*/false));
   }
   std::shared_ptr<LlahRetriever> letters;
   if (options_.index_letters)
@@ -429,6 +423,14 @@ absl::Status DocumentRegistry::SettleFigureCorners(bool existing) {
     figure_extractor_ = FigureKeypointExtractor(options_.figure_keypoints);
   }
   return absl::OkStatus();
+}
+
+absl::StatusOr<std::shared_ptr<LlahRetriever>> DocumentRegistry::CreateFigureIndex(
+    const LlahOptions &words, const InvariantQuantizer &quantizer, bool existing) {
+  RETURN_IF_ERROR(SettleFigureCorners(existing));
+  ASSIGN_OR_RETURN(const LlahOptions figure_llah, FigureLlahOptions(words));
+  return std::make_shared<LlahRetriever>(figure_llah, quantizer.Coarser(figure_llah.k),
+                                         kFigureLog2Buckets);
 }
 
 absl::StatusOr<LlahOptions> DocumentRegistry::FigureLlahOptions(const LlahOptions &words) {

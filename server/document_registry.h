@@ -328,6 +328,10 @@ class DocumentRegistry {
   absl::Status SettleFigureCorners(bool existing);
   // The figures' LLAH settings: stored ones, else options_'s (stored now).
   absl::StatusOr<LlahOptions> FigureLlahOptions(const LlahOptions &words);
+  // The figures' empty index (SettleFigureCorners, then FigureLlahOptions): the words'
+  // `quantizer` at the figures' coarser levels.
+  absl::StatusOr<std::shared_ptr<LlahRetriever>> CreateFigureIndex(
+      const LlahOptions &words, const InvariantQuantizer &quantizer, bool existing);
   std::optional<DocumentSummary> Summary(uint32_t index_id) const;
   // The last try of RetrieveAsGiven: the picture warped by the text-line `horizon` (turned
   // so that the text lines are horizontal), cut anew and retrieved, in up to

@@ -494,9 +494,9 @@ int main(int argc, char **argv) {
                  "RANSAC inlier distance of the letters, times their size");
   app.add_option("--small-type-below", registry_options.small_type_below_px,
                  "views that found nothing with text under this height (px) are retrieved again "
-                 "upscaled (0: never)");
+                 "at a larger size (0: never)");
   app.add_option("--small-type-upscale", registry_options.small_type_upscale,
-                 "the small-type retry's upscaling factor");
+                 "the small-type retry's size, times the size the view was retrieved at");
   app.add_option("--max-hits", registry_options.retrieval.max_hits_per_descriptor,
                  "descriptors with more index entries than this do not vote");
   app.add_option("--max-hits-per-1000", registry_options.retrieval.max_hits_per_1000_documents,
