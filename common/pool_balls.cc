@@ -2375,7 +2375,8 @@ std::vector<PoolDetectedBall> DetectPoolBallsOnce(const cv::Mat& image, const cv
       b.votes[7] = red_balls[1].second * t;
     }
   }
-  if (options.separate_overlapping_fits) SeparateOverlappingBalls(pose, K, r, &balls);
+  if (options.separate_overlapping_fits)
+    SeparateOverlappingBalls(pose, K, r, &balls, options.line_of_sight_pair_deg);
   std::vector<std::array<double, 10>> scores;
   for (size_t i = 0; i < balls.size(); ++i) {
     scores.push_back(PoolNumberScores(balls[i].votes, options, balls[i].white_outward));
@@ -2548,7 +2549,10 @@ cv::Mat EmptyTableBackground(const cv::Mat& bgr, const cv::Matx33d& K, const Pla
 }
 
 void SeparateOverlappingBalls(const PlanarPose& pose, const cv::Matx33d& K, double radius,
-                              std::vector<PoolDetectedBall>* balls) {
+                              std::vector<PoolDetectedBall>* balls, double line_of_sight_pair_deg) {
+  const cv::Vec3d camera = CameraCentre(pose);
+  const double cos_line_of_sight =
+      line_of_sight_pair_deg > 0 ? std::cos(line_of_sight_pair_deg * kPi / 180) : 2.0;
   // Each round settles every pair once; a pushed ball may overlap a third one, so rounds
   // run until no pair overlaps by more than kTolerance (a chain of three balls, 40 mm apart
   // at a radius of 24, still overlapped by 0.4 mm after three rounds), capped.
@@ -2568,11 +2572,19 @@ void SeparateOverlappingBalls(const PlanarPose& pose, const cv::Matx33d& K, doub
         // fits never leaves two within a radius).
         if (gap >= contact - kTolerance || gap < 1e-6) continue;
         overlapping = true;
-        along *= 0.5 * (contact - gap) / gap;
-        a.x_mm -= along.x;
-        a.y_mm -= along.y;
-        b.x_mm += along.x;
-        b.y_mm += along.y;
+        // Share of the overlap that a takes: half, or all of it when a is the nearer of a
+        // pair seen one behind the other (b the nearer: none).
+        double share_a = 0.5;
+        const cv::Point2d from_camera(0.5 * (a.x_mm + b.x_mm) - camera[0],
+                                      0.5 * (a.y_mm + b.y_mm) - camera[1]);
+        const double along_sight = from_camera.dot(along);
+        if (std::abs(along_sight) > cos_line_of_sight * cv::norm(from_camera) * gap)
+          share_a = along_sight > 0 ? 1.0 : 0.0;  // a -> b points away from the camera
+        along *= (contact - gap) / gap;
+        a.x_mm -= share_a * along.x;
+        a.y_mm -= share_a * along.y;
+        b.x_mm += (1 - share_a) * along.x;
+        b.y_mm += (1 - share_a) * along.y;
         for (PoolDetectedBall* ball : {&a, &b}) {
           ball->ideal_pixel = ProjectIdeal(pose, K, cv::Vec3d(ball->x_mm, ball->y_mm, radius));
           ball->radius_px = ApparentRadiusPx(pose, K, {ball->x_mm, ball->y_mm}, radius);

@@ -106,7 +106,11 @@ struct PoolBallOptions {
   // interpenetrate, and the fits of a touching pair seen one behind the other slide into
   // each other (the nearer one's far side and the farther one's near side are against
   // ball, not cloth). On the ten green sets: 61 -> 55 balls over 10 mm, mean 2.57 -> 2.52
-  // mm; ten held-out sets: 96 -> 90, 2.70 -> 2.65 mm; no ball named otherwise.
+  // mm; ten held-out sets: 96 -> 90, 2.70 -> 2.65 mm; no ball named otherwise. A pair
+  // seen one behind the other (line_of_sight_pair_deg) is separated by moving the nearer
+  // ball alone: the farther one's far rim against the cloth holds its fit, the nearer
+  // one's far side is against the farther ball (mean 2.52 -> 2.45 mm on the ten green
+  // sets, 2.65 -> 2.59 mm on the held-out sets; balls over 10 mm 55 -> 55 and 90 -> 89).
   bool separate_overlapping_fits = true;
   // Two fits of different colours closer than the overlap rule allows: the worse fit is
   // moved out to touch the better one, except for a touching pair seen one behind the
@@ -117,7 +121,8 @@ struct PoolBallOptions {
   // outline against the cloth holds it; both fits cover mostly ball pixels, so the worse
   // of the two is a toss-up, and when the far ball was moved both stood 2-3 px away from
   // the camera. With the nearer one moved out (45), balls over 10 mm on the ten green
-  // sets went 74 -> 58 and none got worse. 0 turns this off.
+  // sets went 74 -> 58 and none got worse. The final separation of overlapping fits
+  // (separate_overlapping_fits) takes the same angle. 0 turns this off.
   double line_of_sight_pair_deg = 45;
   // Two seeds closer than this many ball radii after the first fits are one ball (its dark
   // underside and shadow lengthen its blob into two seeds): only the better fit is kept.
@@ -264,10 +269,13 @@ std::vector<PoolDetectedBall> DetectPoolBalls(
 
 // Moves balls whose centres are closer than 2 * `radius` (mm, on the table) apart along the
 // line between them, each by half the overlap, until they touch (within 0.01 mm; in rounds,
-// as a moved ball may meet a third). Their ideal pixels and apparent radii follow (`pose`,
+// as a moved ball may meet a third). A pair whose line lies within `line_of_sight_pair_deg`
+// of the camera's line of sight (on the table) is separated by moving the nearer ball
+// alone (0: every pair by halves). Their ideal pixels and apparent radii follow (`pose`,
 // `K`).
 void SeparateOverlappingBalls(const PlanarPose& pose, const cv::Matx33d& K, double radius,
-                              std::vector<PoolDetectedBall>* balls);
+                              std::vector<PoolDetectedBall>* balls,
+                              double line_of_sight_pair_deg = 0);
 
 // Seed eq. 4.3 and the nearest-colour votes: a score for each number 0..9.
 // `white_outward` as PoolDetectedBall's (0: no information on where the white lies).

@@ -259,7 +259,8 @@ int main(int argc, char** argv) {
               "light cast over this share (0: never)");
   ball_option("--line-of-sight-pair-deg", &analyzer_options.balls.line_of_sight_pair_deg,
               "Of two overlapping fits within this many degrees of the line of sight, the "
-              "nearer is moved out (0: the worse fit is)");
+              "nearer is moved out, also in the final separation (0: the worse fit is, and the "
+              "final separation moves both by halves)");
   ball_option("--edge-point-reach", &analyzer_options.balls.edge_point_reach,
               "Edge points of a ball not darker than the cloth are sought this many apparent "
               "radii either side of its outline (0: no edge fit)");

@@ -467,6 +467,49 @@ TEST(PoolOverlap, OverlappingFitsAreMovedApartToTouch) {
   }
 }
 
+// A pair seen one behind the other (within line_of_sight_pair_deg of the line of sight)
+// is separated by moving the nearer ball alone; a pair across the line of sight by halves.
+TEST(PoolOverlap, TheNearerOfAPairAlongTheLineOfSightIsMovedOut) {
+  constexpr double kR = 24;
+  // A camera beyond the table's long side (Y = -1200), 1.2 m high, looking at the centre.
+  const cv::Matx33d K(600, 0, 320, 0, 600, 240, 0, 0, 1);
+  const cv::Vec3d camera(665, -1200, 1200), target(665, 350, 0);
+  const cv::Vec3d forward = cv::normalize(target - camera);
+  const cv::Vec3d right = cv::normalize(forward.cross(cv::Vec3d(0, 0, 1)));
+  const cv::Vec3d down = forward.cross(right);
+  PlanarPose pose;
+  pose.R = cv::Matx33d(right[0], right[1], right[2], down[0], down[1], down[2], forward[0],
+                       forward[1], forward[2]);
+  pose.t = -(pose.R * camera);
+  auto ball = [](double x, double y) {
+    PoolDetectedBall b;
+    b.x_mm = x;
+    b.y_mm = y;
+    return b;
+  };
+  // Along the line of sight (the far ball listed first and second), and across it.
+  std::vector<PoolDetectedBall> balls = {ball(665, 400), ball(665, 360), ball(300, 300),
+                                         ball(340, 300)};
+  std::vector<PoolDetectedBall> far_second = {balls[1], balls[0]};
+  SeparateOverlappingBalls(pose, K, kR, &balls, 45);
+  SeparateOverlappingBalls(pose, K, kR, &far_second, 45);
+  EXPECT_EQ(balls[0].y_mm, 400);  // the farther ball stays
+  EXPECT_NEAR(balls[1].y_mm, 400 - 2 * kR, 1e-9);
+  EXPECT_NEAR(balls[1].x_mm, 665, 1e-9);
+  EXPECT_NEAR(far_second[0].y_mm, 400 - 2 * kR, 1e-9);
+  EXPECT_EQ(far_second[1].y_mm, 400);
+  EXPECT_NEAR(balls[2].x_mm, 296, 1e-9);  // across: 4 mm each
+  EXPECT_NEAR(balls[3].x_mm, 344, 1e-9);
+  // Its pixels follow the moved centre.
+  const cv::Point2d p = ProjectIdeal(pose, K, {balls[1].x_mm, balls[1].y_mm, kR});
+  EXPECT_NEAR(balls[1].ideal_pixel.y, p.y, 1e-9);
+  // At 0 the pair along the line of sight is separated by halves too.
+  std::vector<PoolDetectedBall> halves = {ball(665, 400), ball(665, 360)};
+  SeparateOverlappingBalls(pose, K, kR, &halves, 0);
+  EXPECT_NEAR(halves[0].y_mm, 404, 1e-9);
+  EXPECT_NEAR(halves[1].y_mm, 356, 1e-9);
+}
+
 TEST(PoolBackground, BallsAreReplacedByTheCloth) {
   const PoolScene scene = Scene(PoolViewSide::kLongNear, 50);
   const PoolView view = testdata::RenderPoolView(scene, 9);
