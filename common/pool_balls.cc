@@ -1266,90 +1266,86 @@ bool SeedColour(const cv::Mat& bgr, const cv::Mat& ballness, const cv::Rect& roi
   return lit.Median(6, chroma);
 }
 
-// One pass of DetectPoolBalls on the picture as given, whose pixels are valid (the ideal
-// image's) inside `valid` only.
-std::vector<PoolDetectedBall> DetectPoolBallsOnce(const cv::Mat& image, const cv::Rect& valid,
-                                                  const cv::Matx33d& K, const PlanarPose& pose,
-                                                  const PoolTableProfile& profile,
-                                                  const cv::Vec3b& cloth_bgr,
-                                                  const PoolBallOptions& options,
-                                                  double* ball_size_ratio) {
-  const double L = profile.length_mm, W = profile.width_mm, r = profile.ball_radius_mm;
-  if (ball_size_ratio) *ball_size_ratio = 0;
-  const cv::Vec3f cloth(cloth_bgr[0], cloth_bgr[1], cloth_bgr[2]);
-  // JPEG rings around sharp colour edges (and halves the colour resolution); a light
-  // blur removes the ringing that would make the cloth next to a ball look like ball.
-  // Its buffer is kept per thread: allocated afresh for every frame, it and the frame's
-  // other large buffers were given back to the kernel and faulted in again each time
-  // (112,000 page faults over the pool benchmark's 60 frames, 67,000 with this). Nothing
-  // keeps a reference to it past this call.
-  if (valid.area() <= 0) return {};
-  thread_local cv::Mat blurred;
-  const cv::Rect whole(0, 0, image.cols, image.rows);
-  // The pixels that are read: those the blur gives exactly as on the whole picture (its
-  // radius inside `valid`, except along the picture's own border).
-  cv::Rect image_rect = valid;
-  if (valid != whole) {
-    // OpenCV blurs a part of a picture by another path than a whole one (it differs by a
-    // grey level in a few pixels in a hundred); a copy of the part is blurred like a whole.
-    blurred.create(image.size(), image.type());
-    cv::Mat out = blurred(valid);
-    cv::GaussianBlur(image(valid).clone(), out, cv::Size(0, 0), kOutlineBlurSigma);
-    const int d = kOutlineBlurRadius;
-    const int x0 = valid.x > 0 ? valid.x + d : 0, y0 = valid.y > 0 ? valid.y + d : 0;
-    const int x1 = valid.br().x < whole.width ? valid.br().x - d : whole.width;
-    const int y1 = valid.br().y < whole.height ? valid.br().y - d : whole.height;
-    image_rect = cv::Rect(x0, y0, std::max(0, x1 - x0), std::max(0, y1 - y0));
-  } else {
-    cv::GaussianBlur(image, blurred, cv::Size(0, 0), kOutlineBlurSigma);
+// One pass of the ball finder over a picture (DetectPoolBallsOnce): its stages, in the order
+// Run() calls them, and what they share: the picture as read, the search region and its
+// ball-ness maps, the seeds as the stages fit them, and the silhouettes that the other balls
+// claim. One object per pass; it keeps references to its arguments. Not thread-safe.
+class BallFinder {
+ public:
+  BallFinder(const cv::Mat& image, const cv::Matx33d& K, const PlanarPose& pose,
+             const PoolTableProfile& profile, const cv::Vec3b& cloth_bgr,
+             const PoolBallOptions& options)
+      : image_(image),
+        K_(K),
+        pose_(pose),
+        profile_(profile),
+        options_(options),
+        L_(profile.length_mm),
+        W_(profile.width_mm),
+        r_(profile.ball_radius_mm),
+        cloth_(cloth_bgr[0], cloth_bgr[1], cloth_bgr[2]),
+        cloth_intensity_((cloth_[0] + cloth_[1] + cloth_[2]) / 3),
+        cloth_sum_(cloth_[0] + cloth_[1] + cloth_[2]),
+        camera_(CameraCentre(pose)),
+        labels_(BlobLabelBuffer()) {}
+
+  // The balls of the picture, whose pixels are valid (the ideal image's) inside `valid`
+  // only; `ball_size_ratio` as DetectPoolBalls'.
+  std::vector<PoolDetectedBall> Run(const cv::Rect& valid, double* ball_size_ratio) {
+    if (ball_size_ratio) *ball_size_ratio = 0;
+    if (!FindBallPixels(valid)) return {};
+    SeedBlobs(ball_size_ratio);
+    FitSilhouettes();
+    SplitHiddenBalls();
+    RefineOutlines();
+    ResolveOverlaps();
+    KeepBalls();
+    TellRedPairApart();
+    return NameBalls();
   }
-  const cv::Mat& bgr = blurred;
-  const double cloth_intensity = (cloth[0] + cloth[1] + cloth[2]) / 3;
-  // Where balls can be seen: the playing surface from the cloth up to a ball's height,
-  // without the pockets.
-  std::vector<cv::Point> hull;
-  const cv::Rect roi = BallSearchRect(pose, K, L, W, r, image.size(), &hull) & image_rect;
-  if (roi.area() <= 0) return {};
-  cv::Mat region = cv::Mat::zeros(roi.size(), CV_8UC1);
-  std::vector<cv::Point> shifted;
-  for (const auto& p : hull) shifted.push_back(p - roi.tl());
-  cv::fillConvexPoly(region, shifted, cv::Scalar(255));
-  const cv::Mat playing_volume = region.clone();
-  const cv::Point2d pockets[6] = {{0, 0}, {L, 0}, {L, W}, {0, W}, {L / 2, 0}, {L / 2, W}};
-  for (int k = 0; k < 6; ++k) {
-    const double radius = (k < 4 ? profile.corner_pocket_mm : profile.side_pocket_mm) / 2;
-    for (double z : {0.0, profile.cushion_height_mm}) {
-      std::vector<cv::Point> disc;
-      for (int a = 0; a < 24; ++a) {
-        const double t = 2 * kPi * a / 24;
-        const cv::Point2d q = ProjectIdeal(
-            pose, K, {pockets[k].x + radius * std::cos(t), pockets[k].y + radius * std::sin(t), z});
-        disc.emplace_back(cvRound(q.x) - roi.x, cvRound(q.y) - roi.y);
-      }
-      cv::fillConvexPoly(region, disc, cv::Scalar(0));
-    }
+
+ private:
+  // The blob labels' buffer, kept per thread (as StickPixels' labels).
+  static cv::Mat& BlobLabelBuffer() {
+    thread_local cv::Mat labels;
+    return labels;
   }
-  const cv::Mat ballness = BallnessMap(bgr, roi, cloth, options);
-  cv::Mat mask(roi.size(), CV_8UC1);
-  for (int y = 0; y < roi.height; ++y) {
-    const float* b = ballness.ptr<float>(y);
-    const uchar* in = region.ptr<uchar>(y);
-    uchar* m = mask.ptr<uchar>(y);
-    for (int x = 0; x < roi.width; ++x) m[x] = b[x] > 0.5f && in[x] ? 255 : 0;
-  }
-  // Outside the playing volume no ball can be: 0. The pockets are masked out at the cloth
-  // and at the cushion top; seen from low on the table's long axis, a ball in front of a
-  // side pocket lies partly over that mask. Those pixels say nothing about the ball (they
-  // are not cloth): kMaskedOut, left out of the fits (a 7 beside a side pocket with a
-  // third of its silhouette masked was rejected as half cloth, benchmark frame 53).
-  cv::Mat stick;  // the cue stick's pixels (StickPixels), found below
-  const auto in_playing_volume = [&](const cv::Mat& map) {
+
+  // The picture read through a light blur, the search region and its ball-ness, the ball
+  // pixels without the cue stick's (mask_); false when no pixel of the table can be read.
+  bool FindBallPixels(const cv::Rect& valid);
+  // One seed per expected ball of each blob (touching balls split at distance maxima),
+  // and the fragments of a small ball taken together.
+  void SeedBlobs(double* ball_size_ratio);
+  // Each seed's silhouette fitted, nearest first, then again with all others claimed;
+  // two seeds of one ball merged.
+  void FitSilhouettes();
+  // A blob of two balls, one behind the other, with one seed: fitted as two.
+  void SplitHiddenBalls();
+  // Each fit moved onto its outline: the edge, the edge points, the rim.
+  void RefineOutlines();
+  // Fits closer than two balls can be: dropped or moved out of each other.
+  void ResolveOverlaps();
+  // The fits that are balls, with their colour votes (balls_).
+  void KeepBalls();
+  // Two red balls are the 3 and the 7: told apart by their differences.
+  void TellRedPairApart();
+  // Overlapping balls moved apart, and each ball's number.
+  std::vector<PoolDetectedBall> NameBalls();
+
+  // `map` (over roi_) where balls can be: outside the playing volume no ball can be, 0.
+  // The pockets are masked out at the cloth and at the cushion top; seen from low on the
+  // table's long axis, a ball in front of a side pocket lies partly over that mask. Those
+  // pixels say nothing about the ball (they are not cloth): kMaskedOut, left out of the
+  // fits (a 7 beside a side pocket with a third of its silhouette masked was rejected as
+  // half cloth, benchmark frame 53), as are the cue stick's.
+  cv::Mat InPlayingVolume(const cv::Mat& map) const {
     cv::Mat out(map.size(), CV_32FC1);
     for (int y = 0; y < map.rows; ++y) {
       const float* in = map.ptr<float>(y);
-      const uchar* volume = playing_volume.ptr<uchar>(y);
-      const uchar* open = region.ptr<uchar>(y);  // the volume without the pockets
-      const uchar* on_stick = stick.empty() ? nullptr : stick.ptr<uchar>(y);
+      const uchar* volume = playing_volume_.ptr<uchar>(y);
+      const uchar* open = region_.ptr<uchar>(y);  // the volume without the pockets
+      const uchar* on_stick = stick_.empty() ? nullptr : stick_.ptr<uchar>(y);
       float* o = out.ptr<float>(y);
       for (int x = 0; x < map.cols; ++x)
         o[x] = on_stick && on_stick[x] ? kMaskedOut
@@ -1358,8 +1354,140 @@ std::vector<PoolDetectedBall> DetectPoolBallsOnce(const cv::Mat& image, const cv
                                        : in[x];
     }
     return out;
-  };
-  cv::Mat ballness_in_region = in_playing_volume(ballness);
+  }
+  // Distance from the camera to the centre of a ball at table position `xy`.
+  double FromCamera(const cv::Point2d& xy) const {
+    return cv::norm(cv::Vec3d(xy.x, xy.y, r_) - camera_);
+  }
+  void ClearClaimed() {
+    for (const cv::Rect& box : claimed_boxes_)
+      for (int v = box.y; v < box.y + box.height; ++v)
+        std::fill_n(claimed_.ptr<float>(v - roi_.y) + (box.x - roi_.x), box.width, 0.f);
+    claimed_boxes_.clear();
+  }
+  // Paints the silhouettes of the balls at positions[j], j < count and j != skip, into
+  // claimed_ (cleared first).
+  void Claim(const std::vector<cv::Point2d>& positions, size_t skip, size_t count) {
+    ClearClaimed();
+    for (size_t j = 0; j < count; ++j) {
+      if (j == skip) continue;
+      const cv::Vec3d centre(positions[j].x, positions[j].y, r_);
+      const cv::Matx33d Q = SphereSilhouetteConic(pose_, K_, centre, r_);
+      SilhouetteScorer scorer(ballness_in_region_, roi_, claimed_, K_, pose_, profile_);
+      const cv::Rect box = scorer.Box(centre);
+      claimed_boxes_.push_back(box);
+      for (int v = box.y; v < box.y + box.height; ++v)
+        for (int u = box.x; u < box.x + box.width; ++u) {
+          float& c = claimed_.at<float>(v - roi_.y, u - roi_.x);
+          c = std::max(c, static_cast<float>(SilhouetteScorer::Coverage(Q, u, v)));
+        }
+    }
+  }
+  // Ball-ness by colour alone (a shadow stays cloth), made the first time a rim fit or the
+  // final check needs it.
+  const cv::Mat& ByColourAlone() {
+    if (colour_ballness_.empty())
+      colour_ballness_ =
+          InPlayingVolume(BallnessMap(bgr_, roi_, cloth_, options_, /*dark_counts=*/false));
+    return colour_ballness_;
+  }
+
+  const cv::Mat& image_;  // as given: the colour votes read it
+  const cv::Matx33d& K_;
+  const PlanarPose& pose_;
+  const PoolTableProfile& profile_;
+  const PoolBallOptions& options_;
+  const double L_, W_, r_;  // the table's length and width, the balls' radius (mm)
+  const cv::Vec3f cloth_;
+  const double cloth_intensity_;
+  const float cloth_sum_;
+  const cv::Vec3d camera_;  // the camera's centre in the table frame
+  cv::Mat bgr_;             // the picture through a light blur: the outlines read it
+  cv::Rect image_rect_;     // where bgr_ is as the whole picture's blur gives it
+  cv::Rect roi_;            // where balls can be seen; the maps below are over it
+  cv::Mat region_;          // the playing volume without the pockets
+  cv::Mat playing_volume_;
+  cv::Mat mask_;                    // ball pixels
+  cv::Mat stick_;                   // the cue stick's pixels (StickPixels)
+  cv::Mat ballness_in_region_;      // InPlayingVolume of the ball-ness
+  cv::Mat& labels_;                 // the blobs of mask_
+  std::vector<cv::Point2d> seeds_;  // table positions, refined by each stage in turn
+  // Blobs with the area of more balls than their distance maxima gave seeds for.
+  std::vector<int> under_split_;
+  cv::Mat claimed_;  // the silhouettes of the balls other than the one being fitted
+  // The boxes (image pixels) painted in claimed_ since it was last cleared: Claim() runs
+  // a few times for every ball, and clearing the whole map each time was 3% of a frame.
+  std::vector<cv::Rect> claimed_boxes_;
+  std::vector<int> hidden_behind_;  // per seed: the nearer ball's index, -1 (SplitHiddenBalls)
+  cv::Mat colour_ballness_;         // ByColourAlone
+  std::vector<char> moved_;         // per seed: moved out of a neighbour (ResolveOverlaps)
+  std::vector<PoolDetectedBall> balls_;
+  std::vector<char> balls_moved_;  // per ball: placed by the overlap rule
+  double cloth_hue_ = 0;           // for the dark reflection votes
+};
+
+bool BallFinder::FindBallPixels(const cv::Rect& valid) {
+  // JPEG rings around sharp colour edges (and halves the colour resolution); a light
+  // blur removes the ringing that would make the cloth next to a ball look like ball.
+  // Its buffer is kept per thread: allocated afresh for every frame, it and the frame's
+  // other large buffers were given back to the kernel and faulted in again each time
+  // (112,000 page faults over the pool benchmark's 60 frames, 67,000 with this). Nothing
+  // keeps a reference to it (bgr_) past the pass.
+  if (valid.area() <= 0) return false;
+  thread_local cv::Mat blurred;
+  const cv::Rect whole(0, 0, image_.cols, image_.rows);
+  // The pixels that are read: those the blur gives exactly as on the whole picture (its
+  // radius inside `valid`, except along the picture's own border).
+  image_rect_ = valid;
+  if (valid != whole) {
+    // OpenCV blurs a part of a picture by another path than a whole one (it differs by a
+    // grey level in a few pixels in a hundred); a copy of the part is blurred like a whole.
+    blurred.create(image_.size(), image_.type());
+    cv::Mat out = blurred(valid);
+    cv::GaussianBlur(image_(valid).clone(), out, cv::Size(0, 0), kOutlineBlurSigma);
+    const int d = kOutlineBlurRadius;
+    const int x0 = valid.x > 0 ? valid.x + d : 0, y0 = valid.y > 0 ? valid.y + d : 0;
+    const int x1 = valid.br().x < whole.width ? valid.br().x - d : whole.width;
+    const int y1 = valid.br().y < whole.height ? valid.br().y - d : whole.height;
+    image_rect_ = cv::Rect(x0, y0, std::max(0, x1 - x0), std::max(0, y1 - y0));
+  } else {
+    cv::GaussianBlur(image_, blurred, cv::Size(0, 0), kOutlineBlurSigma);
+  }
+  bgr_ = blurred;
+  // Where balls can be seen: the playing surface from the cloth up to a ball's height,
+  // without the pockets.
+  std::vector<cv::Point> hull;
+  roi_ = BallSearchRect(pose_, K_, L_, W_, r_, image_.size(), &hull) & image_rect_;
+  if (roi_.area() <= 0) return false;
+  region_ = cv::Mat::zeros(roi_.size(), CV_8UC1);
+  std::vector<cv::Point> shifted;
+  for (const auto& p : hull) shifted.push_back(p - roi_.tl());
+  cv::fillConvexPoly(region_, shifted, cv::Scalar(255));
+  playing_volume_ = region_.clone();
+  const cv::Point2d pockets[6] = {{0, 0}, {L_, 0}, {L_, W_}, {0, W_}, {L_ / 2, 0}, {L_ / 2, W_}};
+  for (int k = 0; k < 6; ++k) {
+    const double radius = (k < 4 ? profile_.corner_pocket_mm : profile_.side_pocket_mm) / 2;
+    for (double z : {0.0, profile_.cushion_height_mm}) {
+      std::vector<cv::Point> disc;
+      for (int a = 0; a < 24; ++a) {
+        const double t = 2 * kPi * a / 24;
+        const cv::Point2d q = ProjectIdeal(
+            pose_, K_,
+            {pockets[k].x + radius * std::cos(t), pockets[k].y + radius * std::sin(t), z});
+        disc.emplace_back(cvRound(q.x) - roi_.x, cvRound(q.y) - roi_.y);
+      }
+      cv::fillConvexPoly(region_, disc, cv::Scalar(0));
+    }
+  }
+  const cv::Mat ballness = BallnessMap(bgr_, roi_, cloth_, options_);
+  mask_.create(roi_.size(), CV_8UC1);
+  for (int y = 0; y < roi_.height; ++y) {
+    const float* b = ballness.ptr<float>(y);
+    const uchar* in = region_.ptr<uchar>(y);
+    uchar* m = mask_.ptr<uchar>(y);
+    for (int x = 0; x < roi_.width; ++x) m[x] = b[x] > 0.5f && in[x] ? 255 : 0;
+  }
+  ballness_in_region_ = InPlayingVolume(ballness);
   {
     // A ball's highlight or lit cap can come close to the cloth's colour (the far dark
     // green 6 of benchmark frame 49 is a ring of ball pixels around a lit cap that
@@ -1377,28 +1505,28 @@ std::vector<PoolDetectedBall> DetectPoolBallsOnce(const cv::Mat& image, const cv
     for (int h = 1; h < holes; ++h) {
       const int left = hole_stats.at<int>(h, cv::CC_STAT_LEFT);
       const int top = hole_stats.at<int>(h, cv::CC_STAT_TOP);
-      if (left == 0 || top == 0 || left + hole_stats.at<int>(h, cv::CC_STAT_WIDTH) >= roi.width ||
-          top + hole_stats.at<int>(h, cv::CC_STAT_HEIGHT) >= roi.height)
+      if (left == 0 || top == 0 || left + hole_stats.at<int>(h, cv::CC_STAT_WIDTH) >= roi_.width ||
+          top + hole_stats.at<int>(h, cv::CC_STAT_HEIGHT) >= roi_.height)
         continue;
-      const cv::Point2d c(hole_centroids.at<double>(h, 0) + roi.x,
-                          hole_centroids.at<double>(h, 1) + roi.y);
+      const cv::Point2d c(hole_centroids.at<double>(h, 0) + roi_.x,
+                          hole_centroids.at<double>(h, 1) + roi_.y);
       cv::Point2d xy;
-      if (!BackProjectToPlane(pose, K, c, r, &xy)) continue;
-      const double r_px = ApparentRadiusPx(pose, K, xy, r);
+      if (!BackProjectToPlane(pose_, K_, c, r_, &xy)) continue;
+      const double r_px = ApparentRadiusPx(pose_, K_, xy, r_);
       fill[h] = hole_stats.at<int>(h, cv::CC_STAT_AREA) <= 0.5 * kPi * r_px * r_px;
     }
     // Not the pockets (outside the region), which the mask leaves out as well.
-    for (int y = 0; y < roi.height; ++y) {
+    for (int y = 0; y < roi_.height; ++y) {
       const int* l = hole_labels.ptr<int>(y);
-      const uchar* in = region.ptr<uchar>(y);
-      for (int x = 0; x < roi.width; ++x)
+      const uchar* in = region_.ptr<uchar>(y);
+      for (int x = 0; x < roi_.width; ++x)
         if (l[x] > 0 && fill[l[x]] && !in[x]) fill[l[x]] = 0;
     }
-    for (int y = 0; y < roi.height; ++y) {
+    for (int y = 0; y < roi_.height; ++y) {
       const int* l = hole_labels.ptr<int>(y);
-      uchar* m = mask.ptr<uchar>(y);
-      float* b = ballness_in_region.ptr<float>(y);
-      for (int x = 0; x < roi.width; ++x)
+      uchar* m = mask_.ptr<uchar>(y);
+      float* b = ballness_in_region_.ptr<float>(y);
+      for (int x = 0; x < roi_.width; ++x)
         if (l[x] > 0 && fill[l[x]]) {
           m[x] = 255;
           b[x] = 1;
@@ -1407,17 +1535,17 @@ std::vector<PoolDetectedBall> DetectPoolBallsOnce(const cv::Mat& image, const cv
   }
 
   // A cue stick over the cloth gives no seeds, and the fits leave its pixels out.
-  stick = StickPixels(mask, roi, pose, K, r, L, W, profile.cushion_height_mm, options);
-  mask.setTo(0, stick);
-  ballness_in_region.setTo(kMaskedOut, stick);
+  stick_ = StickPixels(mask_, roi_, pose_, K_, r_, L_, W_, profile_.cushion_height_mm, options_);
+  mask_.setTo(0, stick_);
+  ballness_in_region_.setTo(kMaskedOut, stick_);
 
+  return true;
+}
+
+void BallFinder::SeedBlobs(double* ball_size_ratio) {
   // Blobs -> seeds (one per expected ball; touching balls split at distance maxima).
-  thread_local cv::Mat labels;  // kept per thread, as StickPixels' labels
   cv::Mat stats, centroids;
-  const int n = ConnectedComponentsWithStats(mask, 8, &labels, &stats, &centroids);
-  std::vector<cv::Point2d> seeds;
-  // Blobs with the area of more balls than their distance maxima gave seeds for.
-  std::vector<int> under_split;
+  const int n = ConnectedComponentsWithStats(mask_, 8, &labels_, &stats, &centroids);
   struct Fragment {
     cv::Point2d centroid;  // image pixels
     int area;
@@ -1427,27 +1555,27 @@ std::vector<PoolDetectedBall> DetectPoolBallsOnce(const cv::Mat& image, const cv
   // Each ball-sized blob's largest inscribed circle over a ball's apparent radius there.
   std::vector<double> size_ratios;
   for (int i = 1; i < n; ++i) {
-    const cv::Point2d c(centroids.at<double>(i, 0) + roi.x, centroids.at<double>(i, 1) + roi.y);
+    const cv::Point2d c(centroids.at<double>(i, 0) + roi_.x, centroids.at<double>(i, 1) + roi_.y);
     cv::Point2d xy;
-    if (!BackProjectToPlane(pose, K, c, r, &xy)) continue;
-    const cv::Vec3d cam = pose.R * cv::Vec3d(xy.x, xy.y, r) + pose.t;
-    const double r_px = K(0, 0) * r / cv::norm(cam);
+    if (!BackProjectToPlane(pose_, K_, c, r_, &xy)) continue;
+    const cv::Vec3d cam = pose_.R * cv::Vec3d(xy.x, xy.y, r_) + pose_.t;
+    const double r_px = K_(0, 0) * r_ / cv::norm(cam);
     const double expected = kPi * r_px * r_px;
     const int area = stats.at<int>(i, cv::CC_STAT_AREA);
-    if (area < options.min_area_fraction * expected) {
+    if (area < options_.min_area_fraction * expected) {
       fragments.push_back({c, area, r_px, expected});
       continue;
     }
     const int count = std::max(1, static_cast<int>(std::floor(area / expected + 0.35)));
     // A single ball's blob needs its distance transform only for the size ratio.
     if (count == 1 && !ball_size_ratio) {
-      seeds.push_back(xy);
+      seeds_.push_back(xy);
       continue;
     }
     const cv::Rect box(stats.at<int>(i, cv::CC_STAT_LEFT), stats.at<int>(i, cv::CC_STAT_TOP),
                        stats.at<int>(i, cv::CC_STAT_WIDTH), stats.at<int>(i, cv::CC_STAT_HEIGHT));
     cv::Mat blob;
-    cv::copyMakeBorder(labels(box) == i, blob, 1, 1, 1, 1, cv::BORDER_CONSTANT, 0);
+    cv::copyMakeBorder(labels_(box) == i, blob, 1, 1, 1, 1, cv::BORDER_CONSTANT, 0);
     cv::Mat dist;
     cv::distanceTransform(blob, dist, cv::DIST_L2, 3);
     if (ball_size_ratio) {
@@ -1456,20 +1584,20 @@ std::vector<PoolDetectedBall> DetectPoolBallsOnce(const cv::Mat& image, const cv
       size_ratios.push_back(inscribed / r_px);
     }
     if (count == 1) {
-      seeds.push_back(xy);
+      seeds_.push_back(xy);
       continue;
     }
-    const size_t seeds_before = seeds.size();
+    const size_t seeds_before = seeds_.size();
     for (int k = 0; k < count; ++k) {
       double max_value;
       cv::Point max_at;
       cv::minMaxLoc(dist, nullptr, &max_value, nullptr, &max_at);
       if (max_value < 0.4 * r_px) break;
-      const cv::Point2d pixel(max_at.x - 1 + box.x + roi.x, max_at.y - 1 + box.y + roi.y);
-      if (BackProjectToPlane(pose, K, pixel, r, &xy)) seeds.push_back(xy);
+      const cv::Point2d pixel(max_at.x - 1 + box.x + roi_.x, max_at.y - 1 + box.y + roi_.y);
+      if (BackProjectToPlane(pose_, K_, pixel, r_, &xy)) seeds_.push_back(xy);
       cv::circle(dist, max_at, static_cast<int>(std::ceil(1.4 * r_px)), cv::Scalar(0), -1);
     }
-    if (seeds.size() - seeds_before == 1) under_split.push_back(i);
+    if (seeds_.size() - seeds_before == 1) under_split_.push_back(i);
   }
   {
     // A small ball of nearly the cloth's colour (a far green 6 on green cloth) can break
@@ -1491,11 +1619,11 @@ std::vector<PoolDetectedBall> DetectPoolBallsOnce(const cv::Mat& image, const cv
           area += fragments[b].area;
           sum += fragments[b].area * fragments[b].centroid;
         }
-      if (group.size() < 2 || area < options.min_area_fraction * fragments[a].expected) continue;
+      if (group.size() < 2 || area < options_.min_area_fraction * fragments[a].expected) continue;
       cv::Point2d xy;
-      if (!BackProjectToPlane(pose, K, sum / area, r, &xy)) continue;
+      if (!BackProjectToPlane(pose_, K_, sum / area, r_, &xy)) continue;
       for (size_t b : group) used[b] = 1;
-      seeds.push_back(xy);
+      seeds_.push_back(xy);
     }
   }
 
@@ -1504,53 +1632,21 @@ std::vector<PoolDetectedBall> DetectPoolBallsOnce(const cv::Mat& image, const cv
                      size_ratios.end());
     *ball_size_ratio = size_ratios[size_ratios.size() / 2];
   }
+}
 
+void BallFinder::FitSilhouettes() {
   // Fit each ball's silhouette, nearest balls first; a farther ball ignores pixels that a
   // nearer ball covers.
-  const cv::Vec3d camera = CameraCentre(pose);
-  // Distance from the camera to the centre of a ball at table position `xy`.
-  const auto from_camera = [&](const cv::Point2d& xy) {
-    return cv::norm(cv::Vec3d(xy.x, xy.y, r) - camera);
-  };
-  std::sort(seeds.begin(), seeds.end(), [&](const cv::Point2d& a, const cv::Point2d& b) {
-    return from_camera(a) < from_camera(b);
+  std::sort(seeds_.begin(), seeds_.end(), [&](const cv::Point2d& a, const cv::Point2d& b) {
+    return FromCamera(a) < FromCamera(b);
   });
   // Where each seed started (its blob's distance maximum, inside its own ball), for the
   // merge after the first pass.
-  std::vector<cv::Point2d> origins = seeds;
-  const float cloth_sum = cloth[0] + cloth[1] + cloth[2];
-  cv::Mat claimed = cv::Mat::zeros(roi.size(), CV_32FC1);
-  // The boxes (image pixels) painted in `claimed` since it was last cleared: claim() runs
-  // a few times for every ball, and clearing the whole map each time was 3% of a frame.
-  std::vector<cv::Rect> claimed_boxes;
-  const auto clear_claimed = [&] {
-    for (const cv::Rect& box : claimed_boxes)
-      for (int v = box.y; v < box.y + box.height; ++v)
-        std::fill_n(claimed.ptr<float>(v - roi.y) + (box.x - roi.x), box.width, 0.f);
-    claimed_boxes.clear();
-  };
-  std::vector<PoolDetectedBall> balls;
-  std::vector<char> balls_moved;  // per ball: placed by the overlap rule
-  // Paints the silhouettes of balls[j] for j in `others` into `claimed`.
-  auto claim = [&](const std::vector<cv::Point2d>& positions, size_t skip, size_t count) {
-    clear_claimed();
-    for (size_t j = 0; j < count; ++j) {
-      if (j == skip) continue;
-      const cv::Vec3d centre(positions[j].x, positions[j].y, r);
-      const cv::Matx33d Q = SphereSilhouetteConic(pose, K, centre, r);
-      SilhouetteScorer scorer(ballness_in_region, roi, claimed, K, pose, profile);
-      const cv::Rect box = scorer.Box(centre);
-      claimed_boxes.push_back(box);
-      for (int v = box.y; v < box.y + box.height; ++v)
-        for (int u = box.x; u < box.x + box.width; ++u) {
-          float& c = claimed.at<float>(v - roi.y, u - roi.x);
-          c = std::max(c, static_cast<float>(SilhouetteScorer::Coverage(Q, u, v)));
-        }
-    }
-  };
+  std::vector<cv::Point2d> origins = seeds_;
+  claimed_ = cv::Mat::zeros(roi_.size(), CV_32FC1);
   // First pass: nearest first, each ball ignoring the nearer ones already fitted; second
   // pass: each ball ignoring all the others.
-  const double isolated_mm = 6 * r;  // farther apart than this, balls never share pixels
+  const double isolated_mm = 6 * r_;  // farther apart than this, balls never share pixels
   for (int pass = 0; pass < 2; ++pass) {
     if (pass == 1) {
       // A blob lengthened by a ball's dark underside and its shadow can be split into two
@@ -1565,60 +1661,60 @@ std::vector<PoolDetectedBall> DetectPoolBallsOnce(const cv::Mat& image, const cv
       // Of seeds i and j, the one to put back where it started; seeds.size() for none.
       const auto seed_to_put_back = [&](size_t i, size_t j) {
         cv::Point2d chroma_i, chroma_j;
-        if (cv::norm(origins[i] - origins[j]) < options.seed_merge_distance * r ||
-            !SeedColour(bgr, ballness_in_region, roi, pose, K, origins[i], r, cloth_sum,
+        if (cv::norm(origins[i] - origins[j]) < options_.seed_merge_distance * r_ ||
+            !SeedColour(bgr_, ballness_in_region_, roi_, pose_, K_, origins[i], r_, cloth_sum_,
                         &chroma_i) ||
-            !SeedColour(bgr, ballness_in_region, roi, pose, K, origins[j], r, cloth_sum,
+            !SeedColour(bgr_, ballness_in_region_, roi_, pose_, K_, origins[j], r_, cloth_sum_,
                         &chroma_j) ||
-            cv::norm(chroma_i - chroma_j) <= options.ball_chroma_distance)
-          return seeds.size();
+            cv::norm(chroma_i - chroma_j) <= options_.ball_chroma_distance)
+          return seeds_.size();
         const size_t back =
-            cv::norm(seeds[i] - origins[i]) >= cv::norm(seeds[j] - origins[j]) ? i : j;
+            cv::norm(seeds_[i] - origins[i]) >= cv::norm(seeds_[j] - origins[j]) ? i : j;
         // Unless another fit nearby has that colour: the seed started on a neighbouring
         // ball's pixels (a blob of two touching balls and a shadow gives three seeds).
         const cv::Point2d& own = back == i ? chroma_i : chroma_j;
-        for (size_t k = 0; k < seeds.size(); ++k) {
+        for (size_t k = 0; k < seeds_.size(); ++k) {
           cv::Point2d chroma_k;
-          if (k != back && cv::norm(seeds[k] - origins[back]) < 2.5 * r &&
-              SeedColour(bgr, ballness_in_region, roi, pose, K, seeds[k], r, cloth_sum,
+          if (k != back && cv::norm(seeds_[k] - origins[back]) < 2.5 * r_ &&
+              SeedColour(bgr_, ballness_in_region_, roi_, pose_, K_, seeds_[k], r_, cloth_sum_,
                          &chroma_k) &&
-              cv::norm(chroma_k - own) <= options.ball_chroma_distance)
-            return seeds.size();
+              cv::norm(chroma_k - own) <= options_.ball_chroma_distance)
+            return seeds_.size();
         }
         return back;
       };
       for (bool merged = true; merged;) {
         merged = false;
-        for (size_t i = 0; i < seeds.size() && !merged; ++i)
-          for (size_t j = i + 1; j < seeds.size() && !merged; ++j) {
-            if (cv::norm(seeds[i] - seeds[j]) >= options.seed_merge_distance * r) continue;
+        for (size_t i = 0; i < seeds_.size() && !merged; ++i)
+          for (size_t j = i + 1; j < seeds_.size() && !merged; ++j) {
+            if (cv::norm(seeds_[i] - seeds_[j]) >= options_.seed_merge_distance * r_) continue;
             const size_t back = seed_to_put_back(i, j);
-            if (back < seeds.size()) {
-              seeds[back] = origins[back];
+            if (back < seeds_.size()) {
+              seeds_[back] = origins[back];
               origins[back] = {std::nan(""), std::nan("")};  // put back once only
               merged = true;
               continue;
             }
             std::vector<cv::Point2d> others;
-            for (size_t k = 0; k < seeds.size(); ++k)
-              if (k != i && k != j) others.push_back(seeds[k]);
-            claim(others, others.size(), others.size());
-            SilhouetteScorer scorer(ballness_in_region, roi, claimed, K, pose, profile);
-            const size_t drop = scorer.Score(seeds[i]) >= scorer.Score(seeds[j]) ? j : i;
-            seeds.erase(seeds.begin() + static_cast<std::ptrdiff_t>(drop));
+            for (size_t k = 0; k < seeds_.size(); ++k)
+              if (k != i && k != j) others.push_back(seeds_[k]);
+            Claim(others, others.size(), others.size());
+            SilhouetteScorer scorer(ballness_in_region_, roi_, claimed_, K_, pose_, profile_);
+            const size_t drop = scorer.Score(seeds_[i]) >= scorer.Score(seeds_[j]) ? j : i;
+            seeds_.erase(seeds_.begin() + static_cast<std::ptrdiff_t>(drop));
             origins.erase(origins.begin() + static_cast<std::ptrdiff_t>(drop));
             merged = true;
           }
       }
     }
-    for (size_t i = 0; i < seeds.size(); ++i) {
+    for (size_t i = 0; i < seeds_.size(); ++i) {
       if (pass == 1) {
         bool alone = true;
-        for (size_t j = 0; j < seeds.size(); ++j)
-          if (j != i && cv::norm(seeds[j] - seeds[i]) < isolated_mm) alone = false;
+        for (size_t j = 0; j < seeds_.size(); ++j)
+          if (j != i && cv::norm(seeds_[j] - seeds_[i]) < isolated_mm) alone = false;
         if (alone) continue;  // the first pass already saw no other ball
       }
-      claim(seeds, i, pass == 0 ? i : seeds.size());
+      Claim(seeds_, i, pass == 0 ? i : seeds_.size());
       if (pass == 0) {
         // The farther balls of a blob are not fitted yet: the pixels nearer to another
         // seed of the same blob than to this one are left to it, so that a touching ball's
@@ -1626,21 +1722,21 @@ std::vector<PoolDetectedBall> DetectPoolBallsOnce(const cv::Mat& image, const cv
         // towards the pair's middle). Seeds closer than 1.5r may be one ball lengthened
         // by its shadow (merged below when closer than options.seed_merge_distance): those
         // share their pixels.
-        const cv::Point2d own = ProjectIdeal(pose, K, {seeds[i].x, seeds[i].y, r});
+        const cv::Point2d own = ProjectIdeal(pose_, K_, {seeds_[i].x, seeds_[i].y, r_});
         const auto blob_at = [&](const cv::Point2d& pixel) {
-          const cv::Point at(cvRound(pixel.x) - roi.x, cvRound(pixel.y) - roi.y);
-          return at.inside(cv::Rect(0, 0, roi.width, roi.height)) ? labels.at<int>(at) : 0;
+          const cv::Point at(cvRound(pixel.x) - roi_.x, cvRound(pixel.y) - roi_.y);
+          return at.inside(cv::Rect(0, 0, roi_.width, roi_.height)) ? labels_.at<int>(at) : 0;
         };
         // A seed on a ball has colour about it; one on the shadow that lengthens a ball's
         // blob has none (the black 8 neither: its touching balls share pixels as before).
         const auto coloured = [&](const cv::Point2d& pixel, const cv::Point2d& xy) {
-          const double r_px = ApparentRadiusPx(pose, K, xy, r);
+          const double r_px = ApparentRadiusPx(pose_, K_, xy, r_);
           const int reach = std::max(1, cvRound(0.5 * r_px));
           const cv::Rect disc = cv::Rect(cvRound(pixel.x) - reach, cvRound(pixel.y) - reach,
                                          2 * reach + 1, 2 * reach + 1) &
-                                image_rect;
+                                image_rect_;
           if (disc.area() <= 0) return false;
-          const cv::Mat colour = BallnessMap(bgr, disc, cloth, options, /*dark_counts=*/false);
+          const cv::Mat colour = BallnessMap(bgr_, disc, cloth_, options_, /*dark_counts=*/false);
           double sum = 0;
           int count = 0;
           for (int v = 0; v < disc.height; ++v)
@@ -1654,32 +1750,35 @@ std::vector<PoolDetectedBall> DetectPoolBallsOnce(const cv::Mat& image, const cv
         };
         const int blob = blob_at(own);
         std::vector<cv::Point2d> neighbours;
-        for (size_t j = 0; j < seeds.size() && blob > 0; ++j) {
-          if (j == i || cv::norm(seeds[j] - seeds[i]) < 1.5 * r) continue;
-          const cv::Point2d other = ProjectIdeal(pose, K, {seeds[j].x, seeds[j].y, r});
-          if (blob_at(other) == blob && coloured(other, seeds[j])) neighbours.push_back(other);
+        for (size_t j = 0; j < seeds_.size() && blob > 0; ++j) {
+          if (j == i || cv::norm(seeds_[j] - seeds_[i]) < 1.5 * r_) continue;
+          const cv::Point2d other = ProjectIdeal(pose_, K_, {seeds_[j].x, seeds_[j].y, r_});
+          if (blob_at(other) == blob && coloured(other, seeds_[j])) neighbours.push_back(other);
         }
-        if (!neighbours.empty() && !coloured(own, seeds[i])) neighbours.clear();
+        if (!neighbours.empty() && !coloured(own, seeds_[i])) neighbours.clear();
         if (!neighbours.empty()) {
-          SilhouetteScorer boxer(ballness_in_region, roi, claimed, K, pose, profile);
-          const cv::Rect box = boxer.Box(cv::Vec3d(seeds[i].x, seeds[i].y, r));
-          claimed_boxes.push_back(box);
+          SilhouetteScorer boxer(ballness_in_region_, roi_, claimed_, K_, pose_, profile_);
+          const cv::Rect box = boxer.Box(cv::Vec3d(seeds_[i].x, seeds_[i].y, r_));
+          claimed_boxes_.push_back(box);
           for (int v = box.y; v < box.y + box.height; ++v)
             for (int u = box.x; u < box.x + box.width; ++u) {
               const cv::Point2d p(u, v);
               const double d_own = cv::norm(p - own);
               for (const cv::Point2d& n : neighbours)
                 if (cv::norm(p - n) < d_own) {
-                  claimed.at<float>(v - roi.y, u - roi.x) = 1;
+                  claimed_.at<float>(v - roi_.y, u - roi_.x) = 1;
                   break;
                 }
             }
         }
       }
-      SilhouetteScorer scorer(ballness_in_region, roi, claimed, K, pose, profile);
-      seeds[i] = scorer.Fit(seeds[i], 0.35 * r);
+      SilhouetteScorer scorer(ballness_in_region_, roi_, claimed_, K_, pose_, profile_);
+      seeds_[i] = scorer.Fit(seeds_[i], 0.35 * r_);
     }
   }
+}
+
+void BallFinder::SplitHiddenBalls() {
   // A ball seen behind another one along the line of sight is mostly hidden by it: the
   // pair's blob has about two balls' area for the pose, but the farther ball shows only a
   // crescent above the nearer one, with no distance maximum of its own, and the one seed's
@@ -1693,36 +1792,36 @@ std::vector<PoolDetectedBall> DetectPoolBallsOnce(const cv::Mat& image, const cv
   // least a pixel outside the other's outline), and when the second is not a dark patch in
   // front of the first (its shadow).
   // For the farther ball of such a pair, the nearer one's index (-1: none).
-  std::vector<int> hidden_behind(seeds.size(), -1);
-  if (options.split_hidden_min_visible > 0) {
+  hidden_behind_.assign(seeds_.size(), -1);
+  if (options_.split_hidden_min_visible > 0) {
     // A ball frozen on a cushion is often fitted into it, its blob lengthened by the
     // cushion's shaded face: that one is brought back later, not split.
-    const double inset = 0.9 * r;
+    const double inset = 0.9 * r_;
     const auto on_table = [&](const cv::Point2d& p) {
-      return p.x >= inset && p.y >= inset && p.x <= L - inset && p.y <= W - inset;
+      return p.x >= inset && p.y >= inset && p.x <= L_ - inset && p.y <= W_ - inset;
     };
-    for (int label : under_split) {
-      size_t a = seeds.size(), found = 0;
-      for (size_t i = 0; i < seeds.size(); ++i) {
-        const cv::Point2d at = ProjectIdeal(pose, K, {seeds[i].x, seeds[i].y, r});
-        const cv::Point p(cvRound(at.x) - roi.x, cvRound(at.y) - roi.y);
-        if (p.inside(cv::Rect(0, 0, roi.width, roi.height)) && labels.at<int>(p) == label) {
+    for (int label : under_split_) {
+      size_t a = seeds_.size(), found = 0;
+      for (size_t i = 0; i < seeds_.size(); ++i) {
+        const cv::Point2d at = ProjectIdeal(pose_, K_, {seeds_[i].x, seeds_[i].y, r_});
+        const cv::Point p(cvRound(at.x) - roi_.x, cvRound(at.y) - roi_.y);
+        if (p.inside(cv::Rect(0, 0, roi_.width, roi_.height)) && labels_.at<int>(p) == label) {
           a = i;
           ++found;
         }
       }
-      if (found != 1 || !on_table(seeds[a]) ||
-          ApparentRadiusPx(pose, K, seeds[a], r) < options.split_hidden_min_radius_px)
+      if (found != 1 || !on_table(seeds_[a]) ||
+          ApparentRadiusPx(pose_, K_, seeds_[a], r_) < options_.split_hidden_min_radius_px)
         continue;
-      std::vector<cv::Point2d> pair = seeds;
+      std::vector<cv::Point2d> pair = seeds_;
       const size_t b = pair.size();
       pair.push_back({});
       double best = -1, best_mean = 0;
-      claim(pair, b, b);
-      const SilhouetteScorer starter(ballness_in_region, roi, claimed, K, pose, profile);
+      Claim(pair, b, b);
+      const SilhouetteScorer starter(ballness_in_region_, roi_, claimed_, K_, pose_, profile_);
       for (int k = 0; k < 12; ++k) {
         const double t = k * kPi / 6;
-        const cv::Point2d start = seeds[a] + 2 * r * cv::Point2d(std::cos(t), std::sin(t));
+        const cv::Point2d start = seeds_[a] + 2 * r_ * cv::Point2d(std::cos(t), std::sin(t));
         if (!on_table(start)) continue;
         double mean = 0, visible = 0;
         starter.Score(start, &mean, &visible);
@@ -1738,99 +1837,93 @@ std::vector<PoolDetectedBall> DetectPoolBallsOnce(const cv::Mat& image, const cv
       // Never into the other: the second ball's fit would slide back into the first, whose
       // silhouette explains its pixels.
       const auto fit_apart = [&](size_t self, size_t other) {
-        claim(pair, self, pair.size());
-        const SilhouetteScorer scorer(ballness_in_region, roi, claimed, K, pose, profile);
-        pair[self] = CompassSearch(pair[self], 0.35 * r, 1e9, [&](const cv::Point2d& p) {
-          return cv::norm(p - pair[other]) < 2 * r ? -1e18 : scorer.Score(p);
+        Claim(pair, self, pair.size());
+        const SilhouetteScorer scorer(ballness_in_region_, roi_, claimed_, K_, pose_, profile_);
+        pair[self] = CompassSearch(pair[self], 0.35 * r_, 1e9, [&](const cv::Point2d& p) {
+          return cv::norm(p - pair[other]) < 2 * r_ ? -1e18 : scorer.Score(p);
         });
       };
       double second_ballness = 0, first_ballness = 0;
       for (int round = 0; round < 2; ++round) {
         fit_apart(b, a);
         fit_apart(a, b);
-        claim(pair, b, pair.size());
-        SilhouetteScorer(ballness_in_region, roi, claimed, K, pose, profile)
+        Claim(pair, b, pair.size());
+        SilhouetteScorer(ballness_in_region_, roi_, claimed_, K_, pose_, profile_)
             .Score(pair[b], &second_ballness);
         // Far from ball after the first round, the second does not become one (time).
         if (second_ballness < 0.5) break;
       }
-      if (second_ballness < options.split_hidden_min_ballness) continue;
-      claim(pair, a, pair.size());
-      SilhouetteScorer(ballness_in_region, roi, claimed, K, pose, profile)
+      if (second_ballness < options_.split_hidden_min_ballness) continue;
+      Claim(pair, a, pair.size());
+      SilhouetteScorer(ballness_in_region_, roi_, claimed_, K_, pose_, profile_)
           .Score(pair[a], &first_ballness);
       // What each alone explains, the other balls claimed: its pixels at least a pixel
       // outside the other's outline, out of its dark zone. Their area over a ball's, and
       // for the second the share of their ball-ness that is lit.
-      claim(pair, a, b);
+      Claim(pair, a, b);
       double own_area[2], second_lit = 0;
       for (int k = 0; k < 2; ++k) {
         const cv::Point2d& self = pair[k == 0 ? a : b];
         const cv::Point2d& other = pair[k == 0 ? b : a];
-        const cv::Vec3d centre(self.x, self.y, r);
-        const cv::Matx33d Q = SphereSilhouetteConic(pose, K, centre, r);
-        const cv::Matx33d Q_other = SphereSilhouetteConic(pose, K, {other.x, other.y, r}, r);
-        const SilhouetteScorer boxer(ballness_in_region, roi, claimed, K, pose, profile);
+        const cv::Vec3d centre(self.x, self.y, r_);
+        const cv::Matx33d Q = SphereSilhouetteConic(pose_, K_, centre, r_);
+        const cv::Matx33d Q_other = SphereSilhouetteConic(pose_, K_, {other.x, other.y, r_}, r_);
+        const SilhouetteScorer boxer(ballness_in_region_, roi_, claimed_, K_, pose_, profile_);
         const cv::Rect box = boxer.Box(centre);
         double pixels = 0, ball = 0, lit = 0;
         for (int v = box.y; v < box.y + box.height; ++v)
           for (int u = box.x; u < box.x + box.width; ++u) {
             if (SilhouetteScorer::Coverage(Q, u, v) < 0.99) continue;
             if (SilhouetteScorer::InsideDistance(Q_other, u, v) > -1) continue;
-            if (claimed.at<float>(v - roi.y, u - roi.x) > 0.5) continue;
+            if (claimed_.at<float>(v - roi_.y, u - roi_.x) > 0.5) continue;
             if (boxer.InShadowZone(centre, u, v)) continue;
-            const float bn = ballness_in_region.at<float>(v - roi.y, u - roi.x);
+            const float bn = ballness_in_region_.at<float>(v - roi_.y, u - roi_.x);
             if (bn < 0) continue;
             pixels += 1;
             ball += bn;
-            const cv::Vec3b& p = bgr.at<cv::Vec3b>(v, u);
-            if (bn >= 0.5 && p[0] + p[1] + p[2] >= 0.45f * cloth_sum) lit += 1;
+            const cv::Vec3b& p = bgr_.at<cv::Vec3b>(v, u);
+            if (bn >= 0.5 && p[0] + p[1] + p[2] >= 0.45f * cloth_sum_) lit += 1;
           }
-        const double r_self = ApparentRadiusPx(pose, K, self, r);
+        const double r_self = ApparentRadiusPx(pose_, K_, self, r_);
         own_area[k] = pixels / (kPi * r_self * r_self);
         if (k == 1) second_lit = ball > 0 ? lit / ball : 0;
       }
-      const bool farther = from_camera(pair[b]) > from_camera(pair[a]);
+      const bool farther = FromCamera(pair[b]) > FromCamera(pair[a]);
       const bool shadow = !farther && second_lit < 0.3;
-      if (shadow || std::min(own_area[0], own_area[1]) < options.split_hidden_min_visible ||
+      if (shadow || std::min(own_area[0], own_area[1]) < options_.split_hidden_min_visible ||
           first_ballness < 0.5)
         continue;
-      seeds = pair;
-      hidden_behind.push_back(-1);
-      hidden_behind[farther ? b : a] = static_cast<int>(farther ? a : b);
+      seeds_ = pair;
+      hidden_behind_.push_back(-1);
+      hidden_behind_[farther ? b : a] = static_cast<int>(farther ? a : b);
     }
   }
-  // Ball-ness by colour alone (a shadow stays cloth), made the first time a rim fit or the
-  // final check needs it.
-  cv::Mat colour_ballness;
-  const auto by_colour_alone = [&]() -> const cv::Mat& {
-    if (colour_ballness.empty())
-      colour_ballness =
-          in_playing_volume(BallnessMap(bgr, roi, cloth, options, /*dark_counts=*/false));
-    return colour_ballness;
-  };
+}
+
+void BallFinder::RefineOutlines() {
   // Sub-pixel pass on the edge: the ball's outline is where its colour distance from the
   // cloth around it falls fastest (for any symmetric blur, JPEG smear or shading of the
   // ball), so the silhouette's outline is moved to where that fall is steepest, on the
   // part of the outline that is not in the dark zone under the ball, not hidden by a
   // cushion and not next to another ball.
-  for (size_t i = 0; i < seeds.size(); ++i) {
+  for (size_t i = 0; i < seeds_.size(); ++i) {
     // A ball mostly hidden behind another has too little outline of its own: it keeps the
     // silhouette fit it had with the nearer ball.
-    if (hidden_behind[i] >= 0) continue;
-    const cv::Point2d silhouette_xy = seeds[i];
-    claim(seeds, i, seeds.size());
-    SilhouetteScorer scorer(ballness_in_region, roi, claimed, K, pose, profile);
-    const cv::Vec3d centre(seeds[i].x, seeds[i].y, r);
-    const cv::Matx33d Q = SphereSilhouetteConic(pose, K, centre, r);
+    if (hidden_behind_[i] >= 0) continue;
+    const cv::Point2d silhouette_xy = seeds_[i];
+    Claim(seeds_, i, seeds_.size());
+    SilhouetteScorer scorer(ballness_in_region_, roi_, claimed_, K_, pose_, profile_);
+    const cv::Vec3d centre(seeds_[i].x, seeds_[i].y, r_);
+    const cv::Matx33d Q = SphereSilhouetteConic(pose_, K_, centre, r_);
     const cv::Rect box = scorer.Box(centre);
     std::vector<cv::Vec3f> cloth_pixels;
     std::vector<float> ball_intensities, ball_chromatic, ball_saturations;
     for (int v = box.y; v < box.y + box.height; ++v)
       for (int u = box.x; u < box.x + box.width; ++u) {
-        if (claimed.at<float>(v - roi.y, u - roi.x) > 0.01) continue;
+        if (claimed_.at<float>(v - roi_.y, u - roi_.x) > 0.01) continue;
         if (scorer.InShadowZone(centre, u, v)) continue;
-        const cv::Vec3b& p = bgr.at<cv::Vec3b>(v, u);
-        const float b = ballness_in_region.at<float>(v - roi.y, u - roi.x);
+        const cv::Vec3b& p = bgr_.at<cv::Vec3b>(v, u);
+        const float b = ballness_in_region_.at<float>(v - roi_.y, u - roi_.x);
         const double cov = SilhouetteScorer::Coverage(Q, u, v);
         if (cov >= 0.99 && b > 0.5) {
           const float intensity = (p[0] + p[1] + p[2]) / 3.f;
@@ -1842,7 +1935,7 @@ std::vector<PoolDetectedBall> DetectPoolBallsOnce(const cv::Mat& image, const cv
         }
         // The cloth around the ball: not a pocket, not the rail beyond the playing volume
         // (a ball frozen on a cushion would take the rail's colour for the cloth's).
-        if (cov > 0 || b >= 0.5 || b < 0 || !playing_volume.at<uchar>(v - roi.y, u - roi.x))
+        if (cov > 0 || b >= 0.5 || b < 0 || !playing_volume_.at<uchar>(v - roi_.y, u - roi_.x))
           continue;
         cloth_pixels.emplace_back(p[0], p[1], p[2]);
       }
@@ -1856,7 +1949,7 @@ std::vector<PoolDetectedBall> DetectPoolBallsOnce(const cv::Mat& image, const cv
     }
     const cv::Rect grown =
         cv::Rect(box.x - box.width / 2, box.y - box.height / 2, box.width * 2, box.height * 2) &
-        image_rect;
+        image_rect_;
     // Distance from the cloth mostly in chromaticity (the colour with the light's
     // strength divided out), so that a ball as bright as the cloth (the lit top of a green
     // 6) still stands out, and a shadow on the cloth does not; a dark ball (the 8) has no
@@ -1885,7 +1978,7 @@ std::vector<PoolDetectedBall> DetectPoolBallsOnce(const cv::Mat& image, const cv
     cv::Mat distance(grown.size(), CV_32FC1);
     const auto fill_distance = [&](bool full_colour) {
       for (int v = 0; v < grown.height; ++v) {
-        const cv::Vec3b* p = bgr.ptr<cv::Vec3b>(v + grown.y) + grown.x;
+        const cv::Vec3b* p = bgr_.ptr<cv::Vec3b>(v + grown.y) + grown.x;
         float* d = distance.ptr<float>(v);
         for (int u = 0; u < grown.width; ++u) {
           const cv::Vec3f q(p[u][0], p[u][1], p[u][2]);
@@ -1904,34 +1997,34 @@ std::vector<PoolDetectedBall> DetectPoolBallsOnce(const cv::Mat& image, const cv
     cv::Mat gx, gy;
     cv::Sobel(distance, gx, CV_32F, 1, 0, 3, 1.0 / 8);
     cv::Sobel(distance, gy, CV_32F, 0, 1, 3, 1.0 / 8);
-    EdgeFitter edge(gx, gy, grown, claimed, roi, scorer, K, pose, r);
+    EdgeFitter edge(gx, gy, grown, claimed_, roi_, scorer, K_, pose_, r_);
     if (darker_than_cloth) {
       // The outline beside the ball's own shadow is left out, unless that leaves too little
       // of it (a camera looking steeply down sees the cloth beside the whole outline in
       // the shadow's penumbra).
       edge.SkipShadowedOutline(true);
       int used = 0;
-      edge.Score(seeds[i], &used);
+      edge.Score(seeds_[i], &used);
       if (used < kMinOutlinePoints) edge.SkipShadowedOutline(false);
     }
-    seeds[i] = edge.Fit(seeds[i], camera);
-    if (!darker_than_cloth && options.edge_point_reach > 0) {
+    seeds_[i] = edge.Fit(seeds_[i], camera_);
+    if (!darker_than_cloth && options_.edge_point_reach > 0) {
       // The edge pass's mean fall is drawn to where the ball's contrast is strongest; its
       // outline is where the edge is (options.edge_point_reach).
       double outside = 0;
       const double threshold =
-          RimThreshold(distance, grown, claimed, roi, scorer, pose, K, seeds[i], r, &outside);
+          RimThreshold(distance, grown, claimed_, roi_, scorer, pose_, K_, seeds_[i], r_, &outside);
       if (threshold > 0) {
         const double reach_px =
-            std::max(2.0, options.edge_point_reach * ApparentRadiusPx(pose, K, seeds[i], r));
+            std::max(2.0, options_.edge_point_reach * ApparentRadiusPx(pose_, K_, seeds_[i], r_));
         // Brightness (as the cloth's) and luma over `grown` for the edge points against a
         // shaded background (options.edge_shade_brightness).
         EdgeFitter::ShadedOutside shaded;
-        if (options.edge_shade_brightness > 0) {
+        if (options_.edge_shade_brightness > 0) {
           shaded.brightness.create(grown.size(), CV_32FC1);
           cv::Mat luma(grown.size(), CV_32FC1);
           for (int v = 0; v < grown.height; ++v) {
-            const cv::Vec3b* p = bgr.ptr<cv::Vec3b>(v + grown.y) + grown.x;
+            const cv::Vec3b* p = bgr_.ptr<cv::Vec3b>(v + grown.y) + grown.x;
             float* b = shaded.brightness.ptr<float>(v);
             float* y = luma.ptr<float>(v);
             for (int u = 0; u < grown.width; ++u) {
@@ -1941,11 +2034,11 @@ std::vector<PoolDetectedBall> DetectPoolBallsOnce(const cv::Mat& image, const cv
           }
           cv::Sobel(luma, shaded.luma_gx, CV_32F, 1, 0, 3, 1.0 / 8);
           cv::Sobel(luma, shaded.luma_gy, CV_32F, 0, 1, 3, 1.0 / 8);
-          shaded.level = options.edge_shade_brightness * cloth_i;
+          shaded.level = options_.edge_shade_brightness * cloth_i;
         }
-        seeds[i] =
-            edge.FitToEdgePoints(seeds[i], distance, threshold, reach_px, options.edge_point_prior,
-                                 options.edge_shade_brightness > 0 ? &shaded : nullptr);
+        seeds_[i] = edge.FitToEdgePoints(seeds_[i], distance, threshold, reach_px,
+                                         options_.edge_point_prior,
+                                         options_.edge_shade_brightness > 0 ? &shaded : nullptr);
       }
     }
     if (!darker_than_cloth) {
@@ -1954,10 +2047,10 @@ std::vector<PoolDetectedBall> DetectPoolBallsOnce(const cv::Mat& image, const cv
       // cloth were drawn by another edge (options.edge_max_ballness_drop).
       double silhouette_ballness = 0, edge_ballness = 0;
       scorer.Score(silhouette_xy, &silhouette_ballness);
-      scorer.Score(seeds[i], &edge_ballness);
+      scorer.Score(seeds_[i], &edge_ballness);
       if (silhouette_ballness >= 0.5 &&
-          edge_ballness < silhouette_ballness - options.edge_max_ballness_drop)
-        seeds[i] = silhouette_xy;
+          edge_ballness < silhouette_ballness - options_.edge_max_ballness_drop)
+        seeds_[i] = silhouette_xy;
     }
     if (darker_than_cloth) {
       // A ball darker than the cloth has brighter edges inside it than its rim (the
@@ -1977,33 +2070,33 @@ std::vector<PoolDetectedBall> DetectPoolBallsOnce(const cv::Mat& image, const cv
         const float cloth_cy = 0.8660254f * (local_cloth[1] - local_cloth[0]);
         const double cloth_saturation = std::hypot(cloth_cx, cloth_cy) / cloth_i;
         if (ball_saturations[ball_saturations.size() / 2] <
-            options.rim_full_colour_saturation * cloth_saturation)
+            options_.rim_full_colour_saturation * cloth_saturation)
           fill_distance(true);  // the edge pass above has its gradients already
       }
       double outside = 0;
       const double threshold =
-          RimThreshold(distance, grown, claimed, roi, scorer, pose, K, seeds[i], r, &outside);
+          RimThreshold(distance, grown, claimed_, roi_, scorer, pose_, K_, seeds_[i], r_, &outside);
       if (threshold > 0) {
-        const double r_px = ApparentRadiusPx(pose, K, seeds[i], r);
+        const double r_px = ApparentRadiusPx(pose_, K_, seeds_[i], r_);
         int used = 0;
         {
           std::vector<cv::Vec3d> neighbours;
-          for (size_t j = 0; j < seeds.size(); ++j) {
-            if (j == i || cv::norm(seeds[j] - seeds[i]) > 4 * r) continue;
-            const cv::Vec3d other(seeds[j].x, seeds[j].y, r);
-            const cv::Point2d at = ProjectIdeal(pose, K, other);
-            neighbours.emplace_back(at.x, at.y, ApparentRadiusPx(pose, K, seeds[j], r));
+          for (size_t j = 0; j < seeds_.size(); ++j) {
+            if (j == i || cv::norm(seeds_[j] - seeds_[i]) > 4 * r_) continue;
+            const cv::Vec3d other(seeds_[j].x, seeds_[j].y, r_);
+            const cv::Point2d at = ProjectIdeal(pose_, K_, other);
+            neighbours.emplace_back(at.x, at.y, ApparentRadiusPx(pose_, K_, seeds_[j], r_));
           }
           edge.SetNeighbours(std::move(neighbours));
         }
-        edge.SetOutwardReach(options.rim_outward_reach * r_px);
-        edge.FarSideOnly(options.rim_far_side_only);
+        edge.SetOutwardReach(options_.rim_outward_reach * r_px);
+        edge.FarSideOnly(options_.rim_far_side_only);
         EdgeFitter::RimLevels levels;
         levels.outside = outside;
         levels.threshold = threshold;
         levels.thin_outer_band = dark_ball;
         const cv::Point2d on_rim =
-            edge.FitToRim(seeds[i], distance, levels, std::max(3.0, 0.6 * r_px), &used);
+            edge.FitToRim(seeds_[i], distance, levels, std::max(3.0, 0.6 * r_px), &used);
         // Kept when enough rim was found, unless it leaves the silhouette half cloth where
         // the edge pass's was not: the ball would then be dropped as not a ball at all
         // (on the 9-ft set two separated balls were lost that way). Under half ball is
@@ -2015,35 +2108,37 @@ std::vector<PoolDetectedBall> DetectPoolBallsOnce(const cv::Mat& image, const cv
         double rim_ballness = 0, edge_ballness = 0;
         if (used >= kMinRimPointsToKeep) {
           scorer.Score(on_rim, &rim_ballness);
-          scorer.Score(seeds[i], &edge_ballness);
-          bool little_lost = rim_ballness >= options.min_fit_ballness &&
-                             rim_ballness >= edge_ballness - options.edge_max_ballness_drop;
-          if (!little_lost && !dark_ball && rim_ballness >= options.min_fit_ballness) {
+          scorer.Score(seeds_[i], &edge_ballness);
+          bool little_lost = rim_ballness >= options_.min_fit_ballness &&
+                             rim_ballness >= edge_ballness - options_.edge_max_ballness_drop;
+          if (!little_lost && !dark_ball && rim_ballness >= options_.min_fit_ballness) {
             // A coloured ball darker than the cloth: the ball-ness above counts its shadow
             // as ball, which favours the fit that slid into it. By colour alone, over the
             // whole silhouette (as the final check refits such a ball), the shadow is
             // cloth (seed 41's frame 43: a 6 on its rim 0.1 px from the truth, 0.46 ball
             // against the edge fit's 0.68, 2.6 px down in its shadow).
-            SilhouetteScorer by_colour(by_colour_alone(), roi, claimed, K, pose, profile);
+            SilhouetteScorer by_colour(ByColourAlone(), roi_, claimed_, K_, pose_, profile_);
             by_colour.CountShadowZone();
             double rim_colour = 0, edge_colour = 0;
             by_colour.Score(on_rim, &rim_colour);
-            by_colour.Score(seeds[i], &edge_colour);
-            little_lost = rim_colour >= edge_colour - options.edge_max_ballness_drop;
+            by_colour.Score(seeds_[i], &edge_colour);
+            little_lost = rim_colour >= edge_colour - options_.edge_max_ballness_drop;
           }
-          if (rim_ballness >= 0.5 || edge_ballness < 0.5 || little_lost) seeds[i] = on_rim;
+          if (rim_ballness >= 0.5 || edge_ballness < 0.5 || little_lost) seeds_[i] = on_rim;
         }
       }
     }
   }
+}
 
+void BallFinder::ResolveOverlaps() {
   // The nearer ball's outline fits do not see the hidden one behind it (its outline there
   // is against that ball, not the cloth): it is kept out of it.
-  for (size_t h = 0; h < seeds.size(); ++h) {
-    if (hidden_behind[h] < 0) continue;
-    cv::Point2d& front = seeds[static_cast<size_t>(hidden_behind[h])];
-    const double gap = cv::norm(front - seeds[h]);
-    if (gap < 2 * r) front = seeds[h] + (front - seeds[h]) * (2 * r / std::max(1e-6, gap));
+  for (size_t h = 0; h < seeds_.size(); ++h) {
+    if (hidden_behind_[h] < 0) continue;
+    cv::Point2d& front = seeds_[static_cast<size_t>(hidden_behind_[h])];
+    const double gap = cv::norm(front - seeds_[h]);
+    if (gap < 2 * r_) front = seeds_[h] + (front - seeds_[h]) * (2 * r_ / std::max(1e-6, gap));
   }
   // Two balls cannot be closer than 2r, yet two fits may end up closer than 1.6r (real
   // touching balls, each fitted within a few millimetres, stay well apart of that). Either
@@ -2060,83 +2155,83 @@ std::vector<PoolDetectedBall> DetectPoolBallsOnce(const cv::Mat& image, const cv
   // pushed the 4 13.8 mm out and stood as a false ball beside the 3, 15.6 mm off; moved
   // out of the 4, it met the 3 and, of no colour of its own, was dropped).
   // Median chromaticity (opponent chroma over intensity) of a fit's lit ball pixels that
-  // the other balls (painted in `claimed`) leave to it; false when it has too few of them.
+  // the other balls (painted in claimed_) leave to it; false when it has too few of them.
   const auto fit_chroma = [&](const cv::Point2d& xy, cv::Point2d* chroma) {
-    const cv::Vec3d centre(xy.x, xy.y, r);
-    const cv::Matx33d Q = SphereSilhouetteConic(pose, K, centre, r);
-    SilhouetteScorer boxer(ballness_in_region, roi, claimed, K, pose, profile);
+    const cv::Vec3d centre(xy.x, xy.y, r_);
+    const cv::Matx33d Q = SphereSilhouetteConic(pose_, K_, centre, r_);
+    SilhouetteScorer boxer(ballness_in_region_, roi_, claimed_, K_, pose_, profile_);
     const cv::Rect box = boxer.Box(centre);
-    LitChromaMedian lit(cloth_sum);
+    LitChromaMedian lit(cloth_sum_);
     for (int v = box.y; v < box.y + box.height; ++v)
       for (int u = box.x; u < box.x + box.width; ++u) {
         if (SilhouetteScorer::Coverage(Q, u, v) < 0.99) continue;
-        if (claimed.at<float>(v - roi.y, u - roi.x) > 0.5) continue;
-        if (ballness_in_region.at<float>(v - roi.y, u - roi.x) < 0.5) continue;
-        lit.Add(bgr.at<cv::Vec3b>(v, u));
+        if (claimed_.at<float>(v - roi_.y, u - roi_.x) > 0.5) continue;
+        if (ballness_in_region_.at<float>(v - roi_.y, u - roi_.x) < 0.5) continue;
+        lit.Add(bgr_.at<cv::Vec3b>(v, u));
       }
     constexpr size_t kMinColoured = 8;
     return lit.Median(kMinColoured, chroma);
   };
   // Whether a fit is dark: the median brightness of its ball pixels inside the outline
-  // (other balls as painted in `claimed`, the dark zone under it left out) is under half
+  // (other balls as painted in claimed_, the dark zone under it left out) is under half
   // the cloth's. A ball whose colour pixels another fit claims has no colour left, yet is
   // not dark.
   const auto fit_dark = [&](const cv::Point2d& xy) {
-    const cv::Vec3d centre(xy.x, xy.y, r);
-    const cv::Matx33d Q = SphereSilhouetteConic(pose, K, centre, r);
-    SilhouetteScorer boxer(ballness_in_region, roi, claimed, K, pose, profile);
+    const cv::Vec3d centre(xy.x, xy.y, r_);
+    const cv::Matx33d Q = SphereSilhouetteConic(pose_, K_, centre, r_);
+    SilhouetteScorer boxer(ballness_in_region_, roi_, claimed_, K_, pose_, profile_);
     const cv::Rect box = boxer.Box(centre);
     std::vector<float> brightness;
     for (int v = box.y; v < box.y + box.height; ++v)
       for (int u = box.x; u < box.x + box.width; ++u) {
         if (SilhouetteScorer::Coverage(Q, u, v) < 0.99) continue;
-        if (claimed.at<float>(v - roi.y, u - roi.x) > 0.5) continue;
-        if (ballness_in_region.at<float>(v - roi.y, u - roi.x) < 0.5) continue;
+        if (claimed_.at<float>(v - roi_.y, u - roi_.x) > 0.5) continue;
+        if (ballness_in_region_.at<float>(v - roi_.y, u - roi_.x) < 0.5) continue;
         if (boxer.InShadowZone(centre, u, v)) continue;
-        const cv::Vec3b& p = bgr.at<cv::Vec3b>(v, u);
+        const cv::Vec3b& p = bgr_.at<cv::Vec3b>(v, u);
         brightness.push_back((p[0] + p[1] + p[2]) / 3.f);
       }
     if (brightness.empty()) return false;
     std::nth_element(brightness.begin(), brightness.begin() + brightness.size() / 2,
                      brightness.end());
-    return brightness[brightness.size() / 2] < 0.5 * cloth_intensity;
+    return brightness[brightness.size() / 2] < 0.5 * cloth_intensity_;
   };
   // Each round drops a seed or moves one out of another; a moved ball may land in a third
   // one, so the rounds are capped rather than run until nothing overlaps.
-  const size_t max_rounds = 2 * seeds.size();
+  const size_t max_rounds = 2 * seeds_.size();
   // Seeds moved out of a neighbour: placed by the rule, not by their own pixels.
-  std::vector<char> moved(seeds.size(), 0);
+  moved_.assign(seeds_.size(), 0);
   bool changed = true;
   for (size_t round = 0; changed && round < max_rounds; ++round) {
     changed = false;
-    for (size_t i = 0; i < seeds.size() && !changed; ++i)
-      for (size_t j = i + 1; j < seeds.size() && !changed; ++j) {
-        const cv::Point2d apart = seeds[j] - seeds[i];
+    for (size_t i = 0; i < seeds_.size() && !changed; ++i)
+      for (size_t j = i + 1; j < seeds_.size() && !changed; ++j) {
+        const cv::Point2d apart = seeds_[j] - seeds_[i];
         const double gap = cv::norm(apart);
-        if (gap >= 1.6 * r) continue;
+        if (gap >= 1.6 * r_) continue;
         double fit[2];
         cv::Point2d chroma[2];
         bool coloured[2], dark[2];
         for (int k = 0; k < 2; ++k) {
           const size_t self = k == 0 ? i : j;
           std::vector<cv::Point2d> rest;
-          for (size_t m = 0; m < seeds.size(); ++m)
-            if (m != self) rest.push_back(seeds[m]);
-          claim(rest, rest.size(), rest.size());
-          coloured[k] = fit_chroma(seeds[self], &chroma[k]);
+          for (size_t m = 0; m < seeds_.size(); ++m)
+            if (m != self) rest.push_back(seeds_[m]);
+          Claim(rest, rest.size(), rest.size());
+          coloured[k] = fit_chroma(seeds_[self], &chroma[k]);
           // Its fit against the pixels left when only the balls other than the pair are
           // painted: each of the two may claim the pixels they share.
-          rest.erase(std::remove(rest.begin(), rest.end(), seeds[k == 0 ? j : i]), rest.end());
-          claim(rest, rest.size(), rest.size());
-          SilhouetteScorer scorer(ballness_in_region, roi, claimed, K, pose, profile);
-          scorer.Score(seeds[self], &fit[k]);
-          dark[k] = fit_dark(seeds[self]);
+          rest.erase(std::remove(rest.begin(), rest.end(), seeds_[k == 0 ? j : i]), rest.end());
+          Claim(rest, rest.size(), rest.size());
+          SilhouetteScorer scorer(ballness_in_region_, roi_, claimed_, K_, pose_, profile_);
+          scorer.Score(seeds_[self], &fit[k]);
+          dark[k] = fit_dark(seeds_[self]);
         }
         const size_t worse = fit[0] >= fit[1] ? j : i, better = worse == i ? j : i;
         const int w = worse == i ? 0 : 1;
         const bool other_colour =
             coloured[w] && (!coloured[1 - w] ||
-                            cv::norm(chroma[w] - chroma[1 - w]) > options.ball_chroma_distance);
+                            cv::norm(chroma[w] - chroma[1 - w]) > options_.ball_chroma_distance);
         if (other_colour) {
           // One of the two is moved straight out to touch the other: the dark one without
           // colour of its own, else the worse fit, or the nearer of a pair seen one behind
@@ -2144,112 +2239,116 @@ std::vector<PoolDetectedBall> DetectPoolBallsOnce(const cv::Mat& image, const cv
           size_t mover = worse;
           if (!coloured[1 - w] && dark[1 - w]) {
             mover = better;
-          } else if (options.line_of_sight_pair_deg > 0 && gap > r) {
-            const size_t nearer = from_camera(seeds[i]) < from_camera(seeds[j]) ? i : j;
+          } else if (options_.line_of_sight_pair_deg > 0 && gap > r_) {
+            const size_t nearer = FromCamera(seeds_[i]) < FromCamera(seeds_[j]) ? i : j;
             const size_t farther = nearer == i ? j : i;
-            const cv::Point2d sight(seeds[farther].x - camera[0], seeds[farther].y - camera[1]);
-            const cv::Point2d behind = seeds[farther] - seeds[nearer];
-            if (behind.dot(sight) >= std::cos(options.line_of_sight_pair_deg * kPi / 180) *
+            const cv::Point2d sight(seeds_[farther].x - camera_[0], seeds_[farther].y - camera_[1]);
+            const cv::Point2d behind = seeds_[farther] - seeds_[nearer];
+            if (behind.dot(sight) >= std::cos(options_.line_of_sight_pair_deg * kPi / 180) *
                                          cv::norm(behind) * cv::norm(sight))
               mover = nearer;
           }
           const size_t keep = mover == i ? j : i;
-          seeds[mover] = seeds[keep] + (seeds[mover] - seeds[keep]) * (2 * r / std::max(1e-6, gap));
-          moved[mover] = 1;
+          seeds_[mover] =
+              seeds_[keep] + (seeds_[mover] - seeds_[keep]) * (2 * r_ / std::max(1e-6, gap));
+          moved_[mover] = 1;
         } else {
-          seeds.erase(seeds.begin() + static_cast<std::ptrdiff_t>(worse));
-          moved.erase(moved.begin() + static_cast<std::ptrdiff_t>(worse));
+          seeds_.erase(seeds_.begin() + static_cast<std::ptrdiff_t>(worse));
+          moved_.erase(moved_.begin() + static_cast<std::ptrdiff_t>(worse));
         }
         changed = true;
       }
   }
+}
+
+void BallFinder::KeepBalls() {
   // Keep distinct, well-supported balls on the table.
-  double cloth_hue, unused_saturation, unused_intensity;  // for the dark reflection votes
-  HueSaturation(cloth, &cloth_hue, &unused_saturation, &unused_intensity);
+  double unused_saturation, unused_intensity;
+  HueSaturation(cloth_, &cloth_hue_, &unused_saturation, &unused_intensity);
   std::vector<cv::Point2d> kept;
-  for (size_t i = 0; i < seeds.size(); ++i) {
-    if (seeds[i].x < -r / 2 || seeds[i].y < -r / 2 || seeds[i].x > L + r / 2 ||
-        seeds[i].y > W + r / 2)
+  for (size_t i = 0; i < seeds_.size(); ++i) {
+    if (seeds_[i].x < -r_ / 2 || seeds_[i].y < -r_ / 2 || seeds_[i].x > L_ + r_ / 2 ||
+        seeds_[i].y > W_ + r_ / 2)
       continue;
     // A ball's centre is at least a radius inside the cushion noses. A dark ball frozen on
     // the far cushion can be fitted beyond it, half on the dark rail (benchmark frame 46's
     // 8, 28 mm into the cushion, then rejected as half cloth): it is brought back to the
     // cushion, with a tenth of a radius to spare for the fit's own noise.
-    const double inset = 0.9 * r;
-    seeds[i].x = std::clamp(seeds[i].x, inset, L - inset);
-    seeds[i].y = std::clamp(seeds[i].y, inset, W - inset);
-    cv::Point2d xy = seeds[i];
+    const double inset = 0.9 * r_;
+    seeds_[i].x = std::clamp(seeds_[i].x, inset, L_ - inset);
+    seeds_[i].y = std::clamp(seeds_[i].y, inset, W_ - inset);
+    cv::Point2d xy = seeds_[i];
     bool duplicate = false;
     for (const auto& k : kept)
-      if (cv::norm(k - xy) < r) duplicate = true;
+      if (cv::norm(k - xy) < r_) duplicate = true;
     if (duplicate) continue;
-    claim(seeds, i, seeds.size());
-    SilhouetteScorer scorer(ballness_in_region, roi, claimed, K, pose, profile);
+    Claim(seeds_, i, seeds_.size());
+    SilhouetteScorer scorer(ballness_in_region_, roi_, claimed_, K_, pose_, profile_);
     double mean_ballness = 0;
     scorer.Score(xy, &mean_ballness);
-    if (!moved[i] && mean_ballness < options.min_fit_ballness) {
+    if (!moved_[i] && mean_ballness < options_.min_fit_ballness) {
       // A small dark ball of nearly the cloth's hue (a far green 6 on green cloth) shows
       // ball only in its lower half, dark and far from the cloth's chromaticity; its lit
       // top is of the cloth's colour. The fits leave the zone under the ball out (a ball's
       // own shadow is as dark as a dark ball), so they slid up onto the cloth. By colour
       // alone a shadow stays cloth: the seed is fitted once more on that, over the whole
       // silhouette, and kept where it is then mostly ball.
-      SilhouetteScorer by_colour(by_colour_alone(), roi, claimed, K, pose, profile);
+      SilhouetteScorer by_colour(ByColourAlone(), roi_, claimed_, K_, pose_, profile_);
       by_colour.CountShadowZone();
-      const cv::Point2d refit = by_colour.Fit(xy, 0.35 * r);
+      const cv::Point2d refit = by_colour.Fit(xy, 0.35 * r_);
       double colour_mean = 0;
       by_colour.Score(refit, &colour_mean);
-      if (colour_mean >= options.min_fit_ballness && cv::norm(refit - xy) < r) {
-        seeds[i] = xy = refit;
+      if (colour_mean >= options_.min_fit_ballness && cv::norm(refit - xy) < r_) {
+        seeds_[i] = xy = refit;
         mean_ballness = colour_mean;
       }
     }
     // A ball moved out of its neighbour is where the rule put it: it must be half ball.
-    if (mean_ballness < (moved[i] ? 0.5 : options.min_fit_ballness)) continue;
+    if (mean_ballness < (moved_[i] ? 0.5 : options_.min_fit_ballness)) continue;
     // Votes: pixels not covered by a nearer ball (by distance now: a ball split off a
     // blob behind another one was added after the others).
     {
-      const double own = from_camera(xy);
+      const double own = FromCamera(xy);
       std::vector<cv::Point2d> nearer;
-      for (size_t j = 0; j < seeds.size(); ++j)
-        if (j != i && from_camera(seeds[j]) < own) nearer.push_back(seeds[j]);
-      claim(nearer, nearer.size(), nearer.size());
+      for (size_t j = 0; j < seeds_.size(); ++j)
+        if (j != i && FromCamera(seeds_[j]) < own) nearer.push_back(seeds_[j]);
+      Claim(nearer, nearer.size(), nearer.size());
     }
     kept.push_back(xy);
     PoolDetectedBall ball;
     ball.x_mm = xy.x;
     ball.y_mm = xy.y;
     ball.fit_score = mean_ballness;
-    const cv::Vec3d centre(xy.x, xy.y, r);
-    ball.ideal_pixel = ProjectIdeal(pose, K, centre);
-    ball.radius_px = ApparentRadiusPx(pose, K, xy, r);
+    const cv::Vec3d centre(xy.x, xy.y, r_);
+    ball.ideal_pixel = ProjectIdeal(pose_, K_, centre);
+    ball.radius_px = ApparentRadiusPx(pose_, K_, xy, r_);
     // Votes over the pixels well inside the silhouette that no nearer ball covers.
-    const cv::Matx33d Q = SphereSilhouetteConic(pose, K, centre, r);
+    const cv::Matx33d Q = SphereSilhouetteConic(pose_, K_, centre, r_);
     const cv::Rect box = scorer.Box(centre);
     // Local light: the cloth brightness around the ball.
     std::vector<float> ring;
     for (int v = box.y - box.height / 2; v < box.y + box.height * 3 / 2; v += 2)
       for (int u = box.x - box.width / 2; u < box.x + box.width * 3 / 2; u += 2) {
-        if (!image_rect.contains({u, v})) continue;
+        if (!image_rect_.contains({u, v})) continue;
         const double d = std::hypot(u - ball.ideal_pixel.x, v - ball.ideal_pixel.y);
         if (d < 1.6 * ball.radius_px || d > 2.6 * ball.radius_px) continue;
-        const cv::Vec3b& p = bgr.at<cv::Vec3b>(v, u);
+        const cv::Vec3b& p = bgr_.at<cv::Vec3b>(v, u);
         const cv::Vec3f pf(p[0], p[1], p[2]);
-        if (ColorAngleDeg(pf, cloth) < options.ball_angle_deg)
+        if (ColorAngleDeg(pf, cloth_) < options_.ball_angle_deg)
           ring.push_back((pf[0] + pf[1] + pf[2]) / 3);
       }
     double light = 1;  // local cloth brightness / the profile's cloth brightness
-    const cv::Vec3b pc = profile.cloth_bgr;
+    const cv::Vec3b pc = profile_.cloth_bgr;
     const double profile_cloth = (pc[0] + pc[1] + pc[2]) / 3.0;
     if (ring.size() >= 5) {
       std::nth_element(ring.begin(), ring.begin() + ring.size() / 2, ring.end());
       light = ring[ring.size() / 2] / profile_cloth;
     } else {
-      light = cloth_intensity / profile_cloth;
+      light = cloth_intensity_ / profile_cloth;
     }
     std::array<ColourRef, kPoolBallCount> refs;
     for (int k = 0; k < kPoolBallCount; ++k) {
-      const cv::Vec3b& c = profile.ball_bgr[k];
+      const cv::Vec3b& c = profile_.ball_bgr[k];
       double h, s, i;
       HueSaturation(cv::Vec3f(c[0], c[1], c[2]), &h, &s, &i);
       refs[k] = {s * std::cos(h * kPi / 180), s * std::sin(h * kPi / 180), s, BlueShare(c)};
@@ -2264,15 +2363,15 @@ std::vector<PoolDetectedBall> DetectPoolBallsOnce(const cv::Mat& image, const cv
         // Pixels at least a pixel inside the outline: the blur of lens, demosaicing and
         // JPEG (which halves the colour resolution) mixes the cloth into the outer ring.
         if (SilhouetteScorer::InsideDistance(Q, u, v) < kInteriorPx) continue;
-        if (claimed.at<float>(v - roi.y, u - roi.x) > 0.5) continue;
+        if (claimed_.at<float>(v - roi_.y, u - roi_.x) > 0.5) continue;
         // Only the ball's own colours vote: not the cloth seen where a cushion hides the
         // ball, nor cloth left inside the silhouette by a small misfit.
-        if (ballness_in_region.at<float>(v - roi.y, u - roi.x) < 0.5) continue;
+        if (ballness_in_region_.at<float>(v - roi_.y, u - roi_.x) < 0.5) continue;
         if (scorer.NearCushion(xy) && scorer.HiddenByCushion(centre, u, v)) continue;
         if (scorer.InShadowZone(centre, u, v)) continue;
         // The colour from the unblurred image: the light blur used for the outline would
         // mix the 9's white cap into its stripe.
-        const cv::Vec3b& p = image.at<cv::Vec3b>(v, u);
+        const cv::Vec3b& p = image_.at<cv::Vec3b>(v, u);
         double hue, sat, intensity;
         HueSaturation(cv::Vec3f(p[0], p[1], p[2]), &hue, &sat, &intensity);
         const double q = intensity / (profile_cloth * light);
@@ -2295,8 +2394,8 @@ std::vector<PoolDetectedBall> DetectPoolBallsOnce(const cv::Mat& image, const cv
             }
           }
         }
-        if (vote != 8 && q < options.dark_reflection_brightness) {
-          if (HueGapDeg(hue, cloth_hue) < options.dark_reflection_hue_deg) vote = 8;
+        if (vote != 8 && q < options_.dark_reflection_brightness) {
+          if (HueGapDeg(hue, cloth_hue_) < options_.dark_reflection_hue_deg) vote = 8;
         }
         if (vote == 0 || vote == 1) {
           // White and yellow mix at the 9's stripe edges, in the highlight and in any
@@ -2334,7 +2433,7 @@ std::vector<PoolDetectedBall> DetectPoolBallsOnce(const cv::Mat& image, const cv
         std::nth_element(red_brightness.begin(), red_brightness.begin() + k75,
                          red_brightness.end());
         ball.colour_brightness = red_brightness[k75];
-        t = PoolRedShareOfThree(ball.colour_saturation, ball.colour_brightness, profile);
+        t = PoolRedShareOfThree(ball.colour_saturation, ball.colour_brightness, profile_);
       }
       ball.votes[3] += red_votes * t;
       ball.votes[7] += red_votes * (1 - t);
@@ -2343,52 +2442,67 @@ std::vector<PoolDetectedBall> DetectPoolBallsOnce(const cv::Mat& image, const cv
     ball.white_share = white_yellow > 0 ? ball.votes[0] / white_yellow : 0;
     if (ball.votes[0] > 0 && ball.votes[1] > 0)
       ball.white_outward = white_rho / ball.votes[0] - yellow_rho / ball.votes[1];
-    balls.push_back(ball);
-    balls_moved.push_back(moved[i]);
+    balls_.push_back(ball);
+    balls_moved_.push_back(moved_[i]);
   }
-  {
-    // Two balls that are mostly red are the 3 and the 7 (a set has one of each): they are
-    // told apart by their differences, which the picture's blur and light leave alone. Not
-    // on a cloth of the red balls' hue (burgundy), whose pixels inside a ball's outline
-    // also vote red: a red ball there may be a fit of cloth.
-    double red_hue, unused_red_saturation, unused_red_intensity;
-    const cv::Vec3b& three = profile.ball_bgr[3];
-    HueSaturation(cv::Vec3f(three[0], three[1], three[2]), &red_hue, &unused_red_saturation,
-                  &unused_red_intensity);
-    // (index, red votes): the red votes are all the 3's and the 7's.
-    std::vector<std::pair<size_t, double>> red_balls;
-    for (size_t i = 0; i < balls.size() && HueGapDeg(red_hue, cloth_hue) >= kRedClothHueGapDeg;
-         ++i) {
-      const PoolDetectedBall& b = balls[i];
-      const double red = b.votes[3] + b.votes[7];
-      const double others = std::accumulate(b.votes.begin(), b.votes.end(), 0.0) - red;
-      if (red > 0 && red > others && b.colour_saturation > 0) red_balls.emplace_back(i, red);
-    }
-    if (red_balls.size() == 2) {
-      PoolDetectedBall& a = balls[red_balls[0].first];
-      PoolDetectedBall& b = balls[red_balls[1].first];
-      const double t = PoolRedPairShareOfThree(a.colour_saturation, a.colour_brightness,
-                                               b.colour_saturation, b.colour_brightness, profile);
-      a.votes[3] = red_balls[0].second * t;
-      a.votes[7] = red_balls[0].second * (1 - t);
-      b.votes[3] = red_balls[1].second * (1 - t);
-      b.votes[7] = red_balls[1].second * t;
-    }
+}
+
+void BallFinder::TellRedPairApart() {
+  // Two balls that are mostly red are the 3 and the 7 (a set has one of each): they are
+  // told apart by their differences, which the picture's blur and light leave alone. Not
+  // on a cloth of the red balls' hue (burgundy), whose pixels inside a ball's outline
+  // also vote red: a red ball there may be a fit of cloth.
+  double red_hue, unused_red_saturation, unused_red_intensity;
+  const cv::Vec3b& three = profile_.ball_bgr[3];
+  HueSaturation(cv::Vec3f(three[0], three[1], three[2]), &red_hue, &unused_red_saturation,
+                &unused_red_intensity);
+  // (index, red votes): the red votes are all the 3's and the 7's.
+  std::vector<std::pair<size_t, double>> red_balls;
+  for (size_t i = 0; i < balls_.size() && HueGapDeg(red_hue, cloth_hue_) >= kRedClothHueGapDeg;
+       ++i) {
+    const PoolDetectedBall& b = balls_[i];
+    const double red = b.votes[3] + b.votes[7];
+    const double others = std::accumulate(b.votes.begin(), b.votes.end(), 0.0) - red;
+    if (red > 0 && red > others && b.colour_saturation > 0) red_balls.emplace_back(i, red);
   }
-  if (options.separate_overlapping_fits)
-    SeparateOverlappingBalls(pose, K, r, &balls, options.line_of_sight_pair_deg);
+  if (red_balls.size() == 2) {
+    PoolDetectedBall& a = balls_[red_balls[0].first];
+    PoolDetectedBall& b = balls_[red_balls[1].first];
+    const double t = PoolRedPairShareOfThree(a.colour_saturation, a.colour_brightness,
+                                             b.colour_saturation, b.colour_brightness, profile_);
+    a.votes[3] = red_balls[0].second * t;
+    a.votes[7] = red_balls[0].second * (1 - t);
+    b.votes[3] = red_balls[1].second * (1 - t);
+    b.votes[7] = red_balls[1].second * t;
+  }
+}
+
+std::vector<PoolDetectedBall> BallFinder::NameBalls() {
+  if (options_.separate_overlapping_fits)
+    SeparateOverlappingBalls(pose_, K_, r_, &balls_, options_.line_of_sight_pair_deg);
   std::vector<std::array<double, 10>> scores;
-  for (size_t i = 0; i < balls.size(); ++i) {
-    scores.push_back(PoolNumberScores(balls[i].votes, options, balls[i].white_outward));
-    if (balls_moved[i])
-      for (double& v : scores.back()) v *= options.moved_number_weight;
+  for (size_t i = 0; i < balls_.size(); ++i) {
+    scores.push_back(PoolNumberScores(balls_[i].votes, options_, balls_[i].white_outward));
+    if (balls_moved_[i])
+      for (double& v : scores.back()) v *= options_.moved_number_weight;
   }
-  const std::vector<int> numbers = AssignPoolNumbers(scores, options.unnamed_score);
-  for (size_t i = 0; i < balls.size(); ++i) {
-    balls[i].number = numbers[i];
-    balls[i].confidence = numbers[i] >= 0 ? scores[i][numbers[i]] : 0;
+  const std::vector<int> numbers = AssignPoolNumbers(scores, options_.unnamed_score);
+  for (size_t i = 0; i < balls_.size(); ++i) {
+    balls_[i].number = numbers[i];
+    balls_[i].confidence = numbers[i] >= 0 ? scores[i][numbers[i]] : 0;
   }
-  return balls;
+  return balls_;
+}
+
+// One pass of DetectPoolBalls on the picture as given, whose pixels are valid (the ideal
+// image's) inside `valid` only.
+std::vector<PoolDetectedBall> DetectPoolBallsOnce(const cv::Mat& image, const cv::Rect& valid,
+                                                  const cv::Matx33d& K, const PlanarPose& pose,
+                                                  const PoolTableProfile& profile,
+                                                  const cv::Vec3b& cloth_bgr,
+                                                  const PoolBallOptions& options,
+                                                  double* ball_size_ratio) {
+  return BallFinder(image, K, pose, profile, cloth_bgr, options).Run(valid, ball_size_ratio);
 }
 
 // Per-channel gains (BGR) that bring the white seen on `balls` to the profile's cue colour
