@@ -171,11 +171,13 @@ struct PoolBallOptions {
   // outline: where a neighbour or the shadow zone leaves edge points on one side only,
   // the fit is poorly held across them and would slide along that direction.
   double edge_point_prior = 4;
-  // For a ball not darker than the cloth, the edge pass and the edge-point fit are not
-  // kept when they leave the mean ball-ness under its silhouette more than this below
-  // the silhouette fit's (0.15): its ball-ness is its colour, and a fit that moves a good
-  // part of the silhouette onto the cloth was drawn by another edge (the shaded face of
-  // the far cushion behind a green 6 took one 2 px up, 17 mm). 1 turns this off.
+  // The edge pass (and, for a ball not darker than the cloth, the edge-point fit) is not
+  // kept when it leaves the mean ball-ness under the silhouette more than this below the
+  // silhouette fit's (0.15): the ball-ness is the ball's colour or darkness, and a fit
+  // that moves a good part of the silhouette onto the cloth was drawn by another edge
+  // (the shaded face of the far cushion behind a green 6 took one 2 px up, 17 mm). For a
+  // ball darker than the cloth (whose ball-ness is partly its shadow's) only where a
+  // cushion's face is seen just beyond its top (round 34). 1 turns this off.
   double edge_max_ballness_drop = 0.15;
   // An edge point on the outline's far side whose outside (0.5-2 px beyond it) has a
   // pixel darker than this fraction of the local cloth's brightness (0.75) is taken on

@@ -920,6 +920,16 @@ TEST(PoolHardBalls, GreenSixOnGreenClothIsFittedOnItsRimNotItsShadow) {
   ExpectSeparatedBallFound(6, 43, 41, 10.0);
 }
 
+// A green 6 before the far cushion: the cloth sampled around it takes in the cushion's
+// shaded face seen beyond it, and against that the 6 was not "darker than the cloth", so
+// it was not fitted on its far rim. Benchmark seed 17's frame 2 (12.3 mm off before) and
+// seed 59's frame 21 (11.9 mm): each 6 within 10 mm (3.3 and 3.0 mm now), named, and no
+// false ball.
+TEST(PoolHardBalls, DarkBallBeforeTheFarCushionIsDarkerThanTheClothNotTheFace) {
+  EXPECT_EQ(ExpectSeparatedBallFound(6, 2, 17, 10.0), 0);
+  EXPECT_EQ(ExpectSeparatedBallFound(6, 21, 59, 10.0), 0);
+}
+
 // Two touching balls of different colours give a blob two seeds; the nearer ball, fitted
 // first with nothing claimed, can slide onto the other, and the two seeds, then closer than
 // seed_merge_distance, were merged. Benchmark seed 19's frame 2: the yellow 9 in front of
