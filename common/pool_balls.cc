@@ -236,9 +236,7 @@ class SilhouetteScorer {
     const double t_hit = b - std::sqrt(disc);
     const double z_hit = camera_[2] + t_hit * d[2];
     if (z_hit >= cushion_height_ || d[2] >= 0) return false;
-    const double t_top = (cushion_height_ - camera_[2]) / d[2];
-    const double x = camera_[0] + t_top * d[0], y = camera_[1] + t_top * d[1];
-    return x < 0 || y < 0 || x > length_ || y > width_;
+    return !OverPlayingSurface(d, cushion_height_);
   }
   // The lower part of a ball and the cloth just in front of it are dark both on the ball
   // (unlit underside) and off it (contact shadow, ambient occlusion): no edge to fit.
@@ -254,14 +252,7 @@ class SilhouetteScorer {
   bool OverCushionFace(double u, double v) const {
     const cv::Vec3d d = Ray(u, v);
     if (d[2] >= 0) return false;
-    const double t_top = (cushion_height_ - camera_[2]) / d[2];
-    const double t_cloth = -camera_[2] / d[2];
-    const double x_top = camera_[0] + t_top * d[0], y_top = camera_[1] + t_top * d[1];
-    const double x_cloth = camera_[0] + t_cloth * d[0], y_cloth = camera_[1] + t_cloth * d[1];
-    const bool top_inside = x_top >= 0 && y_top >= 0 && x_top <= length_ && y_top <= width_;
-    const bool cloth_inside =
-        x_cloth >= 0 && y_cloth >= 0 && x_cloth <= length_ && y_cloth <= width_;
-    return top_inside && !cloth_inside;
+    return OverPlayingSurface(d, cushion_height_) && !OverPlayingSurface(d, 0);
   }
   bool NearCushion(const cv::Point2d& xy) const {
     return xy.x < 2 * radius_ || xy.y < 2 * radius_ || xy.x > length_ - 2 * radius_ ||
@@ -373,6 +364,14 @@ class SilhouetteScorer {
   }
 
  private:
+  // Does the ray from the camera along `d` (downwards) meet height `z` over the playing
+  // surface, (0, 0)-(length, width)?
+  bool OverPlayingSurface(const cv::Vec3d& d, double z) const {
+    const double t = (z - camera_[2]) / d[2];
+    const double x = camera_[0] + t * d[0], y = camera_[1] + t * d[1];
+    return x >= 0 && y >= 0 && x <= length_ && y <= width_;
+  }
+
   const cv::Mat& ballness_;
   cv::Rect roi_;
   const cv::Mat& claimed_;
@@ -2756,6 +2755,7 @@ void SeparateOverlappingBalls(const PlanarPose& pose, const cv::Matx33d& K, doub
         b.x_mm += (1 - share_a) * along.x;
         b.y_mm += (1 - share_a) * along.y;
         for (PoolDetectedBall* ball : {&a, &b}) {
+          if ((ball == &a ? share_a : 1 - share_a) == 0) continue;  // not moved
           ball->ideal_pixel = ProjectIdeal(pose, K, cv::Vec3d(ball->x_mm, ball->y_mm, radius));
           ball->radius_px = ApparentRadiusPx(pose, K, {ball->x_mm, ball->y_mm}, radius);
         }

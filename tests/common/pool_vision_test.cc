@@ -417,6 +417,14 @@ TEST(PoolProfileNote, OptionsOutOfRangeAreRefused) {
   EXPECT_EQ(options.Validate().code(), absl::StatusCode::kInvalidArgument);
 }
 
+// A detected ball at table point (x, y), mm.
+PoolDetectedBall BallAt(double x, double y) {
+  PoolDetectedBall b;
+  b.x_mm = x;
+  b.y_mm = y;
+  return b;
+}
+
 // Fits closer than two radii are moved apart along their line, each by half the overlap,
 // until they touch; their pixels follow. Balls apart are left where they are.
 TEST(PoolOverlap, OverlappingFitsAreMovedApartToTouch) {
@@ -426,17 +434,11 @@ TEST(PoolOverlap, OverlappingFitsAreMovedApartToTouch) {
   pose.R = cv::Matx33d(1, 0, 0, 0, -1, 0, 0, 0, -1);
   pose.t = cv::Vec3d(-665, 350, 2000);
   const cv::Matx33d K(800, 0, 320, 0, 800, 240, 0, 0, 1);
-  auto ball = [](double x, double y) {
-    PoolDetectedBall b;
-    b.x_mm = x;
-    b.y_mm = y;
-    return b;
-  };
   // A pair 40 mm apart along a diagonal, a ball far from both, and a chain of three.
   std::vector<PoolDetectedBall> balls = {
-      ball(300, 300), ball(300 + 40 / std::sqrt(2.0), 300 + 40 / std::sqrt(2.0)),
-      ball(900, 200), ball(600, 500),
-      ball(640, 500), ball(680, 500)};
+      BallAt(300, 300), BallAt(300 + 40 / std::sqrt(2.0), 300 + 40 / std::sqrt(2.0)),
+      BallAt(900, 200), BallAt(600, 500),
+      BallAt(640, 500), BallAt(680, 500)};
   SeparateOverlappingBalls(pose, K, kR, &balls);
   // The pair: 48 mm apart, about the same midpoint, along the same line.
   const cv::Point2d a(balls[0].x_mm, balls[0].y_mm), b(balls[1].x_mm, balls[1].y_mm);
@@ -473,23 +475,15 @@ TEST(PoolOverlap, TheNearerOfAPairAlongTheLineOfSightIsMovedOut) {
   constexpr double kR = 24;
   // A camera beyond the table's long side (Y = -1200), 1.2 m high, looking at the centre.
   const cv::Matx33d K(600, 0, 320, 0, 600, 240, 0, 0, 1);
-  const cv::Vec3d camera(665, -1200, 1200), target(665, 350, 0);
-  const cv::Vec3d forward = cv::normalize(target - camera);
-  const cv::Vec3d right = cv::normalize(forward.cross(cv::Vec3d(0, 0, 1)));
-  const cv::Vec3d down = forward.cross(right);
+  testdata::PoolCamera camera;
+  camera.position_mm = {665, -1200, 1200};
+  camera.look_at_mm = {665, 350, 0};
   PlanarPose pose;
-  pose.R = cv::Matx33d(right[0], right[1], right[2], down[0], down[1], down[2], forward[0],
-                       forward[1], forward[2]);
-  pose.t = -(pose.R * camera);
-  auto ball = [](double x, double y) {
-    PoolDetectedBall b;
-    b.x_mm = x;
-    b.y_mm = y;
-    return b;
-  };
+  pose.R = testdata::PoolCameraRotation(camera);
+  pose.t = -(pose.R * camera.position_mm);
   // Along the line of sight (the far ball listed first and second), and across it.
-  std::vector<PoolDetectedBall> balls = {ball(665, 400), ball(665, 360), ball(300, 300),
-                                         ball(340, 300)};
+  std::vector<PoolDetectedBall> balls = {BallAt(665, 400), BallAt(665, 360), BallAt(300, 300),
+                                         BallAt(340, 300)};
   std::vector<PoolDetectedBall> far_second = {balls[1], balls[0]};
   SeparateOverlappingBalls(pose, K, kR, &balls, 45);
   SeparateOverlappingBalls(pose, K, kR, &far_second, 45);
@@ -504,7 +498,7 @@ TEST(PoolOverlap, TheNearerOfAPairAlongTheLineOfSightIsMovedOut) {
   const cv::Point2d p = ProjectIdeal(pose, K, {balls[1].x_mm, balls[1].y_mm, kR});
   EXPECT_NEAR(balls[1].ideal_pixel.y, p.y, 1e-9);
   // At 0 the pair along the line of sight is separated by halves too.
-  std::vector<PoolDetectedBall> halves = {ball(665, 400), ball(665, 360)};
+  std::vector<PoolDetectedBall> halves = {BallAt(665, 400), BallAt(665, 360)};
   SeparateOverlappingBalls(pose, K, kR, &halves, 0);
   EXPECT_NEAR(halves[0].y_mm, 404, 1e-9);
   EXPECT_NEAR(halves[1].y_mm, 356, 1e-9);

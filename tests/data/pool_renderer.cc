@@ -428,7 +428,9 @@ cv::Vec3d Scene::Shade(const Ray& ray, const Hit& hit) const {
   return lit.mul(s_.light_rgb) * s_.light_gain;
 }
 
-cv::Matx33d CameraRotation(const PoolCamera& cam) {
+}  // namespace
+
+cv::Matx33d PoolCameraRotation(const PoolCamera& cam) {
   cv::Vec3d f = cam.look_at_mm - cam.position_mm;
   f /= cv::norm(f);
   cv::Vec3d x = f.cross(cv::Vec3d(0, 0, 1));
@@ -439,6 +441,8 @@ cv::Matx33d CameraRotation(const PoolCamera& cam) {
   const cv::Vec3d xr = c * x + s * y, yr = -s * x + c * y;
   return {xr[0], xr[1], xr[2], yr[0], yr[1], yr[2], f[0], f[1], f[2]};
 }
+
+namespace {
 
 cv::Matx33d CameraMatrix(const PoolCamera& cam) {
   const double f = (cam.image_size.width / 2.0) / std::tan(cam.horizontal_fov_deg * kDeg / 2);
@@ -496,7 +500,7 @@ PoolView RenderPoolView(const PoolScene& scene, uint64_t seed) {
   PoolView view;
   view.camera_matrix = CameraMatrix(cam);
   view.distortion = {cam.k1, cam.k2, 0, 0, 0};
-  view.rotation = CameraRotation(cam);
+  view.rotation = PoolCameraRotation(cam);
   view.translation = -(view.rotation * cam.position_mm);
   const Scene world(scene, seed);
   std::mt19937_64 rng(seed ^ 0x63616d706f6f6cULL);
@@ -664,7 +668,7 @@ PoolCamera FramedPoolCamera(const PoolTableSpec& table, PoolViewSide side, doubl
   const cv::Matx33d K = CameraMatrix(cam);
   for (double dist = 300; dist < 50000; dist *= 1.01) {
     cam.position_mm = cam.look_at_mm + dist * back;
-    const cv::Matx33d R = CameraRotation(cam);
+    const cv::Matx33d R = PoolCameraRotation(cam);
     bool fits = true;
     for (const auto& p : outer) {
       const cv::Vec3d q = K * (R * (p - cam.position_mm));

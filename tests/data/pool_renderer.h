@@ -123,6 +123,10 @@ struct PoolView {
 // Renders the scene; deterministic for (scene, seed).
 PoolView RenderPoolView(const PoolScene& scene, uint64_t seed);
 
+// The rotation (table -> camera) of `cam`: its optical axis towards look_at_mm, its image
+// x axis horizontal (before the roll).
+cv::Matx33d PoolCameraRotation(const PoolCamera& cam);
+
 // Projects a table-frame point with the view's camera (distortion included).
 cv::Point2d ProjectTablePoint(const PoolView& view, const cv::Vec3d& point_mm);
 

@@ -542,75 +542,66 @@ TEST_F(DocumentRegistryTest, SimultaneousRegistrationsOfOnePageStoreItOnce) {
   EXPECT_EQ(result->documents[0].document.title, "page 41");
 }
 
-TEST(DocumentRegistryOptionsTest, RectifiedPictureLimitsAreValidated) {
+// The message with which Validate() refuses the default options after `change`
+// (expected: INVALID_ARGUMENT).
+std::string RefusalOf(const std::function<void(DocumentRegistryOptions*)>& change) {
   DocumentRegistryOptions options;
-  options.rectified_picture_rounds = 0;
-  absl::Status s = options.Validate();
-  EXPECT_EQ(s.code(), absl::StatusCode::kInvalidArgument);
-  EXPECT_NE(s.message().find("rectified_picture_rounds"), absl::string_view::npos) << s;
-  options = DocumentRegistryOptions();
-  options.rectified_picture_max_keypoints = -1;
-  s = options.Validate();
-  EXPECT_EQ(s.code(), absl::StatusCode::kInvalidArgument);
-  EXPECT_NE(s.message().find("rectified_picture_max_keypoints"), absl::string_view::npos) << s;
-  options = DocumentRegistryOptions();
-  options.rectified_picture_projective_min_slope = -0.1;
-  s = options.Validate();
-  EXPECT_EQ(s.code(), absl::StatusCode::kInvalidArgument);
-  EXPECT_NE(s.message().find("rectified_picture_projective_min_slope"), absl::string_view::npos)
-      << s;
-  options = DocumentRegistryOptions();
-  options.small_type_below_px = -1;
-  s = options.Validate();
-  EXPECT_EQ(s.code(), absl::StatusCode::kInvalidArgument);
-  EXPECT_NE(s.message().find("small_type_below_px"), absl::string_view::npos) << s;
-  options = DocumentRegistryOptions();
-  options.small_type_upscale = 1;
-  s = options.Validate();
-  EXPECT_EQ(s.code(), absl::StatusCode::kInvalidArgument);
-  EXPECT_NE(s.message().find("small_type_upscale"), absl::string_view::npos) << s;
-  options = DocumentRegistryOptions();
-  options.small_type_max_pixels = 1000;
-  s = options.Validate();
-  EXPECT_EQ(s.code(), absl::StatusCode::kInvalidArgument);
-  EXPECT_NE(s.message().find("small_type_max_pixels"), absl::string_view::npos) << s;
+  change(&options);
+  const absl::Status s = options.Validate();
+  EXPECT_EQ(s.code(), absl::StatusCode::kInvalidArgument) << s;
+  return std::string(s.message());
+}
+
+TEST(DocumentRegistryOptionsTest, RectifiedPictureLimitsAreValidated) {
+  EXPECT_NE(
+      RefusalOf([](auto* o) { o->rectified_picture_rounds = 0; }).find("rectified_picture_rounds"),
+      std::string::npos);
+  EXPECT_NE(RefusalOf([](auto* o) {
+              o->rectified_picture_max_keypoints = -1;
+            }).find("rectified_picture_max_keypoints"),
+            std::string::npos);
+  EXPECT_NE(RefusalOf([](auto* o) {
+              o->rectified_picture_projective_min_slope = -0.1;
+            }).find("rectified_picture_projective_min_slope"),
+            std::string::npos);
+  EXPECT_NE(RefusalOf([](auto* o) { o->small_type_below_px = -1; }).find("small_type_below_px"),
+            std::string::npos);
+  EXPECT_NE(RefusalOf([](auto* o) { o->small_type_upscale = 1; }).find("small_type_upscale"),
+            std::string::npos);
+  EXPECT_NE(
+      RefusalOf([](auto* o) { o->small_type_max_pixels = 1000; }).find("small_type_max_pixels"),
+      std::string::npos);
 }
 
 TEST(DocumentRegistryOptionsTest, FigureOptionsAreValidated) {
-  const auto message = [](const std::function<void(DocumentRegistryOptions*)>& change) {
-    DocumentRegistryOptions options;
-    change(&options);
-    const absl::Status s = options.Validate();
-    EXPECT_EQ(s.code(), absl::StatusCode::kInvalidArgument) << s;
-    return std::string(s.message());
-  };
-  EXPECT_NE(message([](auto* o) { o->letter_min_type_share = 0; }).find("letter_min_type_share"),
+  EXPECT_NE(RefusalOf([](auto* o) { o->letter_min_type_share = 0; }).find("letter_min_type_share"),
             std::string::npos);
-  EXPECT_NE(message([](auto* o) { o->letter_min_keypoints = 3; }).find("letter_min_keypoints"),
+  EXPECT_NE(RefusalOf([](auto* o) { o->letter_min_keypoints = 3; }).find("letter_min_keypoints"),
             std::string::npos);
-  EXPECT_NE(message([](auto* o) { o->letter_max_keypoints = 5; }).find("letter_max_keypoints"),
+  EXPECT_NE(RefusalOf([](auto* o) { o->letter_max_keypoints = 5; }).find("letter_max_keypoints"),
             std::string::npos);
-  EXPECT_NE(message([](auto* o) { o->letter_inlier_share = 0; }).find("letter_inlier_share"),
+  EXPECT_NE(RefusalOf([](auto* o) { o->letter_inlier_share = 0; }).find("letter_inlier_share"),
             std::string::npos);
   EXPECT_NE(
-      message([](auto* o) { o->letter_keypoints.min_letter_px = 0; }).find("letter_keypoints"),
+      RefusalOf([](auto* o) { o->letter_keypoints.min_letter_px = 0; }).find("letter_keypoints"),
       std::string::npos);
-  EXPECT_NE(message([](auto* o) { o->figure_inlier_px = 0; }).find("figure_inlier_px"),
+  EXPECT_NE(RefusalOf([](auto* o) { o->figure_inlier_px = 0; }).find("figure_inlier_px"),
             std::string::npos);
-  EXPECT_NE(message([](auto* o) { o->figure_min_keypoints = 5; }).find("figure_min_keypoints"),
+  EXPECT_NE(RefusalOf([](auto* o) { o->figure_min_keypoints = 5; }).find("figure_min_keypoints"),
             std::string::npos);
-  EXPECT_NE(message([](auto* o) { o->figure_llah_m = 9; }).find("figure_llah"), std::string::npos);
-  EXPECT_NE(message([](auto* o) { o->figure_llah_k = 3; }).find("figure_llah_k"),
+  EXPECT_NE(RefusalOf([](auto* o) { o->figure_llah_m = 9; }).find("figure_llah"),
             std::string::npos);
-  EXPECT_NE(message([](auto* o) { o->figure_llah_k = 1; }).find("figure_llah_k"),
+  EXPECT_NE(RefusalOf([](auto* o) { o->figure_llah_k = 3; }).find("figure_llah_k"),
             std::string::npos);
-  EXPECT_NE(message([](auto* o) {
+  EXPECT_NE(RefusalOf([](auto* o) { o->figure_llah_k = 1; }).find("figure_llah_k"),
+            std::string::npos);
+  EXPECT_NE(RefusalOf([](auto* o) {
               o->figure_keypoints.centroid_max_blob_px = -1;
             }).find("centroid_max_blob_px"),
             std::string::npos);
-  EXPECT_NE(message([](auto* o) { o->figure_query_probes = 9; }).find("figure_query_probes"),
+  EXPECT_NE(RefusalOf([](auto* o) { o->figure_query_probes = 9; }).find("figure_query_probes"),
             std::string::npos);
-  EXPECT_NE(message([](auto* o) { o->figure_keypoints.block_size = 4; }).find("figure_keypoints"),
+  EXPECT_NE(RefusalOf([](auto* o) { o->figure_keypoints.block_size = 4; }).find("figure_keypoints"),
             std::string::npos);
 }
 
