@@ -389,6 +389,19 @@ int main(int argc, char** argv) {
     double frame_max = 0;
     for (double e : score.position_errors_mm) frame_max = std::max(frame_max, e);
     per_frame_max.push_back(frame_max);
+    // The frame first, then what went wrong in it.
+    if (verbose) {
+      const cv::Vec3d c = -(view.rotation.t() * view.translation);
+      std::printf(
+          "frame %3d  camera (%6.0f %6.0f %5.0f)  corners %.2f px  balls %zu/%zu  "
+          "max %.1f mm  separated %d/%d id %d  false %d  %.1f ms\n",
+          f, c[0], c[1], c[2], score.max_corner_error_px, score.position_errors_mm.size(),
+          view.balls.size(), frame_max, score.separated_found, score.separated,
+          score.separated_identified, score.false_balls, times.back());
+      for (const auto& [stage, ms] : analysis->timings_ms)
+        std::printf("    %s %.1f ms", stage.c_str(), ms);
+      std::printf("\n");
+    }
     if (verbose && score.max_corner_error_px > 1) {
       for (int i = 0; i < 4; ++i)
         std::printf("    corner %d: (%.2f, %.2f) truth (%.2f, %.2f)\n", i,
@@ -460,18 +473,6 @@ int main(int argc, char** argv) {
         for (int v : b.votes) std::printf(" %d", v);
         std::printf("\n");
       }
-    }
-    if (verbose) {
-      const cv::Vec3d c = -(view.rotation.t() * view.translation);
-      std::printf(
-          "frame %3d  camera (%6.0f %6.0f %5.0f)  corners %.2f px  balls %zu/%zu  "
-          "max %.1f mm  separated %d/%d id %d  false %d  %.1f ms\n",
-          f, c[0], c[1], c[2], score.max_corner_error_px, score.position_errors_mm.size(),
-          view.balls.size(), frame_max, score.separated_found, score.separated,
-          score.separated_identified, score.false_balls, times.back());
-      for (const auto& [stage, ms] : analysis->timings_ms)
-        std::printf("    %s %.1f ms", stage.c_str(), ms);
-      std::printf("\n");
     }
   }
   std::printf(
