@@ -113,12 +113,26 @@ constexpr double kEdgeInner = 5.0, kEdgeOuter = 7.0;
 // How far from the sides EdgePoints reads pixels (its bilinear samples take the next pixel).
 constexpr int kEdgeReachPx = static_cast<int>(kEdgeOuter) + 2;
 
+// Rec. 601 luma of a BGR colour: what JPEG keeps at full resolution.
+double Luma(const cv::Vec3f& bgr) { return 0.114 * bgr[0] + 0.587 * bgr[1] + 0.299 * bgr[2]; }
+
+// A rail darker than this share of the cloth's luma is dark (black, dark stain): its side
+// points are taken on the luma. The benchmark's wood rail is 0.7 of the cloth, a black one
+// 0.28.
+constexpr double kDarkRail = 0.45;
+// How far inside the colour's crossing the luma's is looked for (pixels; JPEG's halved
+// colour resolution spreads a colour about two), and the least fall from the cushion top
+// to the rail that is an edge (grey levels).
+constexpr double kDarkRailReachPx = 3.0;
+constexpr double kDarkRailMinStep = 20;
+
 // Sub-pixel points of the cloth/rail colour edge along the side from `a` to `b`, found
 // on profiles across the side (`outward` points away from the cloth): the place where
 // the chromaticity is half-way between the cloth's and the rail's, which is where the
 // edge is for any symmetric blur. Chromaticity, not colour: a cushion face seen beyond
 // the cloth at a grazing angle is cloth in shade, as dark as the rail but of the cloth's
-// hue, and the cloth-covered cushion top beyond it may be only a pixel or two wide.
+// hue, and the cloth-covered cushion top beyond it may be only a pixel or two wide. A dark
+// rail's (kDarkRail) are taken on the luma instead.
 std::vector<cv::Point2d> EdgePoints(const cv::Mat& bgr, const cv::Point2d& a, const cv::Point2d& b,
                                     const cv::Point2d& outward, const cv::Vec3f& cloth) {
   constexpr double kInner = kEdgeInner, kOuter = kEdgeOuter, kStep = 0.5;
@@ -164,6 +178,7 @@ std::vector<cv::Point2d> EdgePoints(const cv::Mat& bgr, const cv::Point2d& a, co
   const float chroma_contrast = chroma_step.dot(chroma_step);
   std::vector<cv::Point2d> points;
   if (chroma_contrast < 0.03f * 0.03f) return points;  // rail and cloth of one hue
+  const bool dark_rail = Luma(rail) < kDarkRail * Luma(cloth);
   for (const auto& p : profiles) {
     // Balls on the cushion, pockets and diamonds make profiles that are not this edge.
     if (cv::norm(p.outside - rail, cv::NORM_L1) > 60) continue;
@@ -198,6 +213,29 @@ std::vector<cv::Point2d> EdgePoints(const cv::Mat& bgr, const cv::Point2d& a, co
       if (std::abs(t - best_t) < std::abs(colour_t - best_t)) colour_t = t;
     }
     if (std::abs(colour_t - best_t) < kColourSnapPx) best_t = colour_t;
+    if (dark_rail) {
+      // JPEG keeps the colour at half resolution: next to the lit cushion top, a dark
+      // rail's pixels take on the cloth's chromaticity (and their colour, whose step is
+      // mostly the brightness, is pulled the same way by what the chroma adds), so both
+      // crossings lie out on the rail. The luma is kept at full resolution: the edge is
+      // where it falls half-way from the cushion top's lit level to the rail's, met
+      // first from the rail's side (the cushion face inside the top is dark too).
+      std::array<double, kSamples> y;
+      for (int i = 0; i < kSamples; ++i) y[i] = Luma(p.colour[i]);
+      const double rail_y = Luma(p.outside);
+      const int hi = std::min(kSamples - 1, static_cast<int>((best_t + kInner + 1) / kStep));
+      const int lo = std::max(0, static_cast<int>((best_t + kInner - kDarkRailReachPx) / kStep));
+      double top_y = 0;
+      for (int i = lo; i <= hi; ++i) top_y = std::max(top_y, y[i]);
+      const double half = 0.5 * (top_y + rail_y);
+      if (top_y - rail_y >= kDarkRailMinStep) {
+        for (int i = hi; i > lo; --i)
+          if (y[i - 1] >= half && y[i] < half) {
+            best_t = -kInner + kStep * (i - 1 + (y[i - 1] - half) / (y[i - 1] - y[i]));
+            break;
+          }
+      }
+    }
     points.push_back(p.base + outward * best_t);
   }
   return points;

@@ -52,6 +52,25 @@ bool ParseCloth(const std::string& name, std::optional<cv::Vec3d>* rgb) {
   return true;
 }
 
+// The rails' RGB named by --rail into `rgb`: wood (the renderer's own: left empty), black
+// (a modern table's painted or laminated rails), maple (light wood), or R,G,B. False for
+// any other name.
+bool ParseRail(const std::string& name, std::optional<cv::Vec3d>* rgb) {
+  int r = 0, g = 0, b = 0;
+  if (name == "wood") {
+    rgb->reset();
+  } else if (name == "black") {
+    *rgb = cv::Vec3d(28, 27, 26);
+  } else if (name == "maple") {
+    *rgb = cv::Vec3d(205, 165, 115);
+  } else if (std::sscanf(name.c_str(), "%d,%d,%d", &r, &g, &b) == 3) {
+    *rgb = cv::Vec3d(r, g, b);
+  } else {
+    return false;
+  }
+  return true;
+}
+
 // The lamps' colour named by --light into `rgb` (gains): neutral, warm (bar lamps of about
 // 3000 K under a camera whose white balance corrected half of it), cool (daylight from a
 // window through the same balance), or R,G,B gains. False for any other name.
@@ -94,10 +113,11 @@ double Mean(const std::vector<double>& v) {
 // The options that change what is rendered, as parsed, as a file name stem (analysis
 // options left out).
 std::string CacheKey(uint64_t seed, bool nine_foot, bool clean, const std::string& cloth,
-                     const std::string& light, double scale, bool cue_stick, double motion_blur,
-                     int frame) {
+                     const std::string& rail, const std::string& light, double scale,
+                     bool cue_stick, double motion_blur, int frame) {
   std::string key = "seed" + std::to_string(seed) + (nine_foot ? "_ninefoot" : "") +
                     (clean ? "_clean" : "") + "_cloth_" + cloth +
+                    (rail == "wood" ? "" : "_rail_" + rail) +
                     (light == "neutral" ? "" : "_light_" + light) + "_scale" +
                     std::to_string(scale) + (cue_stick ? "_cuestick" : "") +
                     (motion_blur > 0 ? "_motion" + std::to_string(motion_blur) : "") + "_f" +
@@ -205,6 +225,14 @@ int main(int argc, char** argv) {
         std::optional<cv::Vec3d> rgb;
         return ParseCloth(v, &rgb) ? std::string() : "expected green, blue, red or R,G,B";
       });
+  std::string rail = "wood";
+  app.add_option("--rail", rail,
+                 "Rail colour: wood (the renderer's), black, maple or R,G,B; the profile is not "
+                 "told (it has no rail colour)")
+      ->check([](const std::string& v) {
+        std::optional<cv::Vec3d> rgb;
+        return ParseRail(v, &rgb) ? std::string() : "expected wood, black, maple or R,G,B";
+      });
   std::string light = "neutral";
   app.add_option("--light", light,
                  "Colour of the lamps as the camera records it: neutral, warm (bar lamps, half "
@@ -279,6 +307,9 @@ int main(int argc, char** argv) {
   std::optional<cv::Vec3d> cloth_rgb;
   ParseCloth(cloth, &cloth_rgb);  // checked by --cloth's validator
   if (cloth_rgb) spec.cloth_rgb = *cloth_rgb;
+  std::optional<cv::Vec3d> rail_rgb;
+  ParseRail(rail, &rail_rgb);  // checked by --rail's validator
+  if (rail_rgb) spec.rail_rgb = *rail_rgb;
   PoolTableProfile profile = nine_foot ? NineFootPoolProfile() : BenchPoolProfile();
   profile.length_mm = spec.length_mm;
   profile.width_mm = spec.width_mm;
@@ -326,7 +357,8 @@ int main(int argc, char** argv) {
     }
     if (only >= 0 && f != only) continue;
     const PoolView view = CachedPoolView(
-        cache, CacheKey(seed, nine_foot, clean, cloth, light, scale, cue_stick, motion_blur, f),
+        cache,
+        CacheKey(seed, nine_foot, clean, cloth, rail, light, scale, cue_stick, motion_blur, f),
         scene, seed * 100003 + f);
     image_size = view.image.size();
     if (!save.empty()) {
