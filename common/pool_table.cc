@@ -116,9 +116,11 @@ constexpr int kEdgeReachPx = static_cast<int>(kEdgeOuter) + 2;
 // Rec. 601 luma of a BGR colour: what JPEG keeps at full resolution.
 double Luma(const cv::Vec3f& bgr) { return 0.114 * bgr[0] + 0.587 * bgr[1] + 0.299 * bgr[2]; }
 
-// A rail darker than this share of the cloth's luma is dark (black, dark stain): its side
-// points are taken on the luma. The benchmark's wood rail is 0.7 of the cloth, a black one
-// 0.28.
+// A table whose rails' luma is under this share of the cloth's (the median over its sides)
+// has dark rails (black, dark stain): its sides are taken on the luma. Over the benchmark's
+// seed-7 set the sides of its wood rails measure 0.51-0.88 (median 0.70), of black rails
+// 0.20-0.49 (median 0.28): a side's own ratio swings with its light, the rails' material
+// does not.
 constexpr double kDarkRail = 0.45;
 // How far inside the colour's crossing the luma's is looked for (pixels; JPEG's halved
 // colour resolution spreads a colour about two), and the least fall from the cushion top
@@ -126,49 +128,69 @@ constexpr double kDarkRail = 0.45;
 constexpr double kDarkRailReachPx = 3.0;
 constexpr double kDarkRailMinStep = 20;
 
-// Sub-pixel points of the cloth/rail colour edge along the side from `a` to `b`, found
-// on profiles across the side (`outward` points away from the cloth): the place where
+// Profiles across one side of the table, every 1.5 px along its middle 80%: colours from
+// kEdgeInner px inside to kEdgeOuter px outside, every half pixel; and the rail's colour
+// (the per-channel median of the outside plateaus).
+constexpr double kEdgeStep = 0.5;
+constexpr int kEdgeSamples = static_cast<int>((kEdgeInner + kEdgeOuter) / kEdgeStep) + 1;
+struct SideProfiles {
+  struct Profile {
+    cv::Point2d base;
+    std::array<cv::Vec3f, kEdgeSamples> colour;
+    cv::Vec3f inside, outside;
+  };
+  cv::Point2d outward;
+  std::vector<Profile> profiles;
+  cv::Vec3f rail;
+};
+
+SideProfiles ProfilesAcross(const cv::Mat& bgr, const cv::Point2d& a, const cv::Point2d& b,
+                            const cv::Point2d& outward) {
+  SideProfiles side;
+  side.outward = outward;
+  const double length = cv::norm(b - a);
+  const cv::Point2d dir = (b - a) / std::max(1e-9, length);
+  for (double s = 0.1 * length; s <= 0.9 * length; s += 1.5) {
+    SideProfiles::Profile p;
+    p.base = a + dir * s;
+    bool inside_image = true;
+    for (int i = 0; i < kEdgeSamples && inside_image; ++i) {
+      const cv::Point2d q = p.base + outward * (-kEdgeInner + i * kEdgeStep);
+      inside_image = q.x >= 0 && q.y >= 0 && q.x <= bgr.cols - 1 && q.y <= bgr.rows - 1;
+      if (inside_image) p.colour[i] = Bilinear(bgr, q.x, q.y);
+    }
+    if (!inside_image) continue;
+    p.inside = (p.colour[0] + p.colour[1] + p.colour[2] + p.colour[3]) / 4.f;
+    const int n = kEdgeSamples;
+    p.outside = (p.colour[n - 1] + p.colour[n - 2] + p.colour[n - 3]) / 3.f;
+    side.profiles.push_back(p);
+  }
+  if (side.profiles.empty()) return side;
+  for (int k = 0; k < 3; ++k) {
+    std::vector<float> v;
+    for (const auto& p : side.profiles) v.push_back(p.outside[k]);
+    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+    side.rail[k] = v[v.size() / 2];
+  }
+  return side;
+}
+
+// Sub-pixel points of the cloth/rail colour edge on a side's profiles: the place where
 // the chromaticity is half-way between the cloth's and the rail's, which is where the
 // edge is for any symmetric blur. Chromaticity, not colour: a cushion face seen beyond
 // the cloth at a grazing angle is cloth in shade, as dark as the rail but of the cloth's
-// hue, and the cloth-covered cushion top beyond it may be only a pixel or two wide. A dark
-// rail's (kDarkRail) are taken on the luma instead.
-std::vector<cv::Point2d> EdgePoints(const cv::Mat& bgr, const cv::Point2d& a, const cv::Point2d& b,
-                                    const cv::Point2d& outward, const cv::Vec3f& cloth) {
-  constexpr double kInner = kEdgeInner, kOuter = kEdgeOuter, kStep = 0.5;
+// hue, and the cloth-covered cushion top beyond it may be only a pixel or two wide. On a
+// table with `dark_rails` they are then taken on the luma.
+std::vector<cv::Point2d> EdgePoints(const SideProfiles& side, const cv::Vec3f& cloth,
+                                    bool dark_rails) {
+  constexpr double kInner = kEdgeInner, kOuter = kEdgeOuter, kStep = kEdgeStep;
+  constexpr int kSamples = kEdgeSamples;
   // The colour crossing stands for the chromaticity crossing when this close (pixels).
   constexpr double kColourSnapPx = 1.0;
-  constexpr int kSamples = static_cast<int>((kInner + kOuter) / kStep) + 1;
-  const double length = cv::norm(b - a);
-  const cv::Point2d dir = (b - a) / std::max(1e-9, length);
-  struct Profile {
-    cv::Point2d base;
-    std::array<cv::Vec3f, kSamples> colour;
-    cv::Vec3f inside, outside;
-  };
-  std::vector<Profile> profiles;
-  for (double s = 0.1 * length; s <= 0.9 * length; s += 1.5) {
-    Profile p;
-    p.base = a + dir * s;
-    for (int i = 0; i < kSamples; ++i) {
-      const cv::Point2d q = p.base + outward * (-kInner + i * kStep);
-      if (q.x < 0 || q.y < 0 || q.x > bgr.cols - 1 || q.y > bgr.rows - 1) goto skip;
-      p.colour[i] = Bilinear(bgr, q.x, q.y);
-    }
-    p.inside = (p.colour[0] + p.colour[1] + p.colour[2] + p.colour[3]) / 4.f;
-    p.outside = (p.colour[kSamples - 1] + p.colour[kSamples - 2] + p.colour[kSamples - 3]) / 3.f;
-    profiles.push_back(p);
-  skip:;
-  }
-  if (profiles.empty()) return {};
-  // The rail colour: per-channel median of the outside plateaus.
-  cv::Vec3f rail;
-  for (int k = 0; k < 3; ++k) {
-    std::vector<float> v;
-    for (const auto& p : profiles) v.push_back(p.outside[k]);
-    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-    rail[k] = v[v.size() / 2];
-  }
+  std::vector<cv::Point2d> points;
+  if (side.profiles.empty()) return points;
+  const cv::Vec3f& rail = side.rail;
+  const cv::Point2d& outward = side.outward;
   const auto chroma = [](const cv::Vec3f& c) {
     const float sum = std::max(1.f, c[0] + c[1] + c[2]);
     return cv::Vec2f(c[0] / sum, c[1] / sum);
@@ -176,10 +198,8 @@ std::vector<cv::Point2d> EdgePoints(const cv::Mat& bgr, const cv::Point2d& a, co
   const cv::Vec2f rail_chroma = chroma(rail);
   const cv::Vec2f chroma_step = chroma(cloth) - rail_chroma;
   const float chroma_contrast = chroma_step.dot(chroma_step);
-  std::vector<cv::Point2d> points;
   if (chroma_contrast < 0.03f * 0.03f) return points;  // rail and cloth of one hue
-  const bool dark_rail = Luma(rail) < kDarkRail * Luma(cloth);
-  for (const auto& p : profiles) {
+  for (const auto& p : side.profiles) {
     // Balls on the cushion, pockets and diamonds make profiles that are not this edge.
     if (cv::norm(p.outside - rail, cv::NORM_L1) > 60) continue;
     if (ColorAngleDeg(p.inside, cloth) > 12) continue;
@@ -213,7 +233,7 @@ std::vector<cv::Point2d> EdgePoints(const cv::Mat& bgr, const cv::Point2d& a, co
       if (std::abs(t - best_t) < std::abs(colour_t - best_t)) colour_t = t;
     }
     if (std::abs(colour_t - best_t) < kColourSnapPx) best_t = colour_t;
-    if (dark_rail) {
+    if (dark_rails) {
       // JPEG keeps the colour at half resolution: next to the lit cushion top, a dark
       // rail's pixels take on the cloth's chromaticity (and their colour, whose step is
       // mostly the brightness, is pulled the same way by what the chroma adds), so both
@@ -698,14 +718,25 @@ absl::StatusOr<PoolTableDetection> DetectPoolTableFrom(IdealView* view, const cv
     const cv::Rect around = cv::boundingRect(corner_points);
     view->Require({around.x - kEdgeReachPx, around.y - kEdgeReachPx,
                    around.width + 2 * kEdgeReachPx, around.height + 2 * kEdgeReachPx});
+    std::array<SideProfiles, 4> across;
+    std::vector<double> rail_ratios;
     for (int i = 0; i < 4; ++i) {
       const cv::Point2d a = corners[(i + 3) % 4], b = corners[i];
       const cv::Point2d mid = (a + b) / 2;
       cv::Point2d outward(-(b - a).y, (b - a).x);
       outward /= cv::norm(outward);
       if (outward.dot(mid - centroid_full) < 0) outward = -outward;
+      across[i] = ProfilesAcross(bgr, a, b, outward);
+      if (!across[i].profiles.empty())
+        rail_ratios.push_back(Luma(across[i].rail) / std::max(1.0, Luma(cloth)));
+    }
+    std::sort(rail_ratios.begin(), rail_ratios.end());
+    const size_t m = rail_ratios.size();
+    const bool dark_rails =
+        m > 0 && 0.5 * (rail_ratios[(m - 1) / 2] + rail_ratios[m / 2]) < kDarkRail;
+    for (int i = 0; i < 4; ++i) {
       Line refined;
-      const std::vector<cv::Point2d> points = EdgePoints(bgr, a, b, outward, cloth);
+      const std::vector<cv::Point2d> points = EdgePoints(across[i], cloth, dark_rails);
       if (FitLine(points, &refined)) {
         sides[i] = refined;
         if (pass == 1)

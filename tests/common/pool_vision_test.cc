@@ -1435,9 +1435,10 @@ TEST(PoolTablePose, CornersWithinAFractionOfAPixel) {
 
 // Many tables have black or dark-stained rails. JPEG keeps the colour at half resolution,
 // so next to the lit cushion top a dark rail's pixels take on the cloth's chromaticity:
-// its colour and chromaticity crossings both lay 1.5-3.5 px out on the rail, and the
-// corners of a black-railed table were 2.3-3.4 px off (benchmark seed 7's frames 0-4
-// with --rail black). A dark rail's sides are taken on the luma, which JPEG keeps whole.
+// its colour and chromaticity crossings both lay out on the rail, and the corners of a
+// black-railed table were 1.5-3.4 px off (benchmark seed 7's frames 0-4 with --rail
+// black); in three of these four views 1.0-2.0 px, and one ball 10.7 mm off. A table
+// whose rails are dark has its sides taken on the luma, which JPEG keeps whole.
 TEST(PoolTablePose, DarkRailsAreFoundOnTheirEdgeNotOutOnTheRail) {
   const std::pair<cv::Vec3d, const char*> rails[] = {{{28, 27, 26}, "black"},
                                                      {{48, 26, 14}, "dark walnut"}};
