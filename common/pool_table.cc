@@ -237,21 +237,29 @@ std::vector<cv::Point2d> EdgePoints(const SideProfiles& side, const cv::Vec3f& c
       // JPEG keeps the colour at half resolution: next to the lit cushion top, a dark
       // rail's pixels take on the cloth's chromaticity (and their colour, whose step is
       // mostly the brightness, is pulled the same way by what the chroma adds), so both
-      // crossings lie out on the rail. The luma is kept at full resolution: the edge is
-      // where it falls half-way from the cushion top's lit level to the rail's, met
-      // first from the rail's side (the cushion face inside the top is dark too).
+      // crossings lie out on the rail, by up to 3 px on a rail in shade. The luma is kept
+      // at full resolution: the edge is where it falls half-way from the cushion top's
+      // level to the rail's. The top's level is found from the rail inwards: the highest
+      // luma before it falls again (the cushion face inside a far side's top is dark) or
+      // kDarkRailReachPx past the start of the rise.
       std::array<double, kSamples> y;
       for (int i = 0; i < kSamples; ++i) y[i] = Luma(p.colour[i]);
       const double rail_y = Luma(p.outside);
-      const int hi = std::min(kSamples - 1, static_cast<int>((best_t + kInner + 1) / kStep));
-      const int lo = std::max(0, static_cast<int>((best_t + kInner - kDarkRailReachPx) / kStep));
-      double top_y = 0;
-      for (int i = lo; i <= hi; ++i) top_y = std::max(top_y, y[i]);
+      constexpr double kFallBack = 4;  // grey levels: the luma turns down into the face
+      const int reach = static_cast<int>(kDarkRailReachPx / kStep);
+      double top_y = rail_y;
+      int rise = -1;  // the first sample inwards clearly above the rail
+      for (int i = kSamples - 1; i >= 0; --i) {
+        if (rise < 0 && y[i] >= rail_y + 0.5 * kDarkRailMinStep) rise = i;
+        if (rise >= 0 && (y[i] < top_y - kFallBack || rise - i > reach)) break;
+        top_y = std::max(top_y, y[i]);
+      }
       const double half = 0.5 * (top_y + rail_y);
       if (top_y - rail_y >= kDarkRailMinStep) {
-        for (int i = hi; i > lo; --i)
+        for (int i = kSamples - 1; i > 0; --i)
           if (y[i - 1] >= half && y[i] < half) {
-            best_t = -kInner + kStep * (i - 1 + (y[i - 1] - half) / (y[i - 1] - y[i]));
+            const double t = -kInner + kStep * (i - 1 + (y[i - 1] - half) / (y[i - 1] - y[i]));
+            if (t >= -kInner + 1 && t <= kOuter - 1.5) best_t = t;
             break;
           }
       }
