@@ -33,42 +33,39 @@ namespace {
 using namespace texfree;
 using namespace texfree::testdata;
 
-// The cloth's RGB named by --cloth into `rgb`: green (the renderer's own: left empty),
-// tournament blue and a burgundy as cloth makers sell them, or R,G,B. False for any other
-// name.
-bool ParseCloth(const std::string& name, std::optional<cv::Vec3d>* rgb) {
+// A colour named on the command line into `rgb`: one of `names` (each with its RGB, or
+// none for the renderer's own, which leaves `rgb` empty) or R,G,B. False for any other name.
+struct NamedRgb {
+  const char* name;
+  std::optional<cv::Vec3d> rgb;
+};
+bool ParseNamedRgb(const std::string& name, std::initializer_list<NamedRgb> names,
+                   std::optional<cv::Vec3d>* rgb) {
+  for (const NamedRgb& n : names)
+    if (name == n.name) {
+      *rgb = n.rgb;
+      return true;
+    }
   int r = 0, g = 0, b = 0;
-  if (name == "green") {
-    rgb->reset();
-  } else if (name == "blue") {
-    *rgb = cv::Vec3d(20, 95, 160);
-  } else if (name == "red") {
-    *rgb = cv::Vec3d(125, 30, 40);
-  } else if (std::sscanf(name.c_str(), "%d,%d,%d", &r, &g, &b) == 3) {
-    *rgb = cv::Vec3d(r, g, b);
-  } else {
-    return false;
-  }
+  if (std::sscanf(name.c_str(), "%d,%d,%d", &r, &g, &b) != 3) return false;
+  *rgb = cv::Vec3d(r, g, b);
   return true;
 }
 
-// The rails' RGB named by --rail into `rgb`: wood (the renderer's own: left empty), black
-// (a modern table's painted or laminated rails), maple (light wood), or R,G,B. False for
-// any other name.
+// --cloth: green (the renderer's own), tournament blue and a burgundy as cloth makers sell
+// them.
+bool ParseCloth(const std::string& name, std::optional<cv::Vec3d>* rgb) {
+  return ParseNamedRgb(
+      name, {{"green", {}}, {"blue", cv::Vec3d(20, 95, 160)}, {"red", cv::Vec3d(125, 30, 40)}},
+      rgb);
+}
+
+// --rail: wood (the renderer's own), black (a modern table's painted or laminated rails),
+// maple (light wood).
 bool ParseRail(const std::string& name, std::optional<cv::Vec3d>* rgb) {
-  int r = 0, g = 0, b = 0;
-  if (name == "wood") {
-    rgb->reset();
-  } else if (name == "black") {
-    *rgb = cv::Vec3d(28, 27, 26);
-  } else if (name == "maple") {
-    *rgb = cv::Vec3d(205, 165, 115);
-  } else if (std::sscanf(name.c_str(), "%d,%d,%d", &r, &g, &b) == 3) {
-    *rgb = cv::Vec3d(r, g, b);
-  } else {
-    return false;
-  }
-  return true;
+  return ParseNamedRgb(
+      name, {{"wood", {}}, {"black", cv::Vec3d(28, 27, 26)}, {"maple", cv::Vec3d(205, 165, 115)}},
+      rgb);
 }
 
 // The lamps' colour named by --light into `rgb` (gains): neutral, warm (bar lamps of about
@@ -217,22 +214,25 @@ int main(int argc, char** argv) {
   bool true_pose = false;
   app.add_flag("--true-pose", true_pose,
                "Find the balls with the true table pose (separates ball errors from pose errors)");
+  // A colour option checked by its parser (ParseCloth, ParseRail).
+  const auto colour_option = [&app](const char* name, std::string* value,
+                                    bool (*parse)(const std::string&, std::optional<cv::Vec3d>*),
+                                    const std::string& help, const std::string& expected) {
+    app.add_option(name, *value, help)->check([parse, expected](const std::string& v) {
+      std::optional<cv::Vec3d> rgb;
+      return parse(v, &rgb) ? std::string() : expected;
+    });
+  };
   std::string cloth = "green";
-  app.add_option("--cloth", cloth,
-                 "Cloth colour: green (the renderer's), blue, red or R,G,B; the profile is told "
-                 "the cloth colour, as table.json's cloth_color tells the server")
-      ->check([](const std::string& v) {
-        std::optional<cv::Vec3d> rgb;
-        return ParseCloth(v, &rgb) ? std::string() : "expected green, blue, red or R,G,B";
-      });
+  colour_option("--cloth", &cloth, ParseCloth,
+                "Cloth colour: green (the renderer's), blue, red or R,G,B; the profile is told "
+                "the cloth colour, as table.json's cloth_color tells the server",
+                "expected green, blue, red or R,G,B");
   std::string rail = "wood";
-  app.add_option("--rail", rail,
-                 "Rail colour: wood (the renderer's), black, maple or R,G,B; the profile is not "
-                 "told (it has no rail colour)")
-      ->check([](const std::string& v) {
-        std::optional<cv::Vec3d> rgb;
-        return ParseRail(v, &rgb) ? std::string() : "expected wood, black, maple or R,G,B";
-      });
+  colour_option("--rail", &rail, ParseRail,
+                "Rail colour: wood (the renderer's), black, maple or R,G,B; the profile is not "
+                "told (it has no rail colour)",
+                "expected wood, black, maple or R,G,B");
   std::string light = "neutral";
   app.add_option("--light", light,
                  "Colour of the lamps as the camera records it: neutral, warm (bar lamps, half "
