@@ -122,9 +122,9 @@ double Luma(const cv::Vec3f& bgr) { return 0.114 * bgr[0] + 0.587 * bgr[1] + 0.2
 // 0.20-0.49 (median 0.28): a side's own ratio swings with its light, the rails' material
 // does not.
 constexpr double kDarkRail = 0.45;
-// How far inside the colour's crossing the luma's is looked for (pixels; JPEG's halved
-// colour resolution spreads a colour about two), and the least fall from the cushion top
-// to the rail that is an edge (grey levels).
+// How far inwards from where the luma starts to rise off the rail the cushion top's level
+// is looked for (pixels: the blurred step and a top of a pixel or two), and the least
+// fall from the cushion top to the rail that is an edge (grey levels).
 constexpr double kDarkRailReachPx = 3.0;
 constexpr double kDarkRailMinStep = 20;
 
