@@ -116,17 +116,17 @@ constexpr int kEdgeReachPx = static_cast<int>(kEdgeOuter) + 2;
 // Rec. 601 luma of a BGR colour: what JPEG keeps at full resolution.
 double Luma(const cv::Vec3f& bgr) { return 0.114 * bgr[0] + 0.587 * bgr[1] + 0.299 * bgr[2]; }
 
-// A table whose rails' luma is under this share of the cloth's (the median over its sides)
-// has dark rails (black, dark stain): its sides are taken on the luma. Over the benchmark's
-// seed-7 set the sides of its wood rails measure 0.51-0.88 (median 0.70), of black rails
-// 0.20-0.49 (median 0.28): a side's own ratio swings with its light, the rails' material
-// does not.
-constexpr double kDarkRail = 0.45;
-// How far inwards from where the luma starts to rise off the rail the cushion top's level
-// is looked for (pixels: the blurred step and a top of a pixel or two), and the least
-// fall from the cushion top to the rail that is an edge (grey levels).
-constexpr double kDarkRailReachPx = 3.0;
-constexpr double kDarkRailMinStep = 20;
+// A table whose rails' luma is under kDarkRail of the cloth's (the median over its sides)
+// has dark rails (black, dark stain), over kLightRail light ones (maple, ash): their sides
+// are taken on the luma. Over the benchmark's seed-7 set the sides of its wood rails
+// measure 0.51-0.88 (median 0.70), of black rails 0.20-0.49 (median 0.28): a side's own
+// ratio swings with its light, the rails' material does not.
+constexpr double kDarkRail = 0.45, kLightRail = 1.3;
+// How far inwards from where the luma steps off the rail's the cushion top's level is
+// looked for (pixels: the blurred step and a top of a pixel or two), and the least step
+// between the cushion top and the rail that is an edge (grey levels).
+constexpr double kRailLumaReachPx = 3.0;
+constexpr double kRailLumaMinStep = 20;
 
 // Profiles across one side of the table, every 1.5 px along its middle 80%: colours from
 // kEdgeInner px inside to kEdgeOuter px outside, every half pixel; and the rail's colour
@@ -180,9 +180,11 @@ SideProfiles ProfilesAcross(const cv::Mat& bgr, const cv::Point2d& a, const cv::
 // edge is for any symmetric blur. Chromaticity, not colour: a cushion face seen beyond
 // the cloth at a grazing angle is cloth in shade, as dark as the rail but of the cloth's
 // hue, and the cloth-covered cushion top beyond it may be only a pixel or two wide. On a
-// table with `dark_rails` they are then taken on the luma.
+// table with dark or light rails they are then taken on the luma: `rail_step` is -1 when
+// the luma falls from a cushion top to the rail (dark rails), +1 when it rises (light
+// rails), 0 otherwise.
 std::vector<cv::Point2d> EdgePoints(const SideProfiles& side, const cv::Vec3f& cloth,
-                                    bool dark_rails) {
+                                    int rail_step) {
   constexpr double kInner = kEdgeInner, kOuter = kEdgeOuter, kStep = kEdgeStep;
   constexpr int kSamples = kEdgeSamples;
   // The colour crossing stands for the chromaticity crossing when this close (pixels).
@@ -233,29 +235,31 @@ std::vector<cv::Point2d> EdgePoints(const SideProfiles& side, const cv::Vec3f& c
       if (std::abs(t - best_t) < std::abs(colour_t - best_t)) colour_t = t;
     }
     if (std::abs(colour_t - best_t) < kColourSnapPx) best_t = colour_t;
-    if (dark_rails) {
+    if (rail_step != 0) {
       // JPEG keeps the colour at half resolution: next to the lit cushion top, a dark
       // rail's pixels take on the cloth's chromaticity (and their colour, whose step is
       // mostly the brightness, is pulled the same way by what the chroma adds), so both
-      // crossings lie out on the rail, by up to 3 px on a rail in shade. The luma is kept
-      // at full resolution: the edge is where it falls half-way from the cushion top's
-      // level to the rail's. The top's level is found from the rail inwards: the highest
-      // luma before it falls again (the cushion face inside a far side's top is dark) or
-      // kDarkRailReachPx past the start of the rise.
+      // crossings lie out on the rail, by up to 3 px on a rail in shade; a light rail's
+      // colour spreads onto the cushion top the same way. The luma is kept at full
+      // resolution: the edge is where it is half-way between the cushion top's level and
+      // the rail's. The top's level is found from the rail inwards: the luma farthest from
+      // the rail's (y below, signed so that the top is above the rail) before it turns
+      // back (the cushion face inside a far side's top is dark) or kRailLumaReachPx past
+      // the start of the step.
       std::array<double, kSamples> y;
-      for (int i = 0; i < kSamples; ++i) y[i] = Luma(p.colour[i]);
-      const double rail_y = Luma(p.outside);
-      constexpr double kFallBack = 4;  // grey levels: the luma turns down into the face
-      const int reach = static_cast<int>(kDarkRailReachPx / kStep);
+      for (int i = 0; i < kSamples; ++i) y[i] = -rail_step * Luma(p.colour[i]);
+      const double rail_y = -rail_step * Luma(p.outside);
+      constexpr double kFallBack = 4;  // grey levels: the luma turns back (into the face)
+      const int reach = static_cast<int>(kRailLumaReachPx / kStep);
       double top_y = rail_y;
-      int rise = -1;  // the first sample inwards clearly above the rail
+      int rise = -1;  // the first sample inwards clearly off the rail
       for (int i = kSamples - 1; i >= 0; --i) {
-        if (rise < 0 && y[i] >= rail_y + 0.5 * kDarkRailMinStep) rise = i;
+        if (rise < 0 && y[i] >= rail_y + 0.5 * kRailLumaMinStep) rise = i;
         if (rise >= 0 && (y[i] < top_y - kFallBack || rise - i > reach)) break;
         top_y = std::max(top_y, y[i]);
       }
       const double half = 0.5 * (top_y + rail_y);
-      if (top_y - rail_y >= kDarkRailMinStep) {
+      if (top_y - rail_y >= kRailLumaMinStep) {
         for (int i = kSamples - 1; i > 0; --i)
           if (y[i - 1] >= half && y[i] < half) {
             const double t = -kInner + kStep * (i - 1 + (y[i - 1] - half) / (y[i - 1] - y[i]));
@@ -740,11 +744,14 @@ absl::StatusOr<PoolTableDetection> DetectPoolTableFrom(IdealView* view, const cv
     }
     std::sort(rail_ratios.begin(), rail_ratios.end());
     const size_t m = rail_ratios.size();
-    const bool dark_rails =
-        m > 0 && 0.5 * (rail_ratios[(m - 1) / 2] + rail_ratios[m / 2]) < kDarkRail;
+    const double rail_ratio = m > 0 ? 0.5 * (rail_ratios[(m - 1) / 2] + rail_ratios[m / 2]) : 0;
+    const int rail_step = m == 0                    ? 0
+                          : rail_ratio < kDarkRail  ? -1
+                          : rail_ratio > kLightRail ? 1
+                                                    : 0;
     for (int i = 0; i < 4; ++i) {
       Line refined;
-      const std::vector<cv::Point2d> points = EdgePoints(across[i], cloth, dark_rails);
+      const std::vector<cv::Point2d> points = EdgePoints(across[i], cloth, rail_step);
       if (FitLine(points, &refined)) {
         sides[i] = refined;
         if (pass == 1)

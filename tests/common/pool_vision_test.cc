@@ -1433,15 +1433,18 @@ TEST(PoolTablePose, CornersWithinAFractionOfAPixel) {
   EXPECT_LT(sum / kFrames, 0.3) << "worst " << worst;
 }
 
-// Many tables have black or dark-stained rails. JPEG keeps the colour at half resolution,
-// so next to the lit cushion top a dark rail's pixels take on the cloth's chromaticity:
-// its colour and chromaticity crossings both lay out on the rail, and the corners of a
-// black-railed table were 1.5-3.4 px off (benchmark seed 7's frames 0-4 with --rail
-// black); in three of these four views 1.0-2.0 px, and one ball 10.7 mm off. A table
-// whose rails are dark has its sides taken on the luma, which JPEG keeps whole.
-TEST(PoolTablePose, DarkRailsAreFoundOnTheirEdgeNotOutOnTheRail) {
-  const std::pair<cv::Vec3d, const char*> rails[] = {{{28, 27, 26}, "black"},
-                                                     {{48, 26, 14}, "dark walnut"}};
+// Many tables have black or dark-stained rails, or light ones. JPEG keeps the colour at half
+// resolution, so next to the lit cushion top a dark rail's pixels take on the cloth's
+// chromaticity (and a light rail's colour spreads onto the top): the colour and
+// chromaticity crossings lay off the edge, and the corners of a black-railed table were
+// 1.5-3.4 px off (benchmark seed 7's frames 0-4 with --rail black); in three of these
+// views 1.0-2.0 px, and one ball 10.7 mm off. A table whose rails are dark or light has its
+// sides taken on the luma, which JPEG keeps whole: the dark rails' corners are now within
+// 0.07 px here. The maple rails' views guard the light rails' path (0.14 and 0.18 px; 0.12
+// and 0.22 on the colour; the benchmark's ten sets show what it gains).
+TEST(PoolTablePose, DarkAndLightRailsAreFoundOnTheirEdge) {
+  const std::pair<cv::Vec3d, const char*> rails[] = {
+      {{28, 27, 26}, "black"}, {{48, 26, 14}, "dark walnut"}, {{205, 165, 115}, "maple"}};
   const ViewCase views[] = {{PoolViewSide::kLongNear, 50, "long near, 50 deg"},
                             {PoolViewSide::kShortRight, 40, "short right, 40 deg"}};
   for (const auto& [rgb, rail] : rails)
@@ -1452,7 +1455,7 @@ TEST(PoolTablePose, DarkRailsAreFoundOnTheirEdgeNotOutOnTheRail) {
       auto scored = AnalyzeAndScore(scene, view);
       ASSERT_TRUE(scored.ok()) << rail << ", " << c.name << ": " << scored.status();
       const testdata::PoolScore& score = scored->score;
-      EXPECT_LT(score.max_corner_error_px, 0.6) << rail << ", " << c.name;
+      EXPECT_LT(score.max_corner_error_px, 0.3) << rail << ", " << c.name;
       ExpectEveryBallLocatedWithin(score, view, 10.0);
       EXPECT_EQ(score.separated_identified, score.separated) << rail << ", " << c.name;
     }
