@@ -742,13 +742,11 @@ absl::StatusOr<PoolTableDetection> DetectPoolTableFrom(IdealView* view, const cv
       if (!across[i].profiles.empty())
         rail_ratios.push_back(Luma(across[i].rail) / std::max(1.0, Luma(cloth)));
     }
+    // The median side's (with no side read, no side has points to place either).
     std::sort(rail_ratios.begin(), rail_ratios.end());
     const size_t m = rail_ratios.size();
-    const double rail_ratio = m > 0 ? 0.5 * (rail_ratios[(m - 1) / 2] + rail_ratios[m / 2]) : 0;
-    const int rail_step = m == 0                    ? 0
-                          : rail_ratio < kDarkRail  ? -1
-                          : rail_ratio > kLightRail ? 1
-                                                    : 0;
+    const double rail_ratio = m > 0 ? 0.5 * (rail_ratios[(m - 1) / 2] + rail_ratios[m / 2]) : 1;
+    const int rail_step = rail_ratio < kDarkRail ? -1 : rail_ratio > kLightRail ? 1 : 0;
     for (int i = 0; i < 4; ++i) {
       Line refined;
       const std::vector<cv::Point2d> points = EdgePoints(across[i], cloth, rail_step);
