@@ -189,6 +189,15 @@ struct PoolBallOptions {
   // frame 3 5 and seed 11's frame 32 1, in front of the far cushion: their top edge points
   // 1.3-1.8 px outside the ball, 12.7 and 10.0 mm away from the camera. 0 turns this off.
   double edge_shade_brightness = 0.75;
+  // Every edge point of a ball brighter than the cloth in luma (the cue, the 1, the 9, the
+  // 5 on a green cloth) is moved to the luma's outermost fall when that lies within this
+  // many pixels of it (and within 0.15 of the apparent radius, on a small far ball): the
+  // colour distance weighs chromaticity, which JPEG keeps at half resolution, and a
+  // blurred rim's mix takes on a bright ball's chromaticity faster than its share of the
+  // ball, so the colour's fall lies outwards; with the dark lower outline left out, that
+  // put the bright balls 0.3 px up the picture, away from the camera (round 28). The luma
+  // keeps the full resolution, as for the table's sides. 0 turns this off.
+  double edge_luma_snap_px = 1.0;
   // A ball seen behind another one along the line of sight shows only a crescent above
   // it: their blob has about two balls' area for the pose but a single distance maximum,
   // and its one seed's silhouette settles on the farther ball or between the two. Such a

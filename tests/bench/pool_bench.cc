@@ -294,6 +294,9 @@ int main(int argc, char** argv) {
               "radii either side of its outline (0: no edge fit)");
   ball_option("--edge-point-prior", &analyzer_options.balls.edge_point_prior,
               "The edge fit's start counts as this many points on its outline");
+  ball_option("--edge-luma-snap", &analyzer_options.balls.edge_luma_snap_px,
+              "Edge points of a ball brighter than the cloth in luma move to the luma's edge "
+              "within this many pixels (0: never)");
   app.add_flag("!--no-fit-separation", analyzer_options.balls.separate_overlapping_fits,
                "Leave fits closer than two radii where they are (PoolBallOptions::"
                "separate_overlapping_fits)");
