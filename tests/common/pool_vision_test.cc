@@ -1193,7 +1193,7 @@ TEST(PoolTouchingBalls, EdgePointsAgainstADarkBackgroundAreTakenOnTheLuma) {
 // moved onto the luma's edge within a pixel (PoolBallOptions::edge_luma_snap_px). Over
 // the separated bright balls of seed 7's frames 0-11 (28 balls), found with the analysed
 // pose: mean 1.88 mm away from the camera and 2.28 mm off before, 0.83 and 1.81 mm after.
-TEST(PoolTouchingBalls, BrightBallsAreNotPlacedAwayFromTheCamera) {
+TEST(PoolEdgeFit, BrightBallsAreNotPlacedAwayFromTheCamera) {
   int count = 0;
   double away_sum = 0, error_sum = 0;
   for (uint64_t seed : {7}) {
