@@ -1957,7 +1957,7 @@ void BallFinder::SplitHiddenBalls() {
       const bool shadow = !farther && second_lit < 0.3;
       // The farther ball's crescent over the shaded face of the far cushion is the face:
       // dark, it reads as ball and lengthens a ball near that cushion upwards, and the
-      // pair was the ball's lit top with the face, behind its lower half (held-out seeds
+      // pair was the ball's lit top with the face, behind its lower half (benchmark seeds
       // 41, 43, 47: a separated 5 pushed 2-3 px down the picture by it, 18-19 mm, and a
       // false ball above it).
       const bool face_behind = own_face[farther ? 1 : 0] > kMaxHiddenCrescentOnFace;
