@@ -688,24 +688,27 @@ class EdgeFitter {
     ForEachOutlinePoint(xy, [&](double u, double v, double nx, double ny, bool far_side) {
       double at = 0;
       if (!outermost_edge(gx_, gy_, u, v, nx, ny, &at)) return;
-      if (far_side && shaded != nullptr) {
+      if (shaded == nullptr) {
+        points.emplace_back(u + at * nx, v + at * ny);
+        return;
+      }
+      // Against a dark outside on the far side, the luma's edge when it lies no farther
+      // out; else, for a ball brighter than the cloth in luma, when it lies this near.
+      bool dark_outside = false;
+      if (far_side) {
         double darkest = std::numeric_limits<double>::max();
         for (double t = 0.5; t <= 2.0; t += 0.5) {
           const double x = u + (at + t) * nx, y = v + (at + t) * ny;
           if (inside_area(x, y)) darkest = std::min(darkest, Sample(shaded->brightness, x, y));
         }
-        double luma_at = 0;
-        if (darkest < shaded->level &&
-            outermost_edge(shaded->luma_gx, shaded->luma_gy, u, v, nx, ny, &luma_at) &&
-            luma_at <= at + kStep)
-          at = luma_at;
+        dark_outside = darkest < shaded->level;
       }
-      if (shaded != nullptr && shaded->luma_snap_px > 0) {
-        // A ball brighter than the cloth in luma: its luma edge is the same edge when this
-        // near (ShadedOutside::luma_snap_px).
-        double luma_at = 0;
-        if (outermost_edge(shaded->luma_gx, shaded->luma_gy, u, v, nx, ny, &luma_at) &&
-            std::abs(luma_at - at) <= shaded->luma_snap_px)
+      double luma_at = 0;
+      if ((dark_outside || shaded->luma_snap_px > 0) &&
+          outermost_edge(shaded->luma_gx, shaded->luma_gy, u, v, nx, ny, &luma_at)) {
+        if (dark_outside && luma_at <= at + kStep)
+          at = luma_at;
+        else if (std::abs(luma_at - at) <= shaded->luma_snap_px)
           at = luma_at;
       }
       points.emplace_back(u + at * nx, v + at * ny);
@@ -855,6 +858,8 @@ constexpr int kMinOutlinePoints = 16;
 
 // Colour is read this far (pixels) inside a ball's outline.
 constexpr double kInteriorPx = 1.0;
+// PoolLuma of a pixel in float, for the per-pixel loops.
+inline float PixelLuma(const cv::Vec3b& p) { return 0.114f * p[0] + 0.587f * p[1] + 0.299f * p[2]; }
 // PoolBallOptions::edge_luma_snap_px: a ball is brighter than the cloth in luma when its
 // median is over this many times the cloth's (by their albedos the cue, 1, 9 and 5 are
 // 1.45-2.4 times the benchmark's green cloth, the red 3 0.9, the 2 and 4 0.6), and the snap reaches
@@ -1165,6 +1170,9 @@ cv::Mat StickPixels(const cv::Mat& mask, const cv::Rect& roi, const PlanarPose& 
   const int n = ConnectedComponentsWithStats(thin, 8, &labels, &stats, &centroids);
   std::vector<uchar> is_stick(n, 0);
   std::vector<double> strip_radius(n, 0);
+  // A stick strip's line and the 90th percentile of its pixels' distances from it.
+  std::vector<cv::Vec4f> strip_line(n);
+  std::vector<double> strip_spread(n, 0);
   std::vector<std::vector<cv::Point>> points(n);
   std::vector<int> on_faces(n, 0);
   for (int y = 0; y < labels.rows; ++y) {
@@ -1193,16 +1201,17 @@ cv::Mat StickPixels(const cv::Mat& mask, const cv::Rect& roi, const PlanarPose& 
                   area <= 2 * options.stick_opening_radius * r_px * extent &&
                   area * options.min_stick_elongation <= extent * extent &&
                   2 * on_faces[i] < static_cast<int>(points[i].size());
-    if (is_stick[i] && extent < kBentStripMaxLength * r_px) {
-      // A short strip must also be straight: a stick is, but what the opening leaves of
-      // a dark ball's lower half joined to a neighbour's shadow is a bent crescent (seed
-      // 47's frame 2: a separated green 6 taken out as a stick, 4.5 radii long, its
-      // pixels up to 1.75 of its mean half-width from its line). The short strips that
-      // the ten cue-stick sets add are within 1.31; long ones, the stick joined to its
-      // shadow or to a cushion's shade, bend more and are left to the tests above.
-      cv::Vec4f line;
-      if (StripLine(points[i], &line) > kMaxStripBend * 0.5 * area / extent) is_stick[i] = 0;
-    }
+    if (!is_stick[i]) continue;
+    strip_spread[i] = StripLine(points[i], &strip_line[i]);
+    // A short strip must also be straight: a stick is, but what the opening leaves of a
+    // dark ball's lower half joined to a neighbour's shadow is a bent crescent (seed 47's
+    // frame 2: a separated green 6 taken out as a stick, 4.5 radii long, its pixels up to
+    // 1.75 of its mean half-width from its line). The short strips that the ten cue-stick
+    // sets add are within 1.31; long ones, the stick joined to its shadow or to a
+    // cushion's shade, bend more and are left to the tests above.
+    if (extent < kBentStripMaxLength * r_px &&
+        strip_spread[i] > kMaxStripBend * 0.5 * area / extent)
+      is_stick[i] = 0;
   }
   // A stick is straight: the thin pixels along each stick strip's line are the stick as
   // well, where the strip was cut (over the faces, past a ball, at its tip): beyond the
@@ -1210,8 +1219,8 @@ cv::Mat StickPixels(const cv::Mat& mask, const cv::Rect& roi, const PlanarPose& 
   // strip's ends (the object ball lies on the line beyond the cue ball).
   for (int i = 1; i < n; ++i) {
     if (!is_stick[i]) continue;
-    cv::Vec4f line;
-    const double half_width = StripLine(points[i], &line) + 1.5;
+    const cv::Vec4f& line = strip_line[i];
+    const double half_width = strip_spread[i] + 1.5;
     const auto off_line = [&](const cv::Point& p) {
       return std::abs((p.x - line[2]) * line[1] - (p.y - line[3]) * line[0]);
     };
@@ -2001,7 +2010,7 @@ void BallFinder::RefineOutlines() {
         if (cov >= 0.99 && b > 0.5) {
           const float intensity = (p[0] + p[1] + p[2]) / 3.f;
           ball_intensities.push_back(intensity);
-          ball_lumas.push_back(0.114f * p[0] + 0.587f * p[1] + 0.299f * p[2]);
+          ball_lumas.push_back(PixelLuma(p));
           const float cx = p[2] - 0.5f * (p[1] + p[0]), cy = 0.8660254f * (p[1] - p[0]);
           if (std::hypot(cx, cy) > 0.25f * std::max(1.f, intensity))
             ball_chromatic.push_back(intensity);
@@ -2121,7 +2130,7 @@ void BallFinder::RefineOutlines() {
             float* y = luma.ptr<float>(v);
             for (int u = 0; u < grown.width; ++u) {
               b[u] = (p[u][0] + p[u][1] + p[u][2]) / 3.f;
-              y[u] = 0.114f * p[u][0] + 0.587f * p[u][1] + 0.299f * p[u][2];  // JPEG's Y
+              y[u] = PixelLuma(p[u]);
             }
           }
           cv::Sobel(luma, shaded.luma_gx, CV_32F, 1, 0, 3, 1.0 / 8);
@@ -2133,9 +2142,7 @@ void BallFinder::RefineOutlines() {
           if (options_.edge_luma_snap_px > 0 && !ball_lumas.empty()) {
             std::nth_element(ball_lumas.begin(), ball_lumas.begin() + ball_lumas.size() / 2,
                              ball_lumas.end());
-            const double cloth_luma =
-                0.114 * local_cloth[0] + 0.587 * local_cloth[1] + 0.299 * local_cloth[2];
-            if (ball_lumas[ball_lumas.size() / 2] > kBrighterLuma * cloth_luma)
+            if (ball_lumas[ball_lumas.size() / 2] > kBrighterLuma * PoolLuma(local_cloth))
               shaded.luma_snap_px =
                   std::min(options_.edge_luma_snap_px,
                            kLumaSnapRadii * ApparentRadiusPx(pose_, K_, seeds_[i], r_));

@@ -113,9 +113,6 @@ constexpr double kEdgeInner = 5.0, kEdgeOuter = 7.0;
 // How far from the sides EdgePoints reads pixels (its bilinear samples take the next pixel).
 constexpr int kEdgeReachPx = static_cast<int>(kEdgeOuter) + 2;
 
-// Rec. 601 luma of a BGR colour: what JPEG keeps at full resolution.
-double Luma(const cv::Vec3f& bgr) { return 0.114 * bgr[0] + 0.587 * bgr[1] + 0.299 * bgr[2]; }
-
 // A table whose rails' luma is under kDarkRail of the cloth's (the median over its sides)
 // has dark rails (black, dark stain), over kLightRail light ones (maple, ash): their sides
 // are taken on the luma. Over the benchmark's seed-7 set the sides of its wood rails
@@ -247,8 +244,8 @@ std::vector<cv::Point2d> EdgePoints(const SideProfiles& side, const cv::Vec3f& c
       // back (the cushion face inside a far side's top is dark) or kRailLumaReachPx past
       // the start of the step.
       std::array<double, kSamples> y;
-      for (int i = 0; i < kSamples; ++i) y[i] = -rail_step * Luma(p.colour[i]);
-      const double rail_y = -rail_step * Luma(p.outside);
+      for (int i = 0; i < kSamples; ++i) y[i] = -rail_step * PoolLuma(p.colour[i]);
+      const double rail_y = -rail_step * PoolLuma(p.outside);
       constexpr double kFallBack = 4;  // grey levels: the luma turns back (into the face)
       const int reach = static_cast<int>(kRailLumaReachPx / kStep);
       double top_y = rail_y;
@@ -386,6 +383,8 @@ double ColorAngleDeg(const cv::Vec3f& a, const cv::Vec3f& b) {
   if (na < 1e-6 || nb < 1e-6) return 90;
   return std::acos(std::clamp(a.dot(b) / (na * nb), -1.0, 1.0)) * 180 / kPi;
 }
+
+double PoolLuma(const cv::Vec3f& bgr) { return 0.114 * bgr[0] + 0.587 * bgr[1] + 0.299 * bgr[2]; }
 
 cv::Point2d ProjectIdeal(const PlanarPose& pose, const cv::Matx33d& K, const cv::Vec3d& point) {
   const cv::Vec3d q = K * (pose.R * point + pose.t);
@@ -740,7 +739,7 @@ absl::StatusOr<PoolTableDetection> DetectPoolTableFrom(IdealView* view, const cv
       if (outward.dot(mid - centroid_full) < 0) outward = -outward;
       across[i] = ProfilesAcross(bgr, a, b, outward);
       if (!across[i].profiles.empty())
-        rail_ratios.push_back(Luma(across[i].rail) / std::max(1.0, Luma(cloth)));
+        rail_ratios.push_back(PoolLuma(across[i].rail) / std::max(1.0, PoolLuma(cloth)));
     }
     // The median side's (with no side read, no side has points to place either).
     std::sort(rail_ratios.begin(), rail_ratios.end());

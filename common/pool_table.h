@@ -77,6 +77,10 @@ absl::StatusOr<PoolTableDetection> DetectPoolTable(IdealView* view, const cv::Ma
 // Colour angle (degrees) between two BGR colours (seed eq. 4.1).
 double ColorAngleDeg(const cv::Vec3f& a, const cv::Vec3f& b);
 
+// Rec. 601 luma of a BGR colour: the brightness JPEG keeps at full resolution (its colour
+// it keeps at half).
+double PoolLuma(const cv::Vec3f& bgr);
+
 // Projects a table-frame point (mm) with a pose into ideal pixels.
 cv::Point2d ProjectIdeal(const PlanarPose& pose, const cv::Matx33d& K, const cv::Vec3d& point);
 
