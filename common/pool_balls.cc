@@ -90,6 +90,35 @@ int BallReadMarginPx(const PlanarPose& pose, const cv::Matx33d& K, double L, dou
 // The ball-ness of every pixel in `roi` (0 = cloth, 1 = ball), soft around the
 // thresholds so that sub-pixel fitting sees a continuous image.
 // `dark_counts` false: by colour alone (a shadow on the cloth is dark, never coloured).
+// Ball-ness of dark pixels (the 8) added to `ballness` (over `roi`, by colour): darkness
+// measured against the cloth's colour, and where `shade` is given (the cloth's B + G + R
+// as lit at each pixel, CushionShade) also against the cloth as lit there
+// (PoolBallOptions::cushion_shade_dark_share).
+void AddDarkness(const cv::Mat& bgr, const cv::Rect& roi, const cv::Vec3f& cloth,
+                 const PoolBallOptions& o, const cv::Mat& shade, cv::Mat* ballness) {
+  const float cloth_sum = cloth[0] + cloth[1] + cloth[2];
+  const float dark_hi_share = static_cast<float>(o.dark_fraction + 0.1);
+  const float dark_lo_share = static_cast<float>(o.dark_fraction - 0.05);
+  const float shade_share = static_cast<float>(o.cushion_shade_dark_share);
+  const float cloth_dark_hi = static_cast<float>((o.dark_fraction + 0.1) * cloth_sum);
+  const float cloth_dark_lo = static_cast<float>((o.dark_fraction - 0.05) * cloth_sum);
+  for (int y = 0; y < roi.height; ++y) {
+    const cv::Vec3b* p = bgr.ptr<cv::Vec3b>(y + roi.y) + roi.x;
+    const float* lit = shade.empty() ? nullptr : shade.ptr<float>(y);
+    float* q = ballness->ptr<float>(y);
+    for (int x = 0; x < roi.width; ++x) {
+      const float sum = static_cast<float>(p[x][0]) + p[x][1] + p[x][2];
+      const float dark_hi = lit ? std::min(cloth_dark_hi, shade_share * lit[x]) : cloth_dark_hi;
+      const float dark_lo = lit ? dark_hi * (dark_lo_share / dark_hi_share) : cloth_dark_lo;
+      if (sum >= dark_hi) continue;
+      const float dark =
+          sum <= dark_lo ? 1.f
+                         : static_cast<float>(SmoothStep((dark_hi - sum) / (dark_hi - dark_lo)));
+      q[x] = std::max(q[x], dark);
+    }
+  }
+}
+
 cv::Mat BallnessMap(const cv::Mat& bgr, const cv::Rect& roi, const cv::Vec3f& cloth,
                     const PoolBallOptions& o, bool dark_counts = true) {
   cv::Mat out(roi.size(), CV_32FC1);
@@ -98,8 +127,6 @@ cv::Mat BallnessMap(const cv::Mat& bgr, const cv::Rect& roi, const cv::Vec3f& cl
   const float cos_lo = static_cast<float>(std::cos(lo)), cos_hi = static_cast<float>(std::cos(hi));
   const float cloth_norm = static_cast<float>(cv::norm(cloth));
   const float cloth_sum = cloth[0] + cloth[1] + cloth[2];
-  const float dark_hi = static_cast<float>((o.dark_fraction + 0.1) * cloth_sum);
-  const float dark_lo = static_cast<float>((o.dark_fraction - 0.05) * cloth_sum);
   const float cloth_inv_i = 3.f / std::max(1.f, cloth_sum);
   const float cloth_cx = (cloth[2] - 0.5f * (cloth[1] + cloth[0])) * cloth_inv_i;
   const float cloth_cy = 0.8660254f * (cloth[1] - cloth[0]) * cloth_inv_i;
@@ -148,16 +175,155 @@ cv::Mat BallnessMap(const cv::Mat& bgr, const cv::Rect& roi, const cv::Vec3f& cl
                                             (2 * kChromaSoft))));
         }
       }
-      const float dark =
-          sum >= dark_hi
-              ? 0.f
-              : (sum <= dark_lo
-                     ? 1.f
-                     : static_cast<float>(SmoothStep((dark_hi - sum) / (dark_hi - dark_lo))));
-      q[x] = dark_counts ? std::max(colour, dark) : colour;
+      q[x] = colour;
     }
   }
+  if (dark_counts) AddDarkness(bgr, roi, cloth, o, cv::Mat(), &out);
   return out;
+}
+
+// The cloth's brightness (B + G + R) as lit next to the cushions, per pixel of `roi`, where
+// it is darker than `dark_sum` (elsewhere `cloth_sum`); empty when it is nowhere. A lamp
+// not over the table's middle leaves a cushion's face, and a band of cloth along it, in
+// the cushion's shadow: dark, they read as ball (a row of false 8s along the far
+// cushion). The cloth in bands along each cushion (kShadeBins bands out to kShadeReach
+// ball radii from its nose) and each cushion's face are cut into cells kShadeCellLength
+// radii long; a cell's level is the median brightness of its pixels of the cloth's colour
+// (`colour_ballness` under 0.5), which a ball or two frozen on the cushion do not move.
+// Sampled at every other pixel of every other row (a frame's time stays as it was).
+constexpr double kShadeReach = 2;
+constexpr int kShadeBins = 8;
+constexpr double kShadeCellLength = 8;
+cv::Mat CushionShade(const cv::Mat& bgr, const cv::Rect& roi, const cv::Mat& colour_ballness,
+                     const PlanarPose& pose, const cv::Matx33d& K, const PoolTableProfile& profile,
+                     float cloth_sum, float dark_sum) {
+  const double L = profile.length_mm, W = profile.width_mm, r = profile.ball_radius_mm;
+  const double h = profile.cushion_height_mm;
+  const double reach = kShadeReach * r;
+  const cv::Vec3d camera = CameraCentre(pose);
+  // Cushions 0: y = 0, 1: x = L, 2: y = W, 3: x = 0. A table point `along` cushion `c`
+  // and `depth` in from its nose, at height z.
+  const auto at = [&](int c, double along, double depth, double z) {
+    switch (c) {
+      case 0:
+        return cv::Vec3d(along, depth, z);
+      case 1:
+        return cv::Vec3d(L - depth, along, z);
+      case 2:
+        return cv::Vec3d(along, W - depth, z);
+      default:
+        return cv::Vec3d(depth, along, z);
+    }
+  };
+  const auto length_of = [&](int c) { return c % 2 == 0 ? L : W; };
+  // A cushion's face is seen from the table's side of it only.
+  const auto face_seen = [&](int c) {
+    const double inside = c == 0   ? camera[1]
+                          : c == 1 ? L - camera[0]
+                          : c == 2 ? W - camera[1]
+                                   : camera[0];
+    return inside > 0 && camera[2] > h;
+  };
+  const auto quad = [&](const std::array<cv::Vec3d, 4>& corners) {
+    std::array<cv::Point, 4> q;
+    for (int k = 0; k < 4; ++k) {
+      const cv::Point2d m = ProjectIdeal(pose, K, corners[k]);
+      q[k] = cv::Point(cvRound((m.x - 0.5 - roi.x) * 16), cvRound((m.y - 0.5 - roi.y) * 16));
+    }
+    return q;
+  };
+  // Where to sample: each band and seen face painted (fillConvexPoly takes in the pixels
+  // its edges touch, so a sample's cell is then taken from its ray).
+  thread_local cv::Mat near;
+  near.create(roi.size(), CV_8UC1);
+  near.setTo(0);
+  for (int c = 0; c < 4; ++c) {
+    const double length = length_of(c);
+    auto q =
+        quad({at(c, 0, 0, 0), at(c, length, 0, 0), at(c, length, reach, 0), at(c, 0, reach, 0)});
+    cv::fillConvexPoly(near, q.data(), 4, cv::Scalar(255), cv::LINE_8, 4);
+    if (!face_seen(c)) continue;
+    q = quad({at(c, 0, 0, 0), at(c, length, 0, 0), at(c, length, 0, h), at(c, 0, 0, h)});
+    cv::fillConvexPoly(near, q.data(), 4, cv::Scalar(255), cv::LINE_8, 4);
+  }
+  const double cell_mm = kShadeCellLength * r;
+  int segments[4], offsets[5] = {0};
+  for (int c = 0; c < 4; ++c) {
+    segments[c] = std::max(1, static_cast<int>(std::ceil(length_of(c) / cell_mm)));
+    offsets[c + 1] = offsets[c] + segments[c];
+  }
+  const int bins = kShadeBins + 1;  // the bands, then the face
+  const int total = offsets[4] * bins;
+  const auto along_cell = [&](int c, double along) {
+    return offsets[c] +
+           std::clamp(static_cast<int>(along / length_of(c) * segments[c]), 0, segments[c] - 1);
+  };
+  // Every other pixel of every other row, put in its cell by its ray through the pixel's
+  // centre: on the cloth, the band of the nearest cushion; else the face it crosses
+  // between the cloth and the cushion's top.
+  const cv::Matx33d M = pose.R.t() * K.inv();
+  std::vector<std::vector<float>> sums(total);
+  std::vector<int> counts(total, 0);
+  for (int y = 0; y < roi.height; y += 2) {
+    const uchar* in = near.ptr<uchar>(y);
+    const cv::Vec3b* p = bgr.ptr<cv::Vec3b>(y + roi.y) + roi.x;
+    const float* col = colour_ballness.ptr<float>(y);
+    for (int x = 0; x < roi.width; x += 2) {
+      if (!in[x]) continue;
+      const cv::Vec3d d = M * cv::Vec3d(x + roi.x + 0.5, y + roi.y + 0.5, 1);
+      if (d[2] >= 0) continue;
+      const double t0 = -camera[2] / d[2];
+      const double X = camera[0] + t0 * d[0], Y = camera[1] + t0 * d[1];
+      int index = -1;
+      if (X >= 0 && Y >= 0 && X <= L && Y <= W) {
+        const double to[4] = {Y, L - X, W - Y, X};
+        const int c = static_cast<int>(std::min_element(to, to + 4) - to);
+        if (to[c] >= reach) continue;
+        index =
+            along_cell(c, c % 2 == 0 ? X : Y) * bins + static_cast<int>(to[c] / reach * kShadeBins);
+      } else {
+        const double th = (h - camera[2]) / d[2];
+        const double Xh = camera[0] + th * d[0], Yh = camera[1] + th * d[1];
+        if (Xh < 0 || Yh < 0 || Xh > L || Yh > W) continue;
+        const bool beyond[4] = {Y<0, X> L, Y > W, X < 0};
+        if (beyond[0] + beyond[1] + beyond[2] + beyond[3] != 1) continue;  // a corner
+        const int c = static_cast<int>(std::find(beyond, beyond + 4, true) - beyond);
+        const double tm = (0.5 * h - camera[2]) / d[2];
+        index = along_cell(c, c % 2 == 0 ? camera[0] + tm * d[0] : camera[1] + tm * d[1]) * bins +
+                kShadeBins;
+      }
+      ++counts[index];
+      if (col[x] < 0.5f) sums[index].push_back(static_cast<float>(p[x][0] + p[x][1] + p[x][2]));
+    }
+  }
+  // The cells that would read as dark themselves (their level under `dark_sum`), brightest
+  // first: where two meet, the darker one is painted last and holds their shared pixels.
+  // A lit face (0.4-0.6 of the cloth) is left as it was: a dark ball before it keeps its
+  // top (a 6 frozen on the far cushion went 9 -> 20 mm off when such faces were taken in).
+  std::vector<std::pair<float, int>> dark_cells;
+  for (int i = 0; i < total; ++i) {
+    auto& v = sums[i];
+    if (v.size() < 5 || v.size() < 0.3 * counts[i]) continue;
+    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+    if (v[v.size() / 2] < dark_sum) dark_cells.emplace_back(v[v.size() / 2], i);
+  }
+  if (dark_cells.empty()) return cv::Mat();
+  std::sort(dark_cells.begin(), dark_cells.end(), std::greater<>());
+  cv::Mat shade(roi.size(), CV_32FC1, cv::Scalar(cloth_sum));
+  for (const auto& [level, i] : dark_cells) {
+    const int c = static_cast<int>(std::upper_bound(offsets, offsets + 5, i / bins) - offsets) - 1;
+    const int j = i / bins - offsets[c], bin = i % bins;
+    const double a0 = length_of(c) * j / segments[c], a1 = length_of(c) * (j + 1) / segments[c];
+    std::array<cv::Point, 4> q;
+    if (bin < kShadeBins) {
+      const double d0 = reach * bin / kShadeBins, d1 = reach * (bin + 1) / kShadeBins;
+      q = quad({at(c, a0, d0, 0), at(c, a1, d0, 0), at(c, a1, d1, 0), at(c, a0, d1, 0)});
+    } else {
+      q = quad({at(c, a0, 0, 0), at(c, a1, 0, 0), at(c, a1, 0, h), at(c, a0, 0, h)});
+    }
+    cv::fillConvexPoly(shade, q.data(), 4, cv::Scalar(level), cv::LINE_8, 4);
+  }
+  return shade;
 }
 
 // Ball-ness of the pixels that the pocket mask leaves out: neither ball nor cloth.
@@ -879,6 +1045,10 @@ absl::Status PoolBallOptions::Validate() const {
     return absl::InvalidArgumentError("ball_chroma_distance must be in (0.1, 2)");
   if (!(dark_fraction > 0.05 && dark_fraction < 0.9))
     return absl::InvalidArgumentError("dark_fraction must be in (0.05, 0.9)");
+  if (!(cushion_shade_dark_share >= 0 && cushion_shade_dark_share <= 1))
+    return absl::InvalidArgumentError(
+        "cushion_shade_dark_share must be in [0, 1] (a share of the cloth's level by the "
+        "cushions; 0: off)");
   if (!(min_area_fraction > 0 && min_area_fraction <= 1))
     return absl::InvalidArgumentError("min_area_fraction must be in (0, 1]");
   if (!(stick_opening_radius >= 0 && stick_opening_radius < 1))
@@ -1551,7 +1721,14 @@ bool BallFinder::FindBallPixels(const cv::Rect& valid) {
       cv::fillConvexPoly(region_, disc, cv::Scalar(0));
     }
   }
-  const cv::Mat ballness = BallnessMap(bgr_, roi_, cloth_, options_);
+  // Ball-ness by colour, then of dark pixels against the cloth as lit by the cushions.
+  cv::Mat ballness = BallnessMap(bgr_, roi_, cloth_, options_, /*dark_counts=*/false);
+  const cv::Mat shade =
+      options_.cushion_shade_dark_share > 0
+          ? CushionShade(bgr_, roi_, ballness, pose_, K_, profile_, cloth_sum_,
+                         static_cast<float>((options_.dark_fraction + 0.1) * cloth_sum_))
+          : cv::Mat();
+  AddDarkness(bgr_, roi_, cloth_, options_, shade, &ballness);
   mask_.create(roi_.size(), CV_8UC1);
   for (int y = 0; y < roi_.height; ++y) {
     const float* b = ballness.ptr<float>(y);

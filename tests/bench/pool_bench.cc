@@ -111,14 +111,14 @@ double Mean(const std::vector<double>& v) {
 // options left out).
 std::string CacheKey(uint64_t seed, bool nine_foot, bool clean, const std::string& cloth,
                      const std::string& rail, const std::string& light, double scale,
-                     bool cue_stick, double motion_blur, int frame) {
-  std::string key = "seed" + std::to_string(seed) + (nine_foot ? "_ninefoot" : "") +
-                    (clean ? "_clean" : "") + "_cloth_" + cloth +
-                    (rail == "wood" ? "" : "_rail_" + rail) +
-                    (light == "neutral" ? "" : "_light_" + light) + "_scale" +
-                    std::to_string(scale) + (cue_stick ? "_cuestick" : "") +
-                    (motion_blur > 0 ? "_motion" + std::to_string(motion_blur) : "") + "_f" +
-                    std::to_string(frame);
+                     bool cue_stick, double motion_blur, const std::string& lamp_shift, int frame) {
+  std::string key =
+      "seed" + std::to_string(seed) + (nine_foot ? "_ninefoot" : "") + (clean ? "_clean" : "") +
+      "_cloth_" + cloth + (rail == "wood" ? "" : "_rail_" + rail) +
+      (light == "neutral" ? "" : "_light_" + light) + "_scale" + std::to_string(scale) +
+      (cue_stick ? "_cuestick" : "") +
+      (motion_blur > 0 ? "_motion" + std::to_string(motion_blur) : "") +
+      (lamp_shift.empty() ? "" : "_lamps_" + lamp_shift) + "_f" + std::to_string(frame);
   for (char& c : key)
     if (!std::isalnum(static_cast<unsigned char>(c)) && c != '.' && c != '-') c = '_';
   return key;
@@ -269,6 +269,16 @@ int main(int argc, char** argv) {
   app.add_flag("--cue-stick", cue_stick,
                "A cue stick in every frame, aimed through the cue ball at another ball as a "
                "player holds it (the same scenes otherwise)");
+  std::string lamp_shift;
+  app.add_option("--lamp-shift", lamp_shift,
+                 "Move the lamps by X,Y,Z mm from their line over the table's long axis: a "
+                 "room's light off the table's middle, its shadows cast sideways")
+      ->check([](const std::string& v) {
+        double x = 0, y = 0, z = 0;
+        return std::sscanf(v.c_str(), "%lf,%lf,%lf", &x, &y, &z) == 3 && z > -800
+                   ? std::string()
+                   : "expected X,Y,Z in mm, the lamps kept over the cloth (Z > -800)";
+      });
   PoolAnalyzerOptions analyzer_options;
   // The ball finder's options, each shown with its default.
   const auto ball_option = [&app](const char* name, double* value, const std::string& help) {
@@ -294,6 +304,9 @@ int main(int argc, char** argv) {
               "radii either side of its outline (0: no edge fit)");
   ball_option("--edge-point-prior", &analyzer_options.balls.edge_point_prior,
               "The edge fit's start counts as this many points on its outline");
+  ball_option("--cushion-shade", &analyzer_options.balls.cushion_shade_dark_share,
+              "Next to the cushions a pixel is dark only under this share of the cloth as lit "
+              "there (0: the cloth's colour everywhere)");
   ball_option("--edge-luma-snap", &analyzer_options.balls.edge_luma_snap_px,
               "Edge points of a ball brighter than the cloth in luma move to the luma's edge "
               "within this many pixels (0: never)");
@@ -351,6 +364,9 @@ int main(int argc, char** argv) {
     }
     ScalePoolCamera(&scene, scale);
     ParseLight(light, &scene.light_rgb);  // checked by --light's validator
+    if (!lamp_shift.empty())              // checked by --lamp-shift's validator
+      std::sscanf(lamp_shift.c_str(), "%lf,%lf,%lf", &scene.lamp_shift_mm[0],
+                  &scene.lamp_shift_mm[1], &scene.lamp_shift_mm[2]);
     if (motion_blur > 0)
       DrawPoolShake(seed * 7907 + static_cast<uint64_t>(f) + 0x5ba4e, motion_blur, &scene);
     if (cue_stick) {
@@ -359,10 +375,10 @@ int main(int argc, char** argv) {
       scene.cue_stick = AimedCueStick(stick_rng, spec, scene.balls);
     }
     if (only >= 0 && f != only) continue;
-    const PoolView view = CachedPoolView(
-        cache,
-        CacheKey(seed, nine_foot, clean, cloth, rail, light, scale, cue_stick, motion_blur, f),
-        scene, seed * 100003 + f);
+    const PoolView view = CachedPoolView(cache,
+                                         CacheKey(seed, nine_foot, clean, cloth, rail, light, scale,
+                                                  cue_stick, motion_blur, lamp_shift, f),
+                                         scene, seed * 100003 + f);
     image_size = view.image.size();
     if (!save.empty()) {
       char name[64];

@@ -1423,6 +1423,36 @@ TEST(PoolLight, WarmLampsLeaveEveryBallItsNumber) {
   EXPECT_GE(misnamed_unbalanced, 3);
 }
 
+// A room's lamps 500 mm beyond the far cushion (not over the table's middle): that
+// cushion's face, and the cloth along it, lie in its shadow, as dark as the 8. Measured
+// against the cloth as lit beside the cushions they are not ball: the spread layout's
+// balls are all found, from both long sides. Against the cloth's colour alone the face
+// was a row of false black balls.
+TEST(PoolLight, LampsOffTheTablesMiddleLeaveNoRowOfFalseBallsAlongACushion) {
+  for (const auto& [side, shift_y] :
+       {std::pair{PoolViewSide::kLongNear, 500.0}, std::pair{PoolViewSide::kLongFar, -500.0}}) {
+    SCOPED_TRACE(shift_y);
+    PoolScene scene = Scene(side, 35, 6);
+    scene.lamp_shift_mm = {0, shift_y, 0};
+    const PoolView view = testdata::RenderPoolView(scene, 77);
+    auto scored = AnalyzeAndScore(scene, view);
+    ASSERT_TRUE(scored.ok()) << scored.status();
+    const testdata::PoolScore& score = scored->score;
+    // The balls' own shadows fall sideways too, which the fits do not expect: a ball may
+    // be off by more than usual, or a shadow stand out far enough to be a ball.
+    EXPECT_LE(score.false_balls, 1);
+    EXPECT_EQ(score.position_errors_mm.size(), view.balls.size());
+    PoolAnalyzerOptions plain;
+    plain.balls.cushion_shade_dark_share = 0;
+    auto against_cloth = AnalyzeAndScore(scene, view, plain);
+    ASSERT_TRUE(against_cloth.ok()) << against_cloth.status();
+    EXPECT_GE(against_cloth->score.false_balls, 4);
+  }
+  PoolBallOptions bad;
+  bad.cushion_shade_dark_share = 1.5;
+  EXPECT_FALSE(bad.Validate().ok());
+}
+
 // Under the renderer's neutral light nothing is balanced, even when the white of one ball
 // alone says otherwise: seed 7's frame 42, whose only white ball reads 10% warm.
 TEST(PoolLight, NeutralLightIsNotBalanced) {

@@ -130,7 +130,8 @@ class Scene {
     }
     const int lamps = std::clamp(scene.lamps, 1, 3);
     for (int i = 0; i < lamps; ++i)
-      lamps_.push_back({L * (i + 1) / (lamps + 1), W / 2, kLampHeight});
+      lamps_.push_back(cv::Vec3d(L * (i + 1) / (lamps + 1), W / 2, kLampHeight) +
+                       scene.lamp_shift_mm);
     lamp_power_ = 1.0 / lamps * (lamps == 1 ? 1.0 : 1.25);
     texture_.create(256, 256, CV_32FC1);
     cv::RNG cvrng(rng());

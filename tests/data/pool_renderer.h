@@ -79,6 +79,9 @@ struct PoolScene {
   std::vector<PoolBallPlacement> balls;
   PoolCamera camera;
   int lamps = 2;              // lamps above the long axis, 900 mm over the cloth
+  // The lamps moved off that line (X, Y, Z in mm): a room's light not over the table's
+  // middle casts its shadows sideways.
+  cv::Vec3d lamp_shift_mm{0, 0, 0};
   double light_gain = 1.0;    // overall exposure
   // Colour the camera records the lamps' white as (RGB gains): what the camera's white
   // balance leaves of warm bar lamps or cool daylight (kWarmBarLamps, kDaylight).
