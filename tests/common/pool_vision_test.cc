@@ -1453,6 +1453,21 @@ TEST(PoolLight, LampsOffTheTablesMiddleLeaveNoRowOfFalseBallsAlongACushion) {
   EXPECT_FALSE(bad.Validate().ok());
 }
 
+// Benchmark seed 19's frame 13 under lamps 500 mm beyond the far cushion: that cushion's
+// face is near black above the blue 2 frozen before it. At that darkness its hue is JPEG's
+// and the noise's, and it read as coloured ball: a false ball on the face above the 2. In
+// a cell of the face in deep shade such pixels are ball only by their darkness.
+TEST(PoolLight, NearBlackCushionFaceIsNotColouredBall) {
+  auto [scene, view] = RenderBenchFrame(13, 19);
+  scene.lamp_shift_mm = {0, 500, 0};
+  view = testdata::RenderPoolView(scene, 19 * 100003 + 13);
+  auto scored = AnalyzeAndScore(scene, view);
+  ASSERT_TRUE(scored.ok()) << scored.status();
+  EXPECT_EQ(scored->score.false_balls, 0);
+  EXPECT_EQ(scored->score.separated_identified, scored->score.separated);
+  ExpectSeparatedBallNamed(scored->score, 2, 10);
+}
+
 // Under the renderer's neutral light nothing is balanced, even when the white of one ball
 // alone says otherwise: seed 7's frame 42, whose only white ball reads 10% warm.
 TEST(PoolLight, NeutralLightIsNotBalanced) {
