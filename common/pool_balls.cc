@@ -198,7 +198,8 @@ cv::Mat BallnessMap(const cv::Mat& bgr, const cv::Rect& roi, const cv::Vec3f& cl
 }
 
 // The cloth's brightness (B + G + R) as lit next to the cushions, per pixel of `roi`, where
-// it is darker than `dark_sum` (elsewhere `cloth_sum`); empty when it is nowhere. A lamp
+// it is darker than `cloth_sum` (a cushion's face: than `dark_sum`; elsewhere
+// `cloth_sum`); empty when it is nowhere. A lamp
 // not over the table's middle leaves a cushion's face, and a band of cloth along it, in
 // the cushion's shadow: dark, they read as ball (a row of false 8s along the far
 // cushion). The cloth in bands along each cushion (kShadeBins bands out to kShadeReach
@@ -311,16 +312,19 @@ cv::Mat CushionShade(const cv::Mat& bgr, const cv::Rect& roi, const cv::Mat& col
       if (col[x] < 0.5f) sums[index].push_back(static_cast<float>(p[x][0] + p[x][1] + p[x][2]));
     }
   }
-  // The cells that would read as dark themselves (their level under `dark_sum`), brightest
-  // first: where two meet, the darker one is painted last and holds their shared pixels.
-  // A lit face (0.4-0.6 of the cloth) is left as it was: a dark ball before it keeps its
-  // top (a 6 frozen on the far cushion went 9 -> 20 mm off when such faces were taken in).
+  // The cells darker than the cloth, brightest first: where two meet, the darker one is
+  // painted last and holds their shared pixels. Of the faces only those that would read as
+  // dark themselves (under `dark_sum`): before a lit face (0.4-0.9 of the cloth) a dark
+  // ball keeps its top (a 6 frozen on the far cushion went 9 -> 20 mm off when lit faces
+  // were taken in).
   std::vector<std::pair<float, int>> dark_cells;
   for (int i = 0; i < total; ++i) {
     auto& v = sums[i];
     if (v.size() < 5 || v.size() < 0.3 * counts[i]) continue;
     std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-    if (v[v.size() / 2] < dark_sum) dark_cells.emplace_back(v[v.size() / 2], i);
+    const bool face = i % bins == kShadeBins;
+    if (v[v.size() / 2] < (face ? dark_sum : cloth_sum))
+      dark_cells.emplace_back(v[v.size() / 2], i);
   }
   if (dark_cells.empty()) return cv::Mat();
   std::sort(dark_cells.begin(), dark_cells.end(), std::greater<>());

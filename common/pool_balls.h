@@ -31,18 +31,19 @@ struct PoolBallOptions {
   double ball_chroma_distance = 0.35;
   // Pixels darker than this fraction of the cloth brightness are ball (the 8 ball).
   double dark_fraction = 0.3;
-  // Next to the cushions, where the cloth itself is as dark as a dark ball, a pixel is
-  // dark (ball) only when it is also darker than this share of the cloth as lit there: a
-  // lamp not over the table's middle leaves a cushion's face, and a band of the cloth
-  // along it, in the cushion's shadow, and with darkness measured against the cloth's
-  // colour alone they read as a row of black balls. The cloth's level next to each
-  // cushion is the median brightness of the cloth-coloured pixels of each cell of bands
-  // along it (2 ball radii deep, 8 long) and of its face. Lamps moved 500 mm sideways
-  // (texfree-bench-pool --lamp-shift 0,500,0, seeds 7 and 19): 175 + 101 false balls
-  // without this, 13 + 15 with it; 1,000 mm sideways and 300 up: 132 + 61 -> 18 + 13. On
-  // the twenty benchmark sets, balls over 10 mm 54 + 79 -> 51 + 77. At 1 (the level
-  // itself) half a face's pixels stay dark: 49 + 40 false balls in the first shifted
-  // sets, 28 + 21 at 0.8. 0 turns this off.
+  // Next to the cushions, where the cloth is darker than elsewhere (and on a cushion's face
+  // that is itself as dark as a dark ball), a pixel is dark (ball) only when it is also
+  // darker than this share of the cloth as lit there: a lamp not over the table's middle
+  // leaves a cushion's face, and a band of the cloth along it, in the cushion's shadow,
+  // and with darkness measured against the cloth's colour alone they read as a row of
+  // black balls. The cloth's level next to each cushion is the median brightness of the
+  // cloth-coloured pixels of each cell of bands along it (2 ball radii deep, 8 long) and
+  // of its face. Lamps moved 500 mm sideways (texfree-bench-pool --lamp-shift 0,500,0,
+  // seeds 7 and 19): 175 + 101 false balls without this, 10 + 10 with it; 1,000 mm
+  // sideways and 300 up: 132 + 61 -> 18 + 14; lamps 300 mm lower: 14 + 14 -> 10 + 12. On
+  // the twenty benchmark sets, balls over 10 mm 54 + 79 -> 50 + 76, false balls 20 + 22
+  // -> 19 + 19. At 1 (the level itself) half a face's pixels stay dark: 33 + 27 false
+  // balls in the first shifted sets, 19 + 14 at 0.8. 0 turns this off.
   double cushion_shade_dark_share = 0.4;
   // A blob is kept when its area is at least this fraction of one ball's silhouette.
   double min_area_fraction = 0.3;
