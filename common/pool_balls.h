@@ -40,7 +40,7 @@ struct PoolBallOptions {
   // cloth-coloured pixels of each cell of bands along it (2 ball radii deep, 8 long) and
   // of its face. Lamps moved 500 mm sideways (texfree-bench-pool --lamp-shift 0,500,0,
   // seeds 7 and 19): 175 + 101 false balls without this, 10 + 10 with it; 1,000 mm
-  // sideways and 300 up: 132 + 61 -> 18 + 14; lamps 300 mm lower: 14 + 14 -> 10 + 12. On
+  // sideways and 300 up: 168 + 99 -> 13 + 22; lamps 300 mm lower: 6 + 4 -> 6 + 3. On
   // the twenty benchmark sets, balls over 10 mm 54 + 79 -> 50 + 76, false balls 20 + 22
   // -> 19 + 19. At 1 (the level itself) half a face's pixels stay dark: 33 + 27 false
   // balls in the first shifted sets, 19 + 14 at 0.8. 0 turns this off.

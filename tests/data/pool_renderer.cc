@@ -414,7 +414,9 @@ cv::Vec3d Scene::Shade(const Ray& ray, const Hit& hit) const {
     const cv::Vec3d l = to_lamp / dist;
     const double nl = n.dot(l);
     if (nl <= 0) continue;
-    const double falloff = kLampHeight * kLampHeight / (dist * dist);
+    // 1 on the cloth under the lamp, at any height: the camera's exposure follows the
+    // light's strength.
+    const double falloff = lamp[2] * lamp[2] / (dist * dist);
     const bool on_stick = hit.surface == Surface::kCueShaft || hit.surface == Surface::kCueButt;
     const double vis =
         hit.surface == Surface::kFloor ? 0.5 : LampVisibility(p, lamp, self, on_stick);
