@@ -111,14 +111,16 @@ double Mean(const std::vector<double>& v) {
 // options left out).
 std::string CacheKey(uint64_t seed, bool nine_foot, bool clean, const std::string& cloth,
                      const std::string& rail, const std::string& light, double scale,
-                     bool cue_stick, double motion_blur, const std::string& lamp_shift, int frame) {
+                     bool cue_stick, double motion_blur, const std::string& lamp_shift,
+                     double exposure, int frame) {
   std::string key =
       "seed" + std::to_string(seed) + (nine_foot ? "_ninefoot" : "") + (clean ? "_clean" : "") +
       "_cloth_" + cloth + (rail == "wood" ? "" : "_rail_" + rail) +
       (light == "neutral" ? "" : "_light_" + light) + "_scale" + std::to_string(scale) +
       (cue_stick ? "_cuestick" : "") +
       (motion_blur > 0 ? "_motion" + std::to_string(motion_blur) : "") +
-      (lamp_shift.empty() ? "" : "_lamps_" + lamp_shift) + "_f" + std::to_string(frame);
+      (lamp_shift.empty() ? "" : "_lamps_" + lamp_shift) +
+      (exposure == 1 ? "" : "_exposure" + std::to_string(exposure)) + "_f" + std::to_string(frame);
   for (char& c : key)
     if (!std::isalnum(static_cast<unsigned char>(c)) && c != '.' && c != '-') c = '_';
   return key;
@@ -269,6 +271,11 @@ int main(int argc, char** argv) {
   app.add_flag("--cue-stick", cue_stick,
                "A cue stick in every frame, aimed through the cue ball at another ball as a "
                "player holds it (the same scenes otherwise)");
+  double exposure = 1;
+  app.add_option("--exposure", exposure,
+                 "Scale each frame's exposure by this (over 1: the lit balls and cloth clip, "
+                 "as an overexposed phone picture; under 1: a dim, noisier picture)")
+      ->check(CLI::Range(0.25, 4.0));
   std::string lamp_shift;
   app.add_option("--lamp-shift", lamp_shift,
                  "Move the lamps by X,Y,Z mm from their line over the table's long axis: a "
@@ -364,7 +371,8 @@ int main(int argc, char** argv) {
     }
     ScalePoolCamera(&scene, scale);
     ParseLight(light, &scene.light_rgb);  // checked by --light's validator
-    if (!lamp_shift.empty())              // checked by --lamp-shift's validator
+    scene.light_gain *= exposure;
+    if (!lamp_shift.empty())  // checked by --lamp-shift's validator
       std::sscanf(lamp_shift.c_str(), "%lf,%lf,%lf", &scene.lamp_shift_mm[0],
                   &scene.lamp_shift_mm[1], &scene.lamp_shift_mm[2]);
     if (motion_blur > 0)
@@ -377,7 +385,7 @@ int main(int argc, char** argv) {
     if (only >= 0 && f != only) continue;
     const PoolView view = CachedPoolView(cache,
                                          CacheKey(seed, nine_foot, clean, cloth, rail, light, scale,
-                                                  cue_stick, motion_blur, lamp_shift, f),
+                                                  cue_stick, motion_blur, lamp_shift, exposure, f),
                                          scene, seed * 100003 + f);
     image_size = view.image.size();
     if (!save.empty()) {
