@@ -87,16 +87,14 @@ int BallReadMarginPx(const PlanarPose& pose, const cv::Matx33d& K, double L, dou
   return static_cast<int>(std::ceil(box_half)) + kOutlineBlurRadius + 2;
 }
 
-// The ball-ness of every pixel in `roi` (0 = cloth, 1 = ball), soft around the
-// thresholds so that sub-pixel fitting sees a continuous image.
-// `dark_counts` false: by colour alone (a shadow on the cloth is dark, never coloured).
 // AddDarkness: a cell by the cushions whose level (CushionShade) is under this share of
 // the cloth's is in deep shade (faces with the lamps behind them measure 0.2-0.45, lit ones
 // 0.4-0.9), and there a pixel under kShadeColourFloor times the level has no colour to
 // speak of: the near-black face read as coloured ball by its hue's noise, and left false
-// balls along it (benchmark seeds 7 and 19 with --lamp-shift 0,500,0: 13 + 15 -> 11 + 7
-// false balls; the twenty sets unchanged). Over all shaded cells, a dark 6 or 8 before a
-// lit face lost its colour there (four more balls over 10 mm in the twenty sets).
+// balls along it (benchmark seeds 7 and 19 with --lamp-shift 0,500,0: 12 + 17 -> 10 + 10
+// false balls; the twenty sets: one false ball more, one ball fewer located on each ten).
+// Over all shaded cells, a dark 6 or 8 before a lit face lost its colour there (three
+// more balls over 10 mm on the green sets).
 constexpr float kFullShade = 0.3f;
 constexpr float kShadeColourFloor = 1.5f;
 
@@ -118,15 +116,17 @@ void AddDarkness(const cv::Mat& bgr, const cv::Rect& roi, const cv::Vec3f& cloth
     float* q = ballness->ptr<float>(y);
     for (int x = 0; x < roi.width; ++x) {
       const float sum = static_cast<float>(p[x][0]) + p[x][1] + p[x][2];
-      const float dark_hi = lit ? std::min(cloth_dark_hi, shade_share * lit[x]) : cloth_dark_hi;
-      const float dark_lo = lit ? dark_hi * (dark_lo_share / dark_hi_share) : cloth_dark_lo;
+      // `shade` holds the cloth's own level where no cell is darker.
+      const bool shaded = lit && lit[x] < cloth_sum;
+      const float dark_hi = shaded ? std::min(cloth_dark_hi, shade_share * lit[x]) : cloth_dark_hi;
+      const float dark_lo = shaded ? dark_hi * (dark_lo_share / dark_hi_share) : cloth_dark_lo;
       const float dark =
           sum >= dark_hi   ? 0.f
           : sum <= dark_lo ? 1.f
                            : static_cast<float>(SmoothStep((dark_hi - sum) / (dark_hi - dark_lo)));
       // In a cell in deep shade the colour of pixels about as dark as the cell is JPEG's
       // and the noise's: they are ball only by their darkness.
-      if (lit && lit[x] < kFullShade * cloth_sum && sum < kShadeColourFloor * lit[x])
+      if (shaded && lit[x] < kFullShade * cloth_sum && sum < kShadeColourFloor * lit[x])
         q[x] = dark;
       else
         q[x] = std::max(q[x], dark);
@@ -134,6 +134,9 @@ void AddDarkness(const cv::Mat& bgr, const cv::Rect& roi, const cv::Vec3f& cloth
   }
 }
 
+// The ball-ness of every pixel in `roi` (0 = cloth, 1 = ball), soft around the
+// thresholds so that sub-pixel fitting sees a continuous image.
+// `dark_counts` false: by colour alone (a shadow on the cloth is dark, never coloured).
 cv::Mat BallnessMap(const cv::Mat& bgr, const cv::Rect& roi, const cv::Vec3f& cloth,
                     const PoolBallOptions& o, bool dark_counts = true) {
   cv::Mat out(roi.size(), CV_32FC1);
@@ -197,16 +200,16 @@ cv::Mat BallnessMap(const cv::Mat& bgr, const cv::Rect& roi, const cv::Vec3f& cl
   return out;
 }
 
-// The cloth's brightness (B + G + R) as lit next to the cushions, per pixel of `roi`, where
-// it is darker than `cloth_sum` (a cushion's face: than `dark_sum`; elsewhere
-// `cloth_sum`); empty when it is nowhere. A lamp
-// not over the table's middle leaves a cushion's face, and a band of cloth along it, in
-// the cushion's shadow: dark, they read as ball (a row of false 8s along the far
-// cushion). The cloth in bands along each cushion (kShadeBins bands out to kShadeReach
-// ball radii from its nose) and each cushion's face are cut into cells kShadeCellLength
-// radii long; a cell's level is the median brightness of its pixels of the cloth's colour
-// (`colour_ballness` under 0.5), which a ball or two frozen on the cushion do not move.
-// Sampled at every other pixel of every other row (a frame's time stays as it was).
+// The cloth's brightness (B + G + R) as lit next to the cushions, per pixel of `roi`: a
+// band of cloth's level where it is under `cloth_sum`, a cushion face's where it is under
+// `dark_sum`, `cloth_sum` elsewhere; empty when no cell is darker. A lamp not over the
+// table's middle leaves a cushion's face, and a band of cloth along it, in the cushion's
+// shadow: dark, they read as ball (a row of false 8s along the far cushion). The cloth in
+// bands along each cushion (kShadeBins bands out to kShadeReach ball radii from its nose)
+// and each cushion's face are cut into cells kShadeCellLength radii long; a cell's level
+// is the median brightness of its pixels of the cloth's colour (`colour_ballness` under
+// 0.5), which a ball or two frozen on the cushion do not move. Sampled at every other
+// pixel of every other row (a frame's time stays about as it was).
 constexpr double kShadeReach = 2;
 constexpr int kShadeBins = 8;
 constexpr double kShadeCellLength = 8;
@@ -301,7 +304,7 @@ cv::Mat CushionShade(const cv::Mat& bgr, const cv::Rect& roi, const cv::Mat& col
         const double th = (h - camera[2]) / d[2];
         const double Xh = camera[0] + th * d[0], Yh = camera[1] + th * d[1];
         if (Xh < 0 || Yh < 0 || Xh > L || Yh > W) continue;
-        const bool beyond[4] = {Y<0, X> L, Y > W, X < 0};
+        const bool beyond[4] = {(Y < 0), (X > L), (Y > W), (X < 0)};
         if (beyond[0] + beyond[1] + beyond[2] + beyond[3] != 1) continue;  // a corner
         const int c = static_cast<int>(std::find(beyond, beyond + 4, true) - beyond);
         const double tm = (0.5 * h - camera[2]) / d[2];
