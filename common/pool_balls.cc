@@ -110,6 +110,7 @@ void AddDarkness(const cv::Mat& bgr, const cv::Rect& roi, const cv::Vec3f& cloth
   const float shade_share = static_cast<float>(o.cushion_shade_dark_share);
   const float cloth_dark_hi = static_cast<float>((o.dark_fraction + 0.1) * cloth_sum);
   const float cloth_dark_lo = static_cast<float>((o.dark_fraction - 0.05) * cloth_sum);
+  const float lo_of_hi = dark_lo_share / dark_hi_share;
   for (int y = 0; y < roi.height; ++y) {
     const cv::Vec3b* p = bgr.ptr<cv::Vec3b>(y + roi.y) + roi.x;
     const float* lit = shade.empty() ? nullptr : shade.ptr<float>(y);
@@ -119,7 +120,7 @@ void AddDarkness(const cv::Mat& bgr, const cv::Rect& roi, const cv::Vec3f& cloth
       // `shade` holds the cloth's own level where no cell is darker.
       const bool shaded = lit && lit[x] < cloth_sum;
       const float dark_hi = shaded ? std::min(cloth_dark_hi, shade_share * lit[x]) : cloth_dark_hi;
-      const float dark_lo = shaded ? dark_hi * (dark_lo_share / dark_hi_share) : cloth_dark_lo;
+      const float dark_lo = shaded ? dark_hi * lo_of_hi : cloth_dark_lo;
       const float dark =
           sum >= dark_hi   ? 0.f
           : sum <= dark_lo ? 1.f
@@ -1647,12 +1648,10 @@ class BallFinder {
         }
     }
   }
-  // Ball-ness by colour alone (a shadow stays cloth), made the first time a rim fit or the
-  // final check needs it.
+  // Ball-ness by colour alone (a shadow stays cloth) where balls can be, made the first
+  // time a rim fit or the final check needs it from the map FindBallPixels read.
   const cv::Mat& ByColourAlone() {
-    if (colour_ballness_.empty())
-      colour_ballness_ =
-          InPlayingVolume(BallnessMap(bgr_, roi_, cloth_, options_, /*dark_counts=*/false));
+    if (colour_ballness_.empty()) colour_ballness_ = InPlayingVolume(colour_only_);
     return colour_ballness_;
   }
 
@@ -1683,6 +1682,7 @@ class BallFinder {
   // a few times for every ball, and clearing the whole map each time was 3% of a frame.
   std::vector<cv::Rect> claimed_boxes_;
   std::vector<int> hidden_behind_;  // per seed: the nearer ball's index, -1 (SplitHiddenBalls)
+  cv::Mat colour_only_;             // the ball-ness by colour alone over roi_
   cv::Mat colour_ballness_;         // ByColourAlone
   std::vector<char> moved_;         // per seed: moved out of a neighbour (ResolveOverlaps)
   std::vector<PoolDetectedBall> balls_;
@@ -1743,13 +1743,15 @@ bool BallFinder::FindBallPixels(const cv::Rect& valid) {
       cv::fillConvexPoly(region_, disc, cv::Scalar(0));
     }
   }
-  // Ball-ness by colour, then of dark pixels against the cloth as lit by the cushions.
-  cv::Mat ballness = BallnessMap(bgr_, roi_, cloth_, options_, /*dark_counts=*/false);
+  // Ball-ness by colour (kept for ByColourAlone), then of dark pixels against the cloth as
+  // lit by the cushions.
+  colour_only_ = BallnessMap(bgr_, roi_, cloth_, options_, /*dark_counts=*/false);
   const cv::Mat shade =
       options_.cushion_shade_dark_share > 0
-          ? CushionShade(bgr_, roi_, ballness, pose_, K_, profile_, cloth_sum_,
+          ? CushionShade(bgr_, roi_, colour_only_, pose_, K_, profile_, cloth_sum_,
                          static_cast<float>((options_.dark_fraction + 0.1) * cloth_sum_))
           : cv::Mat();
+  cv::Mat ballness = colour_only_.clone();
   AddDarkness(bgr_, roi_, cloth_, options_, shade, &ballness);
   mask_.create(roi_.size(), CV_8UC1);
   for (int y = 0; y < roi_.height; ++y) {

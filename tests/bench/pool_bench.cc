@@ -87,6 +87,15 @@ bool ParseLight(const std::string& name, cv::Vec3d* rgb) {
   return true;
 }
 
+// --lamp-shift's "X,Y,Z" (mm) into `shift`: false unless three numbers that keep the lamps
+// over the cloth (Z > -800, the lamps hanging 900 mm over it).
+bool ParseLampShift(const std::string& text, cv::Vec3d* shift) {
+  double x = 0, y = 0, z = 0;
+  if (std::sscanf(text.c_str(), "%lf,%lf,%lf", &x, &y, &z) != 3 || !(z > -800)) return false;
+  *shift = {x, y, z};
+  return true;
+}
+
 double Percentile(std::vector<double> v, double q) {
   if (v.empty()) return 0;
   std::sort(v.begin(), v.end());
@@ -281,8 +290,8 @@ int main(int argc, char** argv) {
                  "Move the lamps by X,Y,Z mm from their line over the table's long axis: a "
                  "room's light off the table's middle, its shadows cast sideways")
       ->check([](const std::string& v) {
-        double x = 0, y = 0, z = 0;
-        return std::sscanf(v.c_str(), "%lf,%lf,%lf", &x, &y, &z) == 3 && z > -800
+        cv::Vec3d shift;
+        return ParseLampShift(v, &shift)
                    ? std::string()
                    : "expected X,Y,Z in mm, the lamps kept over the cloth (Z > -800)";
       });
@@ -373,8 +382,7 @@ int main(int argc, char** argv) {
     ParseLight(light, &scene.light_rgb);  // checked by --light's validator
     scene.light_gain *= exposure;
     if (!lamp_shift.empty())  // checked by --lamp-shift's validator
-      std::sscanf(lamp_shift.c_str(), "%lf,%lf,%lf", &scene.lamp_shift_mm[0],
-                  &scene.lamp_shift_mm[1], &scene.lamp_shift_mm[2]);
+      ParseLampShift(lamp_shift, &scene.lamp_shift_mm);
     if (motion_blur > 0)
       DrawPoolShake(seed * 7907 + static_cast<uint64_t>(f) + 0x5ba4e, motion_blur, &scene);
     if (cue_stick) {
