@@ -1047,6 +1047,26 @@ constexpr int kMinOutlinePoints = 16;
 
 // Colour is read this far (pixels) inside a ball's outline.
 constexpr double kInteriorPx = 1.0;
+// The sRGB decoding of each grey level (0-255) to light on the same scale (0-255).
+const std::array<float, 256>& SrgbToLight() {
+  static const std::array<float, 256> table = [] {
+    std::array<float, 256> t;
+    for (int k = 0; k < 256; ++k) {
+      const double x = k / 255.0;
+      t[k] =
+          static_cast<float>(255 * (x <= 0.04045 ? x / 12.92 : std::pow((x + 0.055) / 1.055, 2.4)));
+    }
+    return t;
+  }();
+  return table;
+}
+// SrgbToLight at a fractional grey level (a median), interpolated.
+float LightOf(float level) {
+  const std::array<float, 256>& t = SrgbToLight();
+  const int k = std::clamp(static_cast<int>(level), 0, 254);
+  const float f = std::clamp(level - k, 0.f, 1.f);
+  return t[k] * (1 - f) + t[k + 1] * f;
+}
 // PoolLuma of a pixel in float, for the per-pixel loops.
 inline float PixelLuma(const cv::Vec3b& p) { return 0.114f * p[0] + 0.587f * p[1] + 0.299f * p[2]; }
 // PoolBallOptions::edge_luma_snap_px: a ball is brighter than the cloth in luma when its
@@ -2236,12 +2256,7 @@ void BallFinder::RefineOutlines() {
     const cv::Rect grown =
         cv::Rect(box.x - box.width / 2, box.y - box.height / 2, box.width * 2, box.height * 2) &
         image_rect_;
-    // Distance from the cloth mostly in chromaticity (the colour with the light's
-    // strength divided out), so that a ball as bright as the cloth (the lit top of a green
-    // 6) still stands out, and a shadow on the cloth does not; a dark ball (the 8) has no
-    // chromaticity to speak of and is told by its darkness.
     const float cloth_i = std::max(15.f, (local_cloth[0] + local_cloth[1] + local_cloth[2]) / 3);
-    const cv::Vec3f cloth_chroma = local_cloth / cloth_i;
     // A dark ball is told by its median brightness (the chromaticity of near-black pixels
     // is noise and JPEG's colour smear, and the highlight of a small ball is a good part
     // of its mean), unless it has lit, coloured pixels like the green 6: for such a ball,
@@ -2275,21 +2290,41 @@ void BallFinder::RefineOutlines() {
     const bool darker_than_cloth = ball_median < 0.9f * cloth_level;
     // The ball's colour distance from the cloth over `grown`: in full colour, or mostly in
     // chromaticity (which tells a ball from cloth of nearly its brightness).
+    // Distance from the cloth mostly in chromaticity (the colour with the light's
+    // strength divided out), so that a ball as bright as the cloth (the lit top of a green
+    // 6) still stands out, and a shadow on the cloth does not; a dark ball (the 8) has no
+    // chromaticity to speak of and is told by its darkness.
+    // Read in light (PoolBallOptions::pixel_encoding): the cloth's colour and every pixel
+    // decoded, with the floor of the intensity (15 grey levels, sRGB 21 decoded: 2).
+    const bool in_light = options_.pixel_encoding == PixelEncoding::kSrgb;
+    const std::array<float, 256>& light_of = SrgbToLight();
+    const cv::Vec3f light_cloth =
+        in_light
+            ? cv::Vec3f(LightOf(local_cloth[0]), LightOf(local_cloth[1]), LightOf(local_cloth[2]))
+            : local_cloth;
+    const float floor_i = in_light ? 2.f : 15.f;
+    const float light_cloth_i =
+        in_light ? std::max(floor_i, (light_cloth[0] + light_cloth[1] + light_cloth[2]) / 3)
+                 : cloth_i;
+    const cv::Vec3f light_cloth_chroma = light_cloth / light_cloth_i;
     cv::Mat distance(grown.size(), CV_32FC1);
     const auto fill_distance = [&](bool full_colour) {
       for (int v = 0; v < grown.height; ++v) {
         const cv::Vec3b* p = bgr_.ptr<cv::Vec3b>(v + grown.y) + grown.x;
         float* d = distance.ptr<float>(v);
         for (int u = 0; u < grown.width; ++u) {
-          const cv::Vec3f q(p[u][0], p[u][1], p[u][2]);
+          const cv::Vec3f q =
+              in_light ? cv::Vec3f(light_of[p[u][0]], light_of[p[u][1]], light_of[p[u][2]])
+                       : cv::Vec3f(p[u][0], p[u][1], p[u][2]);
           if (full_colour) {
-            d[u] = static_cast<float>(cv::norm(q - local_cloth));
+            d[u] = static_cast<float>(cv::norm(q - light_cloth));
             continue;
           }
-          const float i = std::max(15.f, (q[0] + q[1] + q[2]) / 3);
-          d[u] = static_cast<float>(cv::norm(q / i - cloth_chroma) *
-                                        (darker_than_cloth ? std::min(i, cloth_i) : cloth_i) +
-                                    0.3 * std::abs(i - cloth_i));
+          const float i = std::max(floor_i, (q[0] + q[1] + q[2]) / 3);
+          d[u] = static_cast<float>(
+              cv::norm(q / i - light_cloth_chroma) *
+                  (darker_than_cloth ? std::min(i, light_cloth_i) : light_cloth_i) +
+              0.3 * std::abs(i - light_cloth_i));
         }
       }
     };

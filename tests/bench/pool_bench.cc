@@ -121,15 +121,16 @@ double Mean(const std::vector<double>& v) {
 std::string CacheKey(uint64_t seed, bool nine_foot, bool clean, const std::string& cloth,
                      const std::string& rail, const std::string& light, double scale,
                      bool cue_stick, double motion_blur, const std::string& lamp_shift,
-                     double exposure, int frame) {
-  std::string key =
-      "seed" + std::to_string(seed) + (nine_foot ? "_ninefoot" : "") + (clean ? "_clean" : "") +
-      "_cloth_" + cloth + (rail == "wood" ? "" : "_rail_" + rail) +
-      (light == "neutral" ? "" : "_light_" + light) + "_scale" + std::to_string(scale) +
-      (cue_stick ? "_cuestick" : "") +
-      (motion_blur > 0 ? "_motion" + std::to_string(motion_blur) : "") +
-      (lamp_shift.empty() ? "" : "_lamps_" + lamp_shift) +
-      (exposure == 1 ? "" : "_exposure" + std::to_string(exposure)) + "_f" + std::to_string(frame);
+                     double exposure, bool srgb, int frame) {
+  std::string key = "seed" + std::to_string(seed) + (nine_foot ? "_ninefoot" : "") +
+                    (clean ? "_clean" : "") + "_cloth_" + cloth +
+                    (rail == "wood" ? "" : "_rail_" + rail) +
+                    (light == "neutral" ? "" : "_light_" + light) + "_scale" +
+                    std::to_string(scale) + (cue_stick ? "_cuestick" : "") +
+                    (motion_blur > 0 ? "_motion" + std::to_string(motion_blur) : "") +
+                    (lamp_shift.empty() ? "" : "_lamps_" + lamp_shift) +
+                    (exposure == 1 ? "" : "_exposure" + std::to_string(exposure)) +
+                    (srgb ? "_srgb" : "") + "_f" + std::to_string(frame);
   for (char& c : key)
     if (!std::isalnum(static_cast<unsigned char>(c)) && c != '.' && c != '-') c = '_';
   return key;
@@ -285,6 +286,10 @@ int main(int argc, char** argv) {
                  "Scale each frame's exposure by this (over 1: the lit balls and cloth clip, "
                  "as an overexposed phone picture; under 1: a dim, noisier picture)")
       ->check(CLI::Range(0.25, 4.0));
+  bool srgb = false;
+  app.add_flag("--srgb", srgb,
+               "Encode the pictures with the sRGB curve, as a phone does (lighter shading and "
+               "shadows), instead of in proportion to the light");
   std::string lamp_shift;
   app.add_option("--lamp-shift", lamp_shift,
                  "Move the lamps by X,Y,Z mm from their line over the table's long axis: a "
@@ -334,6 +339,8 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   CLI11_PARSE(app, argc, argv);
   cv::setNumThreads(1);  // one core
+  // The analysis is told how the renderer encodes its pictures, as a user's camera is known.
+  analyzer_options.balls.pixel_encoding = srgb ? PixelEncoding::kSrgb : PixelEncoding::kLinear;
 
   PoolTableSpec spec = nine_foot ? PoolTableSpec::NineFoot() : PoolTableSpec::Bench();
   std::optional<cv::Vec3d> cloth_rgb;
@@ -381,6 +388,7 @@ int main(int argc, char** argv) {
     ScalePoolCamera(&scene, scale);
     ParseLight(light, &scene.light_rgb);  // checked by --light's validator
     scene.light_gain *= exposure;
+    scene.srgb_tone = srgb;
     if (!lamp_shift.empty())  // checked by --lamp-shift's validator
       ParseLampShift(lamp_shift, &scene.lamp_shift_mm);
     if (motion_blur > 0)
@@ -391,10 +399,11 @@ int main(int argc, char** argv) {
       scene.cue_stick = AimedCueStick(stick_rng, spec, scene.balls);
     }
     if (only >= 0 && f != only) continue;
-    const PoolView view = CachedPoolView(cache,
-                                         CacheKey(seed, nine_foot, clean, cloth, rail, light, scale,
-                                                  cue_stick, motion_blur, lamp_shift, exposure, f),
-                                         scene, seed * 100003 + f);
+    const PoolView view =
+        CachedPoolView(cache,
+                       CacheKey(seed, nine_foot, clean, cloth, rail, light, scale, cue_stick,
+                                motion_blur, lamp_shift, exposure, srgb, f),
+                       scene, seed * 100003 + f);
     image_size = view.image.size();
     if (!save.empty()) {
       char name[64];

@@ -35,6 +35,7 @@ class PoolCliTest : public ::testing::Test {
     scene.balls = {{0, 300, 350}, {1, 520, 200}, {2, 700, 520}, {3, 900, 180}, {9, 620, 110}};
     scene.camera = testdata::FramedPoolCamera(scene.table, testdata::PoolViewSide::kLongNear, 50,
                                               60, 5, 2);
+    scene.srgb_tone = true;  // a phone's picture, as the server assumes
     view_ = testdata::RenderPoolView(scene, 21);
     image_ = (dir_ / "table.png").string();
     cv::imwrite(image_, view_.image);

@@ -26,6 +26,16 @@ constexpr int kSupersample = 3;
 double Unit(std::mt19937_64& rng) { return static_cast<double>(rng() >> 11) * 0x1.0p-53; }
 double Uniform(std::mt19937_64& rng, double lo, double hi) { return lo + (hi - lo) * Unit(rng); }
 
+// The sRGB transfer curve and its inverse, on 0..255 values.
+double SrgbDecode(double v) {
+  const double x = std::clamp(v / 255, 0.0, 1.0);
+  return 255 * (x <= 0.04045 ? x / 12.92 : std::pow((x + 0.055) / 1.055, 2.4));
+}
+double SrgbEncode(double v) {
+  const double x = std::clamp(v / 255, 0.0, 1.0);
+  return 255 * (x <= 0.0031308 ? 12.92 * x : 1.055 * std::pow(x, 1 / 2.4) - 0.055);
+}
+
 double SmoothStep(double x) {
   x = std::clamp(x, 0.0, 1.0);
   return x * x * (3 - 2 * x);
@@ -150,6 +160,10 @@ class Scene {
 
   Hit Intersect(const Ray& ray, bool balls_only = false) const;
   cv::Vec3d Shade(const Ray& ray, const Hit& hit) const;
+  // An sRGB colour in the units light adds up in (PoolScene::srgb_tone).
+  cv::Vec3d Linear(const cv::Vec3d& c) const {
+    return s_.srgb_tone ? cv::Vec3d(SrgbDecode(c[0]), SrgbDecode(c[1]), SrgbDecode(c[2])) : c;
+  }
   int ball_count() const { return static_cast<int>(balls_.size()); }
   // Does the ray meet ball i at all (occluded or not)?
   bool Meets(const Ray& ray, int i) const { return SphereT(ray, balls_[i].centre) > 0; }
@@ -345,10 +359,10 @@ cv::Vec3d Scene::Shade(const Ray& ray, const Hit& hit) const {
   double shininess = 0, specular = 0;
   switch (hit.surface) {
     case Surface::kNone:
-      return {40, 40, 45};
+      return Linear({40, 40, 45});
     case Surface::kPocket: {
       // Dark hole, a little lighter at its rim.
-      return {14, 13, 12};
+      return Linear({14, 13, 12});
     }
     case Surface::kBall:
       albedo = BallAlbedo(balls_[hit.ball], n);
@@ -403,6 +417,7 @@ cv::Vec3d Scene::Shade(const Ray& ray, const Hit& hit) const {
       break;
     }
   }
+  albedo = Linear(albedo);
   const int self = hit.surface == Surface::kBall ? hit.ball : -1;
   const double ao = hit.surface == Surface::kFloor ? 1.0 : AmbientOcclusion(p, n, self);
   double diffuse = 0.28 * ao * (0.55 + 0.45 * n[2]);
@@ -578,6 +593,12 @@ PoolView RenderPoolView(const PoolScene& scene, uint64_t seed) {
     cv::filter2D(image, image, -1,
                  MotionBlurKernel(scene.motion_blur_px, scene.motion_blur_angle_deg),
                  cv::Point(-1, -1), 0, cv::BORDER_REFLECT);
+  if (scene.srgb_tone)
+    for (int v = 0; v < size.height; ++v) {
+      cv::Vec3f* row = image.ptr<cv::Vec3f>(v);
+      for (int u = 0; u < size.width; ++u)
+        for (int c = 0; c < 3; ++c) row[u][c] = static_cast<float>(SrgbEncode(row[u][c]));
+    }
   if (scene.noise_sigma > 0) {
     cv::Mat noise(size, CV_32FC3);
     cv::RNG cvrng(rng());

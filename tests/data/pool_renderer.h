@@ -87,6 +87,12 @@ struct PoolScene {
   // balance leaves of warm bar lamps or cool daylight (kWarmBarLamps, kDaylight).
   // (1, 1, 1): neutral.
   cv::Vec3d light_rgb{1, 1, 1};
+  // How the camera turns light into pixel values. Linear: in proportion, clipped at 255 (the
+  // renderer's colours are the albedos as recorded under the lamps). sRGB: the colours are
+  // sRGB albedos, the light adds up in linear units and the image is encoded with the sRGB
+  // transfer curve, as a phone's processing does: shadows and shading are lighter, the
+  // highlights clip the same.
+  bool srgb_tone = false;
   double vignetting = 0.25;   // brightness lost in the image corners
   double blur_sigma = 0.5;    // px
   // A handheld camera's shake during the exposure (live video): a smear of this many

@@ -40,6 +40,7 @@ PoolScene Scene(PoolViewSide side, double elevation) {
   scene.blur_sigma = 0.5;
   scene.noise_sigma = 2;
   scene.jpeg_quality = 90;
+  scene.srgb_tone = true;  // a phone's picture, as the server assumes
   return scene;
 }
 
