@@ -2289,13 +2289,11 @@ void BallFinder::RefineOutlines() {
     }
     const bool darker_than_cloth = ball_median < 0.9f * cloth_level;
     // The ball's colour distance from the cloth over `grown`: in full colour, or mostly in
-    // chromaticity (which tells a ball from cloth of nearly its brightness).
-    // Distance from the cloth mostly in chromaticity (the colour with the light's
-    // strength divided out), so that a ball as bright as the cloth (the lit top of a green
-    // 6) still stands out, and a shadow on the cloth does not; a dark ball (the 8) has no
-    // chromaticity to speak of and is told by its darkness.
-    // Read in light (PoolBallOptions::pixel_encoding): the cloth's colour and every pixel
-    // decoded, with the floor of the intensity (15 grey levels, sRGB 21 decoded: 2).
+    // chromaticity (the colour with the light's strength divided out), so that a ball as
+    // bright as the cloth (the lit top of a green 6) still stands out, and a shadow on the
+    // cloth does not; a dark ball (the 8) has no chromaticity to speak of and is told by
+    // its darkness. Read in light (PoolBallOptions::pixel_encoding): the cloth's colour and every
+    // pixel decoded, with the floor of the intensity (15 grey levels, sRGB 21 decoded: 2).
     const bool in_light = options_.pixel_encoding == PixelEncoding::kSrgb;
     const std::array<float, 256>& light_of = SrgbToLight();
     const cv::Vec3f light_cloth =

@@ -221,7 +221,7 @@ struct PoolBallOptions {
   // and cloth in light, so its steepest fall, where the outline lies, is found in light:
   // the edge fit reads an sRGB picture's colours decoded to it. Read as encoded, a bright
   // ball's outline lies outside it and a dark one's inside (texfree-bench-pool --srgb, the
-  // ten green and ten held-out sets: mean 3.25 / 3.31 mm read encoded, 2.62 / 2.74 mm
+  // ten green and ten held-out sets: mean 3.25 / 3.31 mm read encoded, 2.56 / 2.67 mm
   // decoded). kSrgb: a phone's picture; kLinear: values in proportion to the light.
   PixelEncoding pixel_encoding = PixelEncoding::kSrgb;
   // A ball seen behind another one along the line of sight shows only a crescent above
