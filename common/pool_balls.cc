@@ -1170,6 +1170,9 @@ absl::Status PoolBallOptions::Validate() const {
     return absl::InvalidArgumentError("split_hidden_min_ballness must be in (0.5, 1]");
   if (!(split_hidden_min_radius_px >= 0))
     return absl::InvalidArgumentError("split_hidden_min_radius_px must be >= 0");
+  if (!(split_hidden_min_unexplained >= 0 && split_hidden_min_unexplained < 1))
+    return absl::InvalidArgumentError(
+        "split_hidden_min_unexplained must be in [0, 1) (a share of a ball's area)");
   return absl::OkStatus();
 }
 
@@ -1317,6 +1320,12 @@ namespace {
 // 13 of 45 splits have over a tenth there, 12 of them 0.19 or more; 0.1-0.2 give the same
 // balls, 0.3 keeps five of them (two of the wrong pairs among them).
 constexpr double kMaxHiddenCrescentOnFace = 0.15;
+// How far a ball's blob reaches outside its silhouette: the lens blur and JPEG's halved
+// colour resolution (seed 7's frame 15: a 5 of 5.5 px radius has a blob of 7 px). At 1 px
+// (UnexplainedByOneBall) the twenty sRGB sets had 159 + 188 balls over 10 mm, at 2 px 147
+// + 178, at 1.5 px 150 + 181; the wider the halo, the less of a real pair's crescent
+// counts (seed 19's frame 42 pair: 0.46 of a ball outside at 1.5 px, the limit 0.4).
+constexpr double kBallHaloPx = 1.5;
 
 // StickPixels: a strip shorter than kBentStripMaxLength ball radii whose pixels lie
 // farther than kMaxStripBend times its mean half-width from its line (the 90th
@@ -1607,6 +1616,10 @@ class BallFinder {
   void FitSilhouettes();
   // A blob of two balls, one behind the other, with one seed: fitted as two.
   void SplitHiddenBalls();
+  // The pixels of blob `label` (labels_) more than kBallHaloPx outside the silhouette of
+  // one ball fitted to it from seed i, over a ball's area
+  // (PoolBallOptions::split_hidden_min_unexplained).
+  double UnexplainedByOneBall(size_t i, int label);
   // Each fit moved onto its outline: the edge, the edge points, the rim.
   void RefineOutlines();
   // Fits closer than two balls can be: dropped or moved out of each other.
@@ -2071,6 +2084,30 @@ void BallFinder::FitSilhouettes() {
   }
 }
 
+double BallFinder::UnexplainedByOneBall(size_t i, int label) {
+  Claim(seeds_, i, seeds_.size());
+  SilhouetteScorer whole(ballness_in_region_, roi_, claimed_, K_, pose_, profile_);
+  whole.CountShadowZone();
+  const cv::Point2d one = whole.Fit(seeds_[i], 0.35 * r_);
+  const cv::Vec3d centre(one.x, one.y, r_);
+  const cv::Matx33d Q = SphereSilhouetteConic(pose_, K_, centre, r_);
+  const cv::Rect box = whole.Box(centre);
+  // The blob reaches at most a ball beyond the one silhouette (its box's size).
+  const cv::Rect reach = cv::Rect(box.x - box.width / 2 - roi_.x, box.y - box.height / 2 - roi_.y,
+                                  box.width * 2, box.height * 2) &
+                         cv::Rect(0, 0, roi_.width, roi_.height);
+  int outside = 0;
+  for (int v = reach.y; v < reach.y + reach.height; ++v) {
+    const int* l = labels_.ptr<int>(v);
+    for (int u = reach.x; u < reach.x + reach.width; ++u)
+      if (l[u] == label &&
+          SilhouetteScorer::InsideDistance(Q, u + roi_.x, v + roi_.y) < -kBallHaloPx)
+        ++outside;
+  }
+  const double r_px = ApparentRadiusPx(pose_, K_, one, r_);
+  return outside / (kPi * r_px * r_px);
+}
+
 void BallFinder::SplitHiddenBalls() {
   // A ball seen behind another one along the line of sight is mostly hidden by it: the
   // pair's blob has about two balls' area for the pose, but the farther ball shows only a
@@ -2105,6 +2142,9 @@ void BallFinder::SplitHiddenBalls() {
       }
       if (found != 1 || !on_table(seeds_[a]) ||
           ApparentRadiusPx(pose_, K_, seeds_[a], r_) < options_.split_hidden_min_radius_px)
+        continue;
+      if (options_.split_hidden_min_unexplained > 0 &&
+          UnexplainedByOneBall(a, label) < options_.split_hidden_min_unexplained)
         continue;
       std::vector<cv::Point2d> pair = seeds_;
       const size_t b = pair.size();

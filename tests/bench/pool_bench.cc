@@ -341,6 +341,10 @@ int main(int argc, char** argv) {
   cv::setNumThreads(1);  // one core
   // The analysis is told how the renderer encodes its pictures, as a user's camera is known.
   analyzer_options.balls.pixel_encoding = srgb ? PixelEncoding::kSrgb : PixelEncoding::kLinear;
+  if (getenv("TF_SPLIT"))
+    analyzer_options.balls.split_hidden_min_visible = atof(getenv("TF_SPLIT"));
+  if (getenv("TF_SPLITB"))
+    analyzer_options.balls.split_hidden_min_ballness = atof(getenv("TF_SPLITB"));
 
   PoolTableSpec spec = nine_foot ? PoolTableSpec::NineFoot() : PoolTableSpec::Bench();
   std::optional<cv::Vec3d> cloth_rgb;
