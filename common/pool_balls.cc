@@ -87,6 +87,26 @@ int BallReadMarginPx(const PlanarPose& pose, const cv::Matx33d& K, double L, dou
   return static_cast<int>(std::ceil(box_half)) + kOutlineBlurRadius + 2;
 }
 
+// The sRGB decoding of each grey level (0-255) to light on the same scale (0-255).
+const std::array<float, 256>& SrgbToLight() {
+  static const std::array<float, 256> table = [] {
+    std::array<float, 256> t;
+    for (int k = 0; k < 256; ++k) {
+      const double x = k / 255.0;
+      t[k] =
+          static_cast<float>(255 * (x <= 0.04045 ? x / 12.92 : std::pow((x + 0.055) / 1.055, 2.4)));
+    }
+    return t;
+  }();
+  return table;
+}
+// SrgbToLight at a fractional grey level (a median), interpolated.
+float LightOf(float level) {
+  const std::array<float, 256>& t = SrgbToLight();
+  const int k = std::clamp(static_cast<int>(level), 0, 254);
+  const float f = std::clamp(level - k, 0.f, 1.f);
+  return t[k] * (1 - f) + t[k + 1] * f;
+}
 // AddDarkness: a cell by the cushions whose level (CushionShade) is under this share of
 // the cloth's is in deep shade (faces with the lamps behind them measure 0.2-0.45, lit ones
 // 0.4-0.9), and there a pixel under kShadeColourFloor times the level has no colour to
@@ -135,16 +155,27 @@ void AddDarkness(const cv::Mat& bgr, const cv::Rect& roi, const cv::Vec3f& cloth
   }
 }
 
-// The ball-ness of every pixel in `roi` (0 = cloth, 1 = ball), soft around the
-// thresholds so that sub-pixel fitting sees a continuous image.
-// `dark_counts` false: by colour alone (a shadow on the cloth is dark, never coloured).
+// The ball-ness by colour of every pixel in `roi` (0 = cloth, 1 = ball), soft around the
+// thresholds so that sub-pixel fitting sees a continuous image (a shadow on the cloth is
+// dark, never coloured; AddDarkness adds the dark balls). The colour angle to the cloth is
+// taken in light (PoolBallOptions::pixel_encoding), where shading and the light's strength
+// scale a colour without turning it: an sRGB-encoded shade of a colour is another colour,
+// and a ball's shaded side came closer to the cloth's. The chromaticity test stays on the
+// values as encoded, where its noise allowance was set. The twenty sets rendered sRGB:
+// balls over 10 mm 150 + 181 -> 130 + 162, separated balls named 3,048 + 3,096 -> 3,055 +
+// 3,097, located 4,747 + 4,736 -> 4,758 + 4,750, false balls 21 + 12 -> 16 + 16 (the
+// chromaticity in light as well: 140 + 165 over 10 mm, 23 + 30 false balls).
 cv::Mat BallnessMap(const cv::Mat& bgr, const cv::Rect& roi, const cv::Vec3f& cloth,
-                    const PoolBallOptions& o, bool dark_counts = true) {
+                    const PoolBallOptions& o) {
   cv::Mat out(roi.size(), CV_32FC1);
   const double lo = (o.ball_angle_deg - o.ball_angle_soft_deg) * kPi / 180;
   const double hi = (o.ball_angle_deg + o.ball_angle_soft_deg) * kPi / 180;
   const float cos_lo = static_cast<float>(std::cos(lo)), cos_hi = static_cast<float>(std::cos(hi));
-  const float cloth_norm = static_cast<float>(cv::norm(cloth));
+  const bool in_light = o.pixel_encoding == PixelEncoding::kSrgb;
+  const std::array<float, 256>& light_of = SrgbToLight();
+  const cv::Vec3f angle_cloth =
+      in_light ? cv::Vec3f(LightOf(cloth[0]), LightOf(cloth[1]), LightOf(cloth[2])) : cloth;
+  const float angle_cloth_norm = static_cast<float>(cv::norm(angle_cloth));
   const float cloth_sum = cloth[0] + cloth[1] + cloth[2];
   const float cloth_inv_i = 3.f / std::max(1.f, cloth_sum);
   const float cloth_cx = (cloth[2] - 0.5f * (cloth[1] + cloth[0])) * cloth_inv_i;
@@ -164,8 +195,12 @@ cv::Mat BallnessMap(const cv::Mat& bgr, const cv::Rect& roi, const cv::Vec3f& cl
     float* q = out.ptr<float>(y);
     for (int x = 0; x < roi.width; ++x) {
       const float b = p[x][0], g = p[x][1], r = p[x][2];
-      const float n = std::sqrt(b * b + g * g + r * r);
-      const float c = n > 0 ? (b * cloth[0] + g * cloth[1] + r * cloth[2]) / (n * cloth_norm) : 0;
+      const float lb = in_light ? light_of[p[x][0]] : b, lg = in_light ? light_of[p[x][1]] : g,
+                  lr = in_light ? light_of[p[x][2]] : r;
+      const float n = std::sqrt(lb * lb + lg * lg + lr * lr);
+      const float c = n > 0 ? (lb * angle_cloth[0] + lg * angle_cloth[1] + lr * angle_cloth[2]) /
+                                  (n * angle_cloth_norm)
+                            : 0;
       float colour;
       if (c >= cos_lo) {
         colour = 0;
@@ -197,7 +232,6 @@ cv::Mat BallnessMap(const cv::Mat& bgr, const cv::Rect& roi, const cv::Vec3f& cl
       q[x] = colour;
     }
   }
-  if (dark_counts) AddDarkness(bgr, roi, cloth, o, cv::Mat(), &out);
   return out;
 }
 
@@ -1047,26 +1081,6 @@ constexpr int kMinOutlinePoints = 16;
 
 // Colour is read this far (pixels) inside a ball's outline.
 constexpr double kInteriorPx = 1.0;
-// The sRGB decoding of each grey level (0-255) to light on the same scale (0-255).
-const std::array<float, 256>& SrgbToLight() {
-  static const std::array<float, 256> table = [] {
-    std::array<float, 256> t;
-    for (int k = 0; k < 256; ++k) {
-      const double x = k / 255.0;
-      t[k] =
-          static_cast<float>(255 * (x <= 0.04045 ? x / 12.92 : std::pow((x + 0.055) / 1.055, 2.4)));
-    }
-    return t;
-  }();
-  return table;
-}
-// SrgbToLight at a fractional grey level (a median), interpolated.
-float LightOf(float level) {
-  const std::array<float, 256>& t = SrgbToLight();
-  const int k = std::clamp(static_cast<int>(level), 0, 254);
-  const float f = std::clamp(level - k, 0.f, 1.f);
-  return t[k] * (1 - f) + t[k + 1] * f;
-}
 // PoolLuma of a pixel in float, for the per-pixel loops.
 inline float PixelLuma(const cv::Vec3b& p) { return 0.114f * p[0] + 0.587f * p[1] + 0.299f * p[2]; }
 // PoolBallOptions::edge_luma_snap_px: a ball is brighter than the cloth in luma when its
@@ -1778,7 +1792,7 @@ bool BallFinder::FindBallPixels(const cv::Rect& valid) {
   }
   // Ball-ness by colour (kept for ByColourAlone), then of dark pixels against the cloth as
   // lit by the cushions.
-  colour_only_ = BallnessMap(bgr_, roi_, cloth_, options_, /*dark_counts=*/false);
+  colour_only_ = BallnessMap(bgr_, roi_, cloth_, options_);
   const cv::Mat shade =
       options_.cushion_shade_dark_share > 0
           ? CushionShade(bgr_, roi_, colour_only_, pose_, K_, profile_, cloth_sum_,
@@ -2042,7 +2056,7 @@ void BallFinder::FitSilhouettes() {
                                          2 * reach + 1, 2 * reach + 1) &
                                 image_rect_;
           if (disc.area() <= 0) return false;
-          const cv::Mat colour = BallnessMap(bgr_, disc, cloth_, options_, /*dark_counts=*/false);
+          const cv::Mat colour = BallnessMap(bgr_, disc, cloth_, options_);
           double sum = 0;
           int count = 0;
           for (int v = 0; v < disc.height; ++v)

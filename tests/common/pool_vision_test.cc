@@ -1067,6 +1067,20 @@ TEST(PoolHardBalls, OneBallsHaloIsNotASecondBallBehindIt) {
   EXPECT_FALSE(bad.Validate().ok());
 }
 
+// In a phone's sRGB picture a shade of a colour is another colour: the lit top of a far
+// green 6 on green cloth came within the colour angle of the cloth, and the ball, broken
+// up, was not found (seed 7's frame 35 rendered sRGB). The angle is now taken in light.
+TEST(PoolDarkBalls, FarGreenSixInAnSrgbPictureIsFound) {
+  PoolScene scene = BenchScene(35);
+  scene.srgb_tone = true;
+  const PoolView view = testdata::RenderPoolView(scene, 7 * 100003 + 35);
+  auto scored = AnalyzeAndScore(scene, view);
+  ASSERT_TRUE(scored.ok()) << scored.status();
+  ExpectSeparatedBallNamed(scored->score, 6, 10.0);
+  EXPECT_EQ(scored->score.separated_identified, scored->score.separated);
+  EXPECT_EQ(scored->score.false_balls, 0);
+}
+
 // A ball near the far cushion with the cushion's shaded face behind it: the dark face
 // reads as ball and lengthens the blob upwards, and the hidden-ball split took the ball's
 // lit top with the face for a ball behind its lower half, which was then pushed 2-3 px down
