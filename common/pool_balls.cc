@@ -1250,14 +1250,19 @@ constexpr double kRedClothHueGapDeg = 45;
 struct RedCues {
   double sat[2], log_bright[2];  // [0] the 3, [1] the 7; log_bright NaN when unusable
 };
-RedCues RedCuesOf(const PoolTableProfile& profile) {
+// In light for kSrgb (the profile's colours decoded).
+RedCues RedCuesOf(const PoolTableProfile& profile, PixelEncoding encoding) {
+  const auto values = [encoding](const cv::Vec3b& v) {
+    if (encoding == PixelEncoding::kLinear) return cv::Vec3f(v[0], v[1], v[2]);
+    const std::array<float, 256>& light_of = SrgbToLight();
+    return cv::Vec3f(light_of[v[0]], light_of[v[1]], light_of[v[2]]);
+  };
   RedCues c;
-  const cv::Vec3b& pc = profile.cloth_bgr;
-  const double cloth = std::max(1.0, (pc[0] + pc[1] + pc[2]) / 3.0);
+  const cv::Vec3f pc = values(profile.cloth_bgr);
+  const double cloth = std::max(0.1, (pc[0] + pc[1] + pc[2]) / 3.0);
   for (int k = 0; k < 2; ++k) {
-    const cv::Vec3b& b = profile.ball_bgr[k == 0 ? 3 : 7];
     double hue, intensity;
-    HueSaturation(cv::Vec3f(b[0], b[1], b[2]), &hue, &c.sat[k], &intensity);
+    HueSaturation(values(profile.ball_bgr[k == 0 ? 3 : 7]), &hue, &c.sat[k], &intensity);
     c.log_bright[k] = intensity > 0 ? std::log(intensity / cloth) : std::nan("");
   }
   return c;
@@ -1277,8 +1282,9 @@ double BrightnessZ(double log_brightness_delta, const RedCues& c) {
 }
 }  // namespace
 
-double PoolRedShareOfThree(double saturation, double brightness, const PoolTableProfile& profile) {
-  const RedCues c = RedCuesOf(profile);
+double PoolRedShareOfThree(double saturation, double brightness, const PoolTableProfile& profile,
+                           PixelEncoding encoding) {
+  const RedCues c = RedCuesOf(profile, encoding);
   double z = SaturationZ(saturation - (c.sat[0] + c.sat[1]) / 2, c);
   if (brightness > 0)
     z += BrightnessZ(std::log(brightness) - (c.log_bright[0] + c.log_bright[1]) / 2, c);
@@ -1286,8 +1292,9 @@ double PoolRedShareOfThree(double saturation, double brightness, const PoolTable
 }
 
 double PoolRedPairShareOfThree(double saturation_a, double brightness_a, double saturation_b,
-                               double brightness_b, const PoolTableProfile& profile) {
-  const RedCues c = RedCuesOf(profile);
+                               double brightness_b, const PoolTableProfile& profile,
+                               PixelEncoding encoding) {
+  const RedCues c = RedCuesOf(profile, encoding);
   double z = SaturationZ(saturation_a - saturation_b, c);
   if (brightness_a > 0 && brightness_b > 0)
     z += BrightnessZ(std::log(brightness_a / brightness_b), c);
@@ -2751,7 +2758,8 @@ void BallFinder::KeepBalls() {
     const cv::Matx33d Q = SphereSilhouetteConic(pose_, K_, centre, r_);
     const cv::Rect box = scorer.Box(centre);
     // Local light: the cloth brightness around the ball.
-    std::vector<float> ring;
+    const std::array<float, 256>& light_of = SrgbToLight();
+    std::vector<float> ring, ring_light;  // the cloth's intensity as read, and in light
     for (int v = box.y - box.height / 2; v < box.y + box.height * 3 / 2; v += 2)
       for (int u = box.x - box.width / 2; u < box.x + box.width * 3 / 2; u += 2) {
         if (!image_rect_.contains({u, v})) continue;
@@ -2759,18 +2767,30 @@ void BallFinder::KeepBalls() {
         if (d < 1.6 * ball.radius_px || d > 2.6 * ball.radius_px) continue;
         const cv::Vec3b& p = bgr_.at<cv::Vec3b>(v, u);
         const cv::Vec3f pf(p[0], p[1], p[2]);
-        if (ColorAngleDeg(pf, cloth_) < options_.ball_angle_deg)
+        if (ColorAngleDeg(pf, cloth_) < options_.ball_angle_deg) {
           ring.push_back((pf[0] + pf[1] + pf[2]) / 3);
+          ring_light.push_back((light_of[p[0]] + light_of[p[1]] + light_of[p[2]]) / 3);
+        }
       }
     double light = 1;  // local cloth brightness / the profile's cloth brightness
     const cv::Vec3b pc = profile_.cloth_bgr;
     const double profile_cloth = (pc[0] + pc[1] + pc[2]) / 3.0;
+    // The red cues of an sRGB picture are read in light: its 3's and 7's brightness over
+    // the cloth, and their saturation, are the encoding's as much as the balls' (the
+    // twenty sets rendered sRGB: 3,055 + 3,097 -> 3,064 + 3,104 separated balls named, the
+    // 3 read as the 7 21 -> 10 times). The cloth around the ball in light for that.
+    double ring_in_light = 0;
     if (ring.size() >= 5) {
       std::nth_element(ring.begin(), ring.begin() + ring.size() / 2, ring.end());
       light = ring[ring.size() / 2] / profile_cloth;
+      std::nth_element(ring_light.begin(), ring_light.begin() + ring_light.size() / 2,
+                       ring_light.end());
+      ring_in_light = ring_light[ring_light.size() / 2];
     } else {
       light = cloth_intensity_ / profile_cloth;
+      ring_in_light = (LightOf(cloth_[0]) + LightOf(cloth_[1]) + LightOf(cloth_[2])) / 3;
     }
+    const bool red_in_light = options_.pixel_encoding == PixelEncoding::kSrgb && ring_in_light > 0;
     std::array<ColourRef, kPoolBallCount> refs;
     for (int k = 0; k < kPoolBallCount; ++k) {
       const cv::Vec3b& c = profile_.ball_bgr[k];
@@ -2837,7 +2857,13 @@ void BallFinder::KeepBalls() {
           yellow_rho += (1 - w) * rho;
         } else if (vote == 3 || vote == 7) {
           red_votes += 1;
-          if (std::max({p[0], p[1], p[2]}) < 250) {
+          if (std::max({p[0], p[1], p[2]}) < 250 && red_in_light) {
+            double light_hue, light_sat, light_intensity;
+            HueSaturation(cv::Vec3f(light_of[p[0]], light_of[p[1]], light_of[p[2]]), &light_hue,
+                          &light_sat, &light_intensity);
+            red_saturation.push_back(static_cast<float>(light_sat));
+            red_brightness.push_back(static_cast<float>(light_intensity / ring_in_light));
+          } else if (std::max({p[0], p[1], p[2]}) < 250) {
             red_saturation.push_back(static_cast<float>(sat));
             red_brightness.push_back(static_cast<float>(q));
           }
@@ -2858,7 +2884,8 @@ void BallFinder::KeepBalls() {
         std::nth_element(red_brightness.begin(), red_brightness.begin() + k75,
                          red_brightness.end());
         ball.colour_brightness = red_brightness[k75];
-        t = PoolRedShareOfThree(ball.colour_saturation, ball.colour_brightness, profile_);
+        t = PoolRedShareOfThree(ball.colour_saturation, ball.colour_brightness, profile_,
+                                options_.pixel_encoding);
       }
       ball.votes[3] += red_votes * t;
       ball.votes[7] += red_votes * (1 - t);
@@ -2893,8 +2920,9 @@ void BallFinder::TellRedPairApart() {
   if (red_balls.size() == 2) {
     PoolDetectedBall& a = balls_[red_balls[0].first];
     PoolDetectedBall& b = balls_[red_balls[1].first];
-    const double t = PoolRedPairShareOfThree(a.colour_saturation, a.colour_brightness,
-                                             b.colour_saturation, b.colour_brightness, profile_);
+    const double t =
+        PoolRedPairShareOfThree(a.colour_saturation, a.colour_brightness, b.colour_saturation,
+                                b.colour_brightness, profile_, options_.pixel_encoding);
     a.votes[3] = red_balls[0].second * t;
     a.votes[7] = red_balls[0].second * (1 - t);
     b.votes[3] = red_balls[1].second * (1 - t);

@@ -281,10 +281,12 @@ struct PoolDetectedBall {
   // outline, a 1 its number circle and highlight inside it.
   double white_outward = 0;
   // Saturation (chroma over intensity, upper quartile) of its red pixels, which tells the
-  // red 3 from the maroon 7; 0 when it has none.
+  // red 3 from the maroon 7; 0 when it has none. Of an sRGB picture, in light
+  // (PoolBallOptions::pixel_encoding).
   double colour_saturation = 0;
   // Brightness of its red pixels (upper quartile) over the cloth's around it: the red 3
-  // reflects about half as much again as the maroon 7; 0 when it has no red pixels.
+  // reflects about half as much again as the maroon 7; 0 when it has no red pixels. Of an
+  // sRGB picture, in light.
   double colour_brightness = 0;
 };
 
@@ -337,8 +339,11 @@ std::array<double, 10> PoolNumberScores(const PoolVotes& votes, const PoolBallOp
 // Brightness also depends on where the ball sits in the light, so it only decides a ball
 // whose saturation lies within half the gap of the middle (a small ball loses some
 // saturation to the cloth mixed in at its edge), never against a clear saturation.
-// `brightness` <= 0: saturation alone.
-double PoolRedShareOfThree(double saturation, double brightness, const PoolTableProfile& profile);
+// `brightness` <= 0: saturation alone. `encoding`: what the cues were measured on, the
+// picture's values (kLinear) or the light an sRGB picture encodes (kSrgb, the profile's
+// colours decoded alike).
+double PoolRedShareOfThree(double saturation, double brightness, const PoolTableProfile& profile,
+                           PixelEncoding encoding);
 // The same for two red balls of one picture, one of which is the 3 and the other the 7:
 // the share of ball a's votes that go to the 3 (ball b's is one minus it), from their
 // differences in the two cues (saturation, and brightness capped as above). Both balls lose
@@ -346,7 +351,8 @@ double PoolRedShareOfThree(double saturation, double brightness, const PoolTable
 // 31's frame 32 measured 1.11 and 1.62 (saturation, brightness), its 7 1.14 and 1.10, each
 // nearer the calibrated 7 in saturation.
 double PoolRedPairShareOfThree(double saturation_a, double brightness_a, double saturation_b,
-                               double brightness_b, const PoolTableProfile& profile);
+                               double brightness_b, const PoolTableProfile& profile,
+                               PixelEncoding encoding);
 
 // Assigns numbers to balls so that each number is used at most once and the sum of
 // scores is largest (a ball stays unknown, -1, when no number scores over `unnamed_score`).

@@ -701,16 +701,40 @@ TEST(PoolNumbers, RedThreeAndMaroonSevenByBothSaturationAndBrightness) {
   // brightness decides; a ball far from the lamps (or under one) never overrules a clear
   // saturation.
   const PoolTableProfile profile = BenchPoolProfile();
-  EXPECT_GT(PoolRedShareOfThree(1.90, 1.07, profile), 0.9);  // a clear 3
-  EXPECT_LT(PoolRedShareOfThree(1.30, 0.80, profile), 0.1);  // a clear 7
-  EXPECT_GT(PoolRedShareOfThree(1.54, 1.26, profile), 0.5);  // a 3 that lost saturation
-  EXPECT_GT(PoolRedShareOfThree(1.58, 1.16, profile), 0.5);  // ... and another
-  EXPECT_LT(PoolRedShareOfThree(1.64, 0.75, profile), 0.5);  // a 7 as saturated as a 3
-  EXPECT_GT(PoolRedShareOfThree(1.96, 0.60, profile), 0.5);  // a clear 3 in the shade
-  EXPECT_LT(PoolRedShareOfThree(1.30, 2.00, profile), 0.5);  // a clear 7 under a lamp
+  constexpr PixelEncoding kLinear = PixelEncoding::kLinear;           // as read on a linear render
+  EXPECT_GT(PoolRedShareOfThree(1.90, 1.07, profile, kLinear), 0.9);  // a clear 3
+  EXPECT_LT(PoolRedShareOfThree(1.30, 0.80, profile, kLinear), 0.1);  // a clear 7
+  EXPECT_GT(PoolRedShareOfThree(1.54, 1.26, profile, kLinear), 0.5);  // a 3 that lost saturation
+  EXPECT_GT(PoolRedShareOfThree(1.58, 1.16, profile, kLinear), 0.5);  // ... and another
+  EXPECT_LT(PoolRedShareOfThree(1.64, 0.75, profile, kLinear), 0.5);  // a 7 as saturated as a 3
+  EXPECT_GT(PoolRedShareOfThree(1.96, 0.60, profile, kLinear), 0.5);  // a clear 3 in the shade
+  EXPECT_LT(PoolRedShareOfThree(1.30, 2.00, profile, kLinear), 0.5);  // a clear 7 under a lamp
   // Without a brightness, saturation alone decides.
-  EXPECT_GT(PoolRedShareOfThree(1.90, 0, profile), 0.8);
-  EXPECT_LT(PoolRedShareOfThree(1.35, 0, profile), 0.2);
+  EXPECT_GT(PoolRedShareOfThree(1.90, 0, profile, kLinear), 0.8);
+  EXPECT_LT(PoolRedShareOfThree(1.35, 0, profile, kLinear), 0.2);
+}
+
+// In a phone's sRGB picture the 3's and the 7's brightness over the cloth, and their
+// saturation, are the encoding's as much as the balls': the shading is lifted, and both
+// read brighter than the profile's colours. The red cues are read in light, the profile's
+// colours decoded alike. Seeds 11 and 13 rendered sRGB: a separated 3, 7 and 3 read as
+// the other before.
+TEST(PoolNumbers, RedThreeAndMaroonSevenOfAnSrgbPictureAreReadInLight) {
+  const std::tuple<uint64_t, int, int> cases[] = {{11, 41, 3}, {13, 46, 7}, {13, 36, 3}};
+  for (const auto& [seed, frame, number] : cases) {
+    SCOPED_TRACE("seed " + std::to_string(seed) + " frame " + std::to_string(frame));
+    PoolScene scene = BenchScene(frame, seed);
+    scene.srgb_tone = true;
+    const PoolView view = testdata::RenderPoolView(scene, seed * 100003 + frame);
+    auto scored = AnalyzeAndScore(scene, view);
+    ASSERT_TRUE(scored.ok()) << scored.status();
+    ExpectSeparatedBallNamed(scored->score, number, 10.0);
+  }
+  // The calibrated colours' cues in light: the 3's saturation and brightness clear of the
+  // 7's.
+  const PoolTableProfile profile = BenchPoolProfile();
+  EXPECT_GT(PoolRedShareOfThree(3.0, 2.1, profile, PixelEncoding::kSrgb), 0.9);
+  EXPECT_LT(PoolRedShareOfThree(2.3, 0.65, profile, PixelEncoding::kSrgb), 0.1);
 }
 
 // The balls the benchmark found hardest, under JPEG: the black 8 (dark against its own
@@ -1371,14 +1395,15 @@ TEST(PoolNumbers, OneAndNineOfRenderedFramesAreNotSwapped) {
 // half the gap) could not tip either, so the two were swapped.
 TEST(PoolNumbers, TwoRedBallsOfOnePictureAreToldApartByTheirDifferences) {
   const PoolTableProfile profile = BenchPoolProfile();
-  EXPECT_LT(PoolRedShareOfThree(1.11, 1.62, profile), 0.5);  // alone: read as the 7
-  EXPECT_GT(PoolRedPairShareOfThree(1.11, 1.62, 1.14, 1.10, profile), 0.8);
-  EXPECT_LT(PoolRedPairShareOfThree(1.14, 1.10, 1.11, 1.62, profile), 0.2);  // symmetric
+  constexpr PixelEncoding kLinear = PixelEncoding::kLinear;           // as read on a linear render
+  EXPECT_LT(PoolRedShareOfThree(1.11, 1.62, profile, kLinear), 0.5);  // alone: read as the 7
+  EXPECT_GT(PoolRedPairShareOfThree(1.11, 1.62, 1.14, 1.10, profile, kLinear), 0.8);
+  EXPECT_LT(PoolRedPairShareOfThree(1.14, 1.10, 1.11, 1.62, profile, kLinear), 0.2);  // symmetric
   // Clear pairs stay clear, and a clearly more saturated ball in the shade is still the 3.
-  EXPECT_GT(PoolRedPairShareOfThree(1.89, 1.13, 1.34, 0.77, profile), 0.99);
-  EXPECT_GT(PoolRedPairShareOfThree(1.80, 0.70, 1.35, 1.20, profile), 0.8);
+  EXPECT_GT(PoolRedPairShareOfThree(1.89, 1.13, 1.34, 0.77, profile, kLinear), 0.99);
+  EXPECT_GT(PoolRedPairShareOfThree(1.80, 0.70, 1.35, 1.20, profile, kLinear), 0.8);
   // Without brightness, saturation alone decides.
-  EXPECT_GT(PoolRedPairShareOfThree(1.70, 0, 1.40, 0, profile), 0.9);
+  EXPECT_GT(PoolRedPairShareOfThree(1.70, 0, 1.40, 0, profile, kLinear), 0.9);
   for (const auto& [number, seen_as] : {std::pair<int, int>{3, 3}, {7, 7}})
     EXPECT_EQ(MatchOfBall(number, 32, 31).estimated_number, seen_as) << "ball " << number;
 }
