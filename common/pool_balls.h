@@ -217,12 +217,15 @@ struct PoolBallOptions {
   // put the bright balls 0.3 px up the picture, away from the camera (round 28). The luma
   // keeps the full resolution, as for the table's sides. 0 turns this off.
   double edge_luma_snap_px = 1.0;
-  // How the picture encodes the light (PixelEncoding). A blurred outline is a mix of ball
-  // and cloth in light, so its steepest fall, where the outline lies, is found in light:
-  // the edge fit reads an sRGB picture's colours decoded to it. Read as encoded, a bright
-  // ball's outline lies outside it and a dark one's inside (texfree-bench-pool --srgb, the
-  // ten green and ten held-out sets: mean 3.25 / 3.31 mm read encoded, 2.56 / 2.67 mm
-  // decoded). kSrgb: a phone's picture; kLinear: values in proportion to the light.
+  // How the picture encodes the light (PixelEncoding). Three readings of an sRGB picture
+  // are made on its colours decoded to light. The edge fit: a blurred outline is a mix of
+  // ball and cloth in light, so its steepest fall, where the outline lies, is found in
+  // light; read as encoded, a bright ball's outline lies outside it and a dark one's inside
+  // (texfree-bench-pool --srgb, the ten green and ten held-out sets: mean 3.25 / 3.31 mm
+  // read encoded, 2.56 / 2.67 mm decoded). The colour angle to the cloth (BallnessMap):
+  // shading scales a colour in light but turns it when encoded. The red 3 and maroon 7's
+  // cues (PoolRedShareOfThree). kSrgb: a phone's picture; kLinear: values in proportion to
+  // the light (a raw-like picture, the benchmark's renderer by default).
   PixelEncoding pixel_encoding = PixelEncoding::kSrgb;
   // A ball seen behind another one along the line of sight shows only a crescent above
   // it: their blob has about two balls' area for the pose but a single distance maximum,
