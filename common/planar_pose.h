@@ -10,6 +10,11 @@
 
 namespace texfree {
 
+// How a picture's values relate to the light: sRGB-encoded (what phones, cameras and JPEG
+// files give) or in proportion to it (a raw-like picture, or a renderer that writes its
+// light out unencoded).
+enum class PixelEncoding { kSrgb, kLinear };
+
 struct CameraModel {
   cv::Matx33d K = cv::Matx33d::eye();
   std::vector<double> distortion;  // OpenCV order k1 k2 p1 p2 [k3 ...]; empty = none

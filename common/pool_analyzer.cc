@@ -40,6 +40,9 @@ std::string ProfileNote(const PoolTableProfile& profile, const PoolAnalyzerOptio
 absl::Status PoolAnalyzerOptions::Validate() const {
   RETURN_IF_ERROR(table.Validate());
   RETURN_IF_ERROR(balls.Validate());
+  if (table.pixel_encoding != balls.pixel_encoding)
+    return absl::InvalidArgumentError(
+        "table.pixel_encoding and balls.pixel_encoding differ: one picture has one encoding");
   if (max_working_pixels != 0 && max_working_pixels < 320 * 240)
     return absl::InvalidArgumentError(absl::StrCat(
         "max_working_pixels must be 0 (never reduce) or at least 320x240 = 76800, got ",

@@ -87,26 +87,6 @@ int BallReadMarginPx(const PlanarPose& pose, const cv::Matx33d& K, double L, dou
   return static_cast<int>(std::ceil(box_half)) + kOutlineBlurRadius + 2;
 }
 
-// The sRGB decoding of each grey level (0-255) to light on the same scale (0-255).
-const std::array<float, 256>& SrgbToLight() {
-  static const std::array<float, 256> table = [] {
-    std::array<float, 256> t;
-    for (int k = 0; k < 256; ++k) {
-      const double x = k / 255.0;
-      t[k] =
-          static_cast<float>(255 * (x <= 0.04045 ? x / 12.92 : std::pow((x + 0.055) / 1.055, 2.4)));
-    }
-    return t;
-  }();
-  return table;
-}
-// SrgbToLight at a fractional grey level (a median), interpolated.
-float LightOf(float level) {
-  const std::array<float, 256>& t = SrgbToLight();
-  const int k = std::clamp(static_cast<int>(level), 0, 254);
-  const float f = std::clamp(level - k, 0.f, 1.f);
-  return t[k] * (1 - f) + t[k + 1] * f;
-}
 // AddDarkness: a cell by the cushions whose level (CushionShade) is under this share of
 // the cloth's is in deep shade (faces with the lamps behind them measure 0.2-0.45, lit ones
 // 0.4-0.9), and there a pixel under kShadeColourFloor times the level has no colour to
@@ -172,9 +152,9 @@ cv::Mat BallnessMap(const cv::Mat& bgr, const cv::Rect& roi, const cv::Vec3f& cl
   const double hi = (o.ball_angle_deg + o.ball_angle_soft_deg) * kPi / 180;
   const float cos_lo = static_cast<float>(std::cos(lo)), cos_hi = static_cast<float>(std::cos(hi));
   const bool in_light = o.pixel_encoding == PixelEncoding::kSrgb;
-  const std::array<float, 256>& light_of = SrgbToLight();
+  const std::array<float, 256>& light_of = SrgbLightTable();
   const cv::Vec3f angle_cloth =
-      in_light ? cv::Vec3f(LightOf(cloth[0]), LightOf(cloth[1]), LightOf(cloth[2])) : cloth;
+      in_light ? cv::Vec3f(SrgbLight(cloth[0]), SrgbLight(cloth[1]), SrgbLight(cloth[2])) : cloth;
   const float angle_cloth_norm = static_cast<float>(cv::norm(angle_cloth));
   const float cloth_sum = cloth[0] + cloth[1] + cloth[2];
   const float cloth_inv_i = 3.f / std::max(1.f, cloth_sum);
@@ -1254,7 +1234,7 @@ struct RedCues {
 RedCues RedCuesOf(const PoolTableProfile& profile, PixelEncoding encoding) {
   const auto values = [encoding](const cv::Vec3b& v) {
     if (encoding == PixelEncoding::kLinear) return cv::Vec3f(v[0], v[1], v[2]);
-    const std::array<float, 256>& light_of = SrgbToLight();
+    const std::array<float, 256>& light_of = SrgbLightTable();
     return cv::Vec3f(light_of[v[0]], light_of[v[1]], light_of[v[2]]);
   };
   RedCues c;
@@ -2356,11 +2336,11 @@ void BallFinder::RefineOutlines() {
     // its darkness. Read in light (PoolBallOptions::pixel_encoding): the cloth's colour and every
     // pixel decoded, with the floor of the intensity (15 grey levels, sRGB 21 decoded: 2).
     const bool in_light = options_.pixel_encoding == PixelEncoding::kSrgb;
-    const std::array<float, 256>& light_of = SrgbToLight();
+    const std::array<float, 256>& light_of = SrgbLightTable();
     const cv::Vec3f light_cloth =
-        in_light
-            ? cv::Vec3f(LightOf(local_cloth[0]), LightOf(local_cloth[1]), LightOf(local_cloth[2]))
-            : local_cloth;
+        in_light ? cv::Vec3f(SrgbLight(local_cloth[0]), SrgbLight(local_cloth[1]),
+                             SrgbLight(local_cloth[2]))
+                 : local_cloth;
     const float floor_i = in_light ? 2.f : 15.f;
     const float light_cloth_i =
         in_light ? std::max(floor_i, (light_cloth[0] + light_cloth[1] + light_cloth[2]) / 3)
@@ -2758,7 +2738,7 @@ void BallFinder::KeepBalls() {
     const cv::Matx33d Q = SphereSilhouetteConic(pose_, K_, centre, r_);
     const cv::Rect box = scorer.Box(centre);
     // Local light: the cloth brightness around the ball.
-    const std::array<float, 256>& light_of = SrgbToLight();
+    const std::array<float, 256>& light_of = SrgbLightTable();
     std::vector<float> ring, ring_light;  // the cloth's intensity as read, and in light
     for (int v = box.y - box.height / 2; v < box.y + box.height * 3 / 2; v += 2)
       for (int u = box.x - box.width / 2; u < box.x + box.width * 3 / 2; u += 2) {
@@ -2788,7 +2768,7 @@ void BallFinder::KeepBalls() {
       ring_in_light = ring_light[ring_light.size() / 2];
     } else {
       light = cloth_intensity_ / profile_cloth;
-      ring_in_light = (LightOf(cloth_[0]) + LightOf(cloth_[1]) + LightOf(cloth_[2])) / 3;
+      ring_in_light = (SrgbLight(cloth_[0]) + SrgbLight(cloth_[1]) + SrgbLight(cloth_[2])) / 3;
     }
     const bool red_in_light = options_.pixel_encoding == PixelEncoding::kSrgb && ring_in_light > 0;
     std::array<ColourRef, kPoolBallCount> refs;

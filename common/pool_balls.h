@@ -20,11 +20,6 @@
 
 namespace texfree {
 
-// How a picture's values relate to the light: sRGB-encoded (what phones, cameras and JPEG
-// files give) or in proportion to it (a raw-like picture, or a renderer that writes its
-// light out unencoded).
-enum class PixelEncoding { kSrgb, kLinear };
-
 struct PoolBallOptions {
   // A pixel counts as ball when its colour angle to the cloth exceeds this (seed: 10).
   double ball_angle_deg = 10;

@@ -119,6 +119,11 @@ constexpr int kEdgeReachPx = static_cast<int>(kEdgeOuter) + 2;
 // measure 0.51-0.88 (median 0.70), of black rails 0.20-0.49 (median 0.28): a side's own
 // ratio swings with its light, the rails' material does not.
 constexpr double kDarkRail = 0.45, kLightRail = 1.3;
+// The same judged in light (PoolTableOptions::pixel_encoding kSrgb): seed 7's first 20
+// frames rendered sRGB, black rails 0.07-0.32, wood 0.41-0.67, maple 2.5-3.0 (as encoded:
+// 0.26-0.61, 0.66-0.88, 1.6-1.8; black rails read as wood in 4 of the 20, their corners
+// 0.5 px off against 0.06).
+constexpr double kDarkRailInLight = 0.36;
 // How far inwards from where the luma steps off the rail's the cushion top's level is
 // looked for (pixels: the blurred step and a top of a pixel or two), and the least step
 // between the cushion top and the rail that is an edge (grey levels).
@@ -180,8 +185,8 @@ SideProfiles ProfilesAcross(const cv::Mat& bgr, const cv::Point2d& a, const cv::
 // table with dark or light rails they are then taken on the luma: `rail_step` is -1 when
 // the luma falls from a cushion top to the rail (dark rails), +1 when it rises (light
 // rails), 0 otherwise.
-std::vector<cv::Point2d> EdgePoints(const SideProfiles& side, const cv::Vec3f& cloth,
-                                    int rail_step) {
+std::vector<cv::Point2d> EdgePoints(const SideProfiles& side, const cv::Vec3f& cloth, int rail_step,
+                                    bool in_light) {
   constexpr double kInner = kEdgeInner, kOuter = kEdgeOuter, kStep = kEdgeStep;
   constexpr int kSamples = kEdgeSamples;
   // The colour crossing stands for the chromaticity crossing when this close (pixels).
@@ -194,20 +199,31 @@ std::vector<cv::Point2d> EdgePoints(const SideProfiles& side, const cv::Vec3f& c
     const float sum = std::max(1.f, c[0] + c[1] + c[2]);
     return cv::Vec2f(c[0] / sum, c[1] / sum);
   };
-  const cv::Vec2f rail_chroma = chroma(rail);
-  const cv::Vec2f chroma_step = chroma(cloth) - rail_chroma;
-  const float chroma_contrast = chroma_step.dot(chroma_step);
-  if (chroma_contrast < 0.03f * 0.03f) return points;  // rail and cloth of one hue
+  {
+    const cv::Vec2f step = chroma(cloth) - chroma(rail);
+    if (step.dot(step) < 0.03f * 0.03f) return points;  // rail and cloth of one hue
+  }
+  // Blur mixes light: the crossings are taken in light for an sRGB picture (the tests on
+  // the profiles stay on their values as read).
+  const auto light = [in_light](const cv::Vec3f& c) {
+    return in_light ? cv::Vec3f(SrgbLight(c[0]), SrgbLight(c[1]), SrgbLight(c[2])) : c;
+  };
+  const cv::Vec2f rail_chroma = chroma(light(rail));
+  const cv::Vec2f chroma_step = chroma(light(cloth)) - rail_chroma;
+  const float chroma_contrast = std::max(1e-6f, chroma_step.dot(chroma_step));
   for (const auto& p : side.profiles) {
     // Balls on the cushion, pockets and diamonds make profiles that are not this edge.
     if (cv::norm(p.outside - rail, cv::NORM_L1) > 60) continue;
     if (ColorAngleDeg(p.inside, cloth) > 12) continue;
-    const cv::Vec3f diff = p.inside - p.outside;
-    if (diff.dot(diff) < 15 * 15) continue;
+    if (cv::norm(p.inside - p.outside, cv::NORM_L2SQR) < 15 * 15) continue;
+    std::array<cv::Vec3f, kSamples> colour;  // in light for an sRGB picture
+    for (int i = 0; i < kSamples; ++i) colour[i] = light(p.colour[i]);
+    const cv::Vec3f outside = light(p.outside);
+    const cv::Vec3f diff = light(p.inside) - outside;
     // f = 1 on the cloth's hue, 0 on the rail's.
     std::array<double, kSamples> f;
     for (int i = 0; i < kSamples; ++i)
-      f[i] = (chroma(p.colour[i]) - rail_chroma).dot(chroma_step) / chroma_contrast;
+      f[i] = (chroma(colour[i]) - rail_chroma).dot(chroma_step) / chroma_contrast;
     // The outermost fall from cloth to rail: the cloth-covered cushion top is the last
     // cloth before the rail.
     double best_t = 1e9;
@@ -222,11 +238,11 @@ std::vector<cv::Point2d> EdgePoints(const SideProfiles& side, const cv::Vec3f& c
     // unequal brightness is crossed off its middle. Where the colour's own half-way
     // crossing (between the cloth inside and the rail outside) is next to it, it is the
     // same edge, and the place to take it.
-    const float contrast = diff.dot(diff);
+    const float contrast = std::max(1e-6f, diff.dot(diff));
     double colour_t = 1e9;
     for (int i = 0; i + 1 < kSamples; ++i) {
-      const double a = (p.colour[i] - p.outside).dot(diff) / contrast;
-      const double b = (p.colour[i + 1] - p.outside).dot(diff) / contrast;
+      const double a = (colour[i] - outside).dot(diff) / contrast;
+      const double b = (colour[i + 1] - outside).dot(diff) / contrast;
       if (a < 0.5 || b >= 0.5) continue;
       const double t = -kInner + kStep * (i + (a - 0.5) / (a - b));
       if (std::abs(t - best_t) < std::abs(colour_t - best_t)) colour_t = t;
@@ -249,17 +265,22 @@ std::vector<cv::Point2d> EdgePoints(const SideProfiles& side, const cv::Vec3f& c
       constexpr double kFallBack = 4;  // grey levels: the luma turns back (into the face)
       const int reach = static_cast<int>(kRailLumaReachPx / kStep);
       double top_y = rail_y;
+      int top = -1;   // the sample at the top's level
       int rise = -1;  // the first sample inwards clearly off the rail
       for (int i = kSamples - 1; i >= 0; --i) {
         if (rise < 0 && y[i] >= rail_y + 0.5 * kRailLumaMinStep) rise = i;
         if (rise >= 0 && (y[i] < top_y - kFallBack || rise - i > reach)) break;
+        if (y[i] > top_y) top = i;
         top_y = std::max(top_y, y[i]);
       }
-      const double half = 0.5 * (top_y + rail_y);
-      if (top_y - rail_y >= kRailLumaMinStep) {
+      if (top_y - rail_y >= kRailLumaMinStep && top >= 0) {
+        // The half-way level in light, between the top's and the rail's.
+        std::array<double, kSamples> yl;
+        for (int i = 0; i < kSamples; ++i) yl[i] = -rail_step * PoolLuma(colour[i]);
+        const double half = 0.5 * (yl[top] - rail_step * PoolLuma(outside));
         for (int i = kSamples - 1; i > 0; --i)
-          if (y[i - 1] >= half && y[i] < half) {
-            const double t = -kInner + kStep * (i - 1 + (y[i - 1] - half) / (y[i - 1] - y[i]));
+          if (yl[i - 1] >= half && yl[i] < half) {
+            const double t = -kInner + kStep * (i - 1 + (yl[i - 1] - half) / (yl[i - 1] - yl[i]));
             if (t >= -kInner + 1 && t <= kOuter - 1.5) best_t = t;
             break;
           }
@@ -376,6 +397,26 @@ absl::Status PoolTableOptions::Validate() const {
   if (other_cloth_colours < 0 || other_cloth_colours > 8)
     return absl::InvalidArgumentError("other_cloth_colours must be in [0, 8]");
   return absl::OkStatus();
+}
+
+const std::array<float, 256>& SrgbLightTable() {
+  static const std::array<float, 256> table = [] {
+    std::array<float, 256> t;
+    for (int k = 0; k < 256; ++k) {
+      const double x = k / 255.0;
+      t[k] =
+          static_cast<float>(255 * (x <= 0.04045 ? x / 12.92 : std::pow((x + 0.055) / 1.055, 2.4)));
+    }
+    return t;
+  }();
+  return table;
+}
+
+float SrgbLight(float level) {
+  const std::array<float, 256>& t = SrgbLightTable();
+  const int k = std::clamp(static_cast<int>(level), 0, 254);
+  const float f = std::clamp(level - k, 0.f, 1.f);
+  return t[k] * (1 - f) + t[k + 1] * f;
 }
 
 double ColorAngleDeg(const cv::Vec3f& a, const cv::Vec3f& b) {
@@ -730,6 +771,11 @@ absl::StatusOr<PoolTableDetection> DetectPoolTableFrom(IdealView* view, const cv
     view->Require({around.x - kEdgeReachPx, around.y - kEdgeReachPx,
                    around.width + 2 * kEdgeReachPx, around.height + 2 * kEdgeReachPx});
     std::array<SideProfiles, 4> across;
+    // The rails' luma over the cloth's, in light for an sRGB picture.
+    const bool in_light = options.pixel_encoding == PixelEncoding::kSrgb;
+    const auto light = [](const cv::Vec3f& c) {
+      return cv::Vec3f(SrgbLight(c[0]), SrgbLight(c[1]), SrgbLight(c[2]));
+    };
     std::vector<double> rail_ratios;
     for (int i = 0; i < 4; ++i) {
       const cv::Point2d a = corners[(i + 3) % 4], b = corners[i];
@@ -739,16 +785,20 @@ absl::StatusOr<PoolTableDetection> DetectPoolTableFrom(IdealView* view, const cv
       if (outward.dot(mid - centroid_full) < 0) outward = -outward;
       across[i] = ProfilesAcross(bgr, a, b, outward);
       if (!across[i].profiles.empty())
-        rail_ratios.push_back(PoolLuma(across[i].rail) / std::max(1.0, PoolLuma(cloth)));
+        rail_ratios.push_back(in_light ? PoolLuma(light(across[i].rail)) /
+                                             std::max(0.1, PoolLuma(light(cloth)))
+                                       : PoolLuma(across[i].rail) / std::max(1.0, PoolLuma(cloth)));
     }
     // The median side's (with no side read, no side has points to place either).
     std::sort(rail_ratios.begin(), rail_ratios.end());
     const size_t m = rail_ratios.size();
     const double rail_ratio = m > 0 ? 0.5 * (rail_ratios[(m - 1) / 2] + rail_ratios[m / 2]) : 1;
-    const int rail_step = rail_ratio < kDarkRail ? -1 : rail_ratio > kLightRail ? 1 : 0;
+    const int rail_step = rail_ratio < (in_light ? kDarkRailInLight : kDarkRail) ? -1
+                          : rail_ratio > kLightRail                              ? 1
+                                                                                 : 0;
     for (int i = 0; i < 4; ++i) {
       Line refined;
-      const std::vector<cv::Point2d> points = EdgePoints(across[i], cloth, rail_step);
+      const std::vector<cv::Point2d> points = EdgePoints(across[i], cloth, rail_step, in_light);
       if (FitLine(points, &refined)) {
         sides[i] = refined;
         if (pass == 1)

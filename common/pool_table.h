@@ -36,6 +36,10 @@ struct PoolTableOptions {
   // common saturated colours are tried as the cloth's (a blue or red cloth with a profile
   // left at the default green); 0 = only the profile's colour.
   int other_cloth_colours = 3;
+  // How the picture encodes the light (as PoolBallOptions::pixel_encoding, which
+  // PoolAnalyzerOptions requires to agree): whether the rails are darker or lighter than
+  // the cloth is judged in light for an sRGB picture.
+  PixelEncoding pixel_encoding = PixelEncoding::kSrgb;
 
   absl::Status Validate() const;
 };
@@ -73,6 +77,12 @@ class IdealView;
 absl::StatusOr<PoolTableDetection> DetectPoolTable(IdealView* view, const cv::Matx33d& K,
                                                    const PoolTableProfile& profile,
                                                    const PoolTableOptions& options = {});
+
+// The light (on the same 0-255 scale) that an sRGB grey level encodes; a fractional level
+// (a median) interpolated.
+float SrgbLight(float level);
+// SrgbLight of each whole level, for per-pixel loops.
+const std::array<float, 256>& SrgbLightTable();
 
 // Colour angle (degrees) between two BGR colours (seed eq. 4.1).
 double ColorAngleDeg(const cv::Vec3f& a, const cv::Vec3f& b);

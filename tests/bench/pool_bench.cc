@@ -341,10 +341,7 @@ int main(int argc, char** argv) {
   cv::setNumThreads(1);  // one core
   // The analysis is told how the renderer encodes its pictures, as a user's camera is known.
   analyzer_options.balls.pixel_encoding = srgb ? PixelEncoding::kSrgb : PixelEncoding::kLinear;
-  if (getenv("TF_SPLIT"))
-    analyzer_options.balls.split_hidden_min_visible = atof(getenv("TF_SPLIT"));
-  if (getenv("TF_SPLITB"))
-    analyzer_options.balls.split_hidden_min_ballness = atof(getenv("TF_SPLITB"));
+  analyzer_options.table.pixel_encoding = analyzer_options.balls.pixel_encoding;
 
   PoolTableSpec spec = nine_foot ? PoolTableSpec::NineFoot() : PoolTableSpec::Bench();
   std::optional<cv::Vec3d> cloth_rgb;
@@ -446,7 +443,8 @@ int main(int argc, char** argv) {
       PlanarPose pose;
       pose.R = view.rotation;
       pose.t = view.translation;
-      detected = DetectPoolBalls(ideal, camera.K, pose, profile, analysis->cloth_bgr);
+      detected = DetectPoolBalls(ideal, camera.K, pose, profile, analysis->cloth_bgr,
+                                 analyzer_options.balls);
       corners = view.cloth_corners;
     }
     std::vector<EstimatedPoolBall> est;
