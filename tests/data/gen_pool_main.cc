@@ -1,8 +1,10 @@
 // texfree-gen-pool: writes seeded synthetic photographs of a pool table, each with its
 // ground truth (camera, pose, corners, ball numbers and positions) as JSON, and the
-// matching CAMERA.yml for `texfree pool analyze`.
+// matching CAMERA.yml for `texfree pool analyze`. The pictures are sRGB-encoded, as a
+// phone's are and as the server reads them; --linear writes the light in proportion
+// instead (the benchmark's default renders, which the server would misread).
 //
-//   texfree-gen-pool --out DIR [--count N] [--seed S] [--nine-foot]
+//   texfree-gen-pool --out DIR [--count N] [--seed S] [--nine-foot] [--linear]
 //
 // Output: DIR/pool_XXXX.png, DIR/pool_XXXX.json, DIR/pool_XXXX_camera.yml.
 #include <cstdlib>
@@ -21,6 +23,7 @@ int main(int argc, char** argv) {
   long count = 10;
   unsigned long long seed = 1;
   bool nine_foot = false;
+  bool linear = false;
   for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];
     auto value = [&]() -> const char* {
@@ -38,13 +41,17 @@ int main(int argc, char** argv) {
       seed = std::strtoull(value(), nullptr, 10);
     } else if (arg == "--nine-foot") {
       nine_foot = true;
+    } else if (arg == "--linear") {
+      linear = true;
     } else {
-      std::cerr << "usage: texfree-gen-pool --out DIR [--count N] [--seed S] [--nine-foot]\n";
+      std::cerr
+          << "usage: texfree-gen-pool --out DIR [--count N] [--seed S] [--nine-foot] [--linear]\n";
       return 2;
     }
   }
   if (out_dir.empty() || count <= 0) {
-    std::cerr << "usage: texfree-gen-pool --out DIR [--count N] [--seed S] [--nine-foot]\n";
+    std::cerr
+        << "usage: texfree-gen-pool --out DIR [--count N] [--seed S] [--nine-foot] [--linear]\n";
     return 2;
   }
   std::filesystem::create_directories(out_dir);
@@ -52,7 +59,8 @@ int main(int argc, char** argv) {
   const PoolTableSpec table = nine_foot ? PoolTableSpec::NineFoot() : PoolTableSpec::Bench();
   std::mt19937_64 rng(seed);
   for (long i = 0; i < count; ++i) {
-    const PoolScene scene = RandomPoolScene(rng, table);
+    PoolScene scene = RandomPoolScene(rng, table);
+    scene.srgb_tone = !linear;
     const PoolView view = RenderPoolView(scene, seed * 1000 + static_cast<uint64_t>(i));
     char name[32];
     std::snprintf(name, sizeof(name), "pool_%04ld", i);

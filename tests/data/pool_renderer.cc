@@ -830,6 +830,8 @@ std::string PoolViewGroundTruthJson(const PoolScene& scene, const PoolView& view
   os << ",\n  \"distortion\": ";
   AppendNumbers(os, view.distortion.data(), static_cast<int>(view.distortion.size()));
   os << ",\n  \"image_width\": " << view.image.cols << ", \"image_height\": " << view.image.rows;
+  // How the picture encodes the light (PoolScene::srgb_tone).
+  os << ",\n  \"pixel_encoding\": \"" << (scene.srgb_tone ? "srgb" : "linear") << "\"";
   os << ",\n  \"rotation\": ";
   AppendNumbers(os, view.rotation.val, 9);
   os << ",\n  \"translation\": ";
