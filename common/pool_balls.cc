@@ -153,8 +153,7 @@ cv::Mat BallnessMap(const cv::Mat& bgr, const cv::Rect& roi, const cv::Vec3f& cl
   const float cos_lo = static_cast<float>(std::cos(lo)), cos_hi = static_cast<float>(std::cos(hi));
   const bool in_light = o.pixel_encoding == PixelEncoding::kSrgb;
   const std::array<float, 256>& light_of = SrgbLightTable();
-  const cv::Vec3f angle_cloth =
-      in_light ? cv::Vec3f(SrgbLight(cloth[0]), SrgbLight(cloth[1]), SrgbLight(cloth[2])) : cloth;
+  const cv::Vec3f angle_cloth = ColourInLight(cloth, o.pixel_encoding);
   const float angle_cloth_norm = static_cast<float>(cv::norm(angle_cloth));
   const float cloth_sum = cloth[0] + cloth[1] + cloth[2];
   const float cloth_inv_i = 3.f / std::max(1.f, cloth_sum);
@@ -1233,9 +1232,7 @@ struct RedCues {
 // In light for kSrgb (the profile's colours decoded).
 RedCues RedCuesOf(const PoolTableProfile& profile, PixelEncoding encoding) {
   const auto values = [encoding](const cv::Vec3b& v) {
-    if (encoding == PixelEncoding::kLinear) return cv::Vec3f(v[0], v[1], v[2]);
-    const std::array<float, 256>& light_of = SrgbLightTable();
-    return cv::Vec3f(light_of[v[0]], light_of[v[1]], light_of[v[2]]);
+    return ColourInLight(cv::Vec3f(v[0], v[1], v[2]), encoding);
   };
   RedCues c;
   const cv::Vec3f pc = values(profile.cloth_bgr);
@@ -2337,10 +2334,7 @@ void BallFinder::RefineOutlines() {
     // pixel decoded, with the floor of the intensity (15 grey levels, sRGB 21 decoded: 2).
     const bool in_light = options_.pixel_encoding == PixelEncoding::kSrgb;
     const std::array<float, 256>& light_of = SrgbLightTable();
-    const cv::Vec3f light_cloth =
-        in_light ? cv::Vec3f(SrgbLight(local_cloth[0]), SrgbLight(local_cloth[1]),
-                             SrgbLight(local_cloth[2]))
-                 : local_cloth;
+    const cv::Vec3f light_cloth = ColourInLight(local_cloth, options_.pixel_encoding);
     const float floor_i = in_light ? 2.f : 15.f;
     const float light_cloth_i =
         in_light ? std::max(floor_i, (light_cloth[0] + light_cloth[1] + light_cloth[2]) / 3)
@@ -2738,8 +2732,9 @@ void BallFinder::KeepBalls() {
     const cv::Matx33d Q = SphereSilhouetteConic(pose_, K_, centre, r_);
     const cv::Rect box = scorer.Box(centre);
     // Local light: the cloth brightness around the ball.
+    const bool srgb = options_.pixel_encoding == PixelEncoding::kSrgb;
     const std::array<float, 256>& light_of = SrgbLightTable();
-    std::vector<float> ring, ring_light;  // the cloth's intensity as read, and in light
+    std::vector<float> ring, ring_light;  // the cloth's intensity as read, and in light (sRGB)
     for (int v = box.y - box.height / 2; v < box.y + box.height * 3 / 2; v += 2)
       for (int u = box.x - box.width / 2; u < box.x + box.width * 3 / 2; u += 2) {
         if (!image_rect_.contains({u, v})) continue;
@@ -2749,7 +2744,7 @@ void BallFinder::KeepBalls() {
         const cv::Vec3f pf(p[0], p[1], p[2]);
         if (ColorAngleDeg(pf, cloth_) < options_.ball_angle_deg) {
           ring.push_back((pf[0] + pf[1] + pf[2]) / 3);
-          ring_light.push_back((light_of[p[0]] + light_of[p[1]] + light_of[p[2]]) / 3);
+          if (srgb) ring_light.push_back((light_of[p[0]] + light_of[p[1]] + light_of[p[2]]) / 3);
         }
       }
     double light = 1;  // local cloth brightness / the profile's cloth brightness
@@ -2763,14 +2758,19 @@ void BallFinder::KeepBalls() {
     if (ring.size() >= 5) {
       std::nth_element(ring.begin(), ring.begin() + ring.size() / 2, ring.end());
       light = ring[ring.size() / 2] / profile_cloth;
-      std::nth_element(ring_light.begin(), ring_light.begin() + ring_light.size() / 2,
-                       ring_light.end());
-      ring_in_light = ring_light[ring_light.size() / 2];
+      if (srgb) {
+        std::nth_element(ring_light.begin(), ring_light.begin() + ring_light.size() / 2,
+                         ring_light.end());
+        ring_in_light = ring_light[ring_light.size() / 2];
+      }
     } else {
       light = cloth_intensity_ / profile_cloth;
-      ring_in_light = (SrgbLight(cloth_[0]) + SrgbLight(cloth_[1]) + SrgbLight(cloth_[2])) / 3;
+      if (srgb) {
+        const cv::Vec3f cloth_light = ColourInLight(cloth_, PixelEncoding::kSrgb);
+        ring_in_light = (cloth_light[0] + cloth_light[1] + cloth_light[2]) / 3;
+      }
     }
-    const bool red_in_light = options_.pixel_encoding == PixelEncoding::kSrgb && ring_in_light > 0;
+    const bool red_in_light = srgb && ring_in_light > 0;
     std::array<ColourRef, kPoolBallCount> refs;
     for (int k = 0; k < kPoolBallCount; ++k) {
       const cv::Vec3b& c = profile_.ball_bgr[k];

@@ -186,7 +186,7 @@ SideProfiles ProfilesAcross(const cv::Mat& bgr, const cv::Point2d& a, const cv::
 // the luma falls from a cushion top to the rail (dark rails), +1 when it rises (light
 // rails), 0 otherwise.
 std::vector<cv::Point2d> EdgePoints(const SideProfiles& side, const cv::Vec3f& cloth, int rail_step,
-                                    bool in_light) {
+                                    PixelEncoding encoding) {
   constexpr double kInner = kEdgeInner, kOuter = kEdgeOuter, kStep = kEdgeStep;
   constexpr int kSamples = kEdgeSamples;
   // The colour crossing stands for the chromaticity crossing when this close (pixels).
@@ -205,9 +205,7 @@ std::vector<cv::Point2d> EdgePoints(const SideProfiles& side, const cv::Vec3f& c
   }
   // Blur mixes light: the crossings are taken in light for an sRGB picture (the tests on
   // the profiles stay on their values as read).
-  const auto light = [in_light](const cv::Vec3f& c) {
-    return in_light ? cv::Vec3f(SrgbLight(c[0]), SrgbLight(c[1]), SrgbLight(c[2])) : c;
-  };
+  const auto light = [encoding](const cv::Vec3f& c) { return ColourInLight(c, encoding); };
   const cv::Vec2f rail_chroma = chroma(light(rail));
   const cv::Vec2f chroma_step = chroma(light(cloth)) - rail_chroma;
   const float chroma_contrast = std::max(1e-6f, chroma_step.dot(chroma_step));
@@ -417,6 +415,11 @@ float SrgbLight(float level) {
   const int k = std::clamp(static_cast<int>(level), 0, 254);
   const float f = std::clamp(level - k, 0.f, 1.f);
   return t[k] * (1 - f) + t[k + 1] * f;
+}
+
+cv::Vec3f ColourInLight(const cv::Vec3f& colour, PixelEncoding encoding) {
+  if (encoding == PixelEncoding::kLinear) return colour;
+  return {SrgbLight(colour[0]), SrgbLight(colour[1]), SrgbLight(colour[2])};
 }
 
 double ColorAngleDeg(const cv::Vec3f& a, const cv::Vec3f& b) {
@@ -772,10 +775,8 @@ absl::StatusOr<PoolTableDetection> DetectPoolTableFrom(IdealView* view, const cv
                    around.width + 2 * kEdgeReachPx, around.height + 2 * kEdgeReachPx});
     std::array<SideProfiles, 4> across;
     // The rails' luma over the cloth's, in light for an sRGB picture.
-    const bool in_light = options.pixel_encoding == PixelEncoding::kSrgb;
-    const auto light = [](const cv::Vec3f& c) {
-      return cv::Vec3f(SrgbLight(c[0]), SrgbLight(c[1]), SrgbLight(c[2]));
-    };
+    const PixelEncoding encoding = options.pixel_encoding;
+    const bool in_light = encoding == PixelEncoding::kSrgb;
     std::vector<double> rail_ratios;
     for (int i = 0; i < 4; ++i) {
       const cv::Point2d a = corners[(i + 3) % 4], b = corners[i];
@@ -785,9 +786,9 @@ absl::StatusOr<PoolTableDetection> DetectPoolTableFrom(IdealView* view, const cv
       if (outward.dot(mid - centroid_full) < 0) outward = -outward;
       across[i] = ProfilesAcross(bgr, a, b, outward);
       if (!across[i].profiles.empty())
-        rail_ratios.push_back(in_light ? PoolLuma(light(across[i].rail)) /
-                                             std::max(0.1, PoolLuma(light(cloth)))
-                                       : PoolLuma(across[i].rail) / std::max(1.0, PoolLuma(cloth)));
+        rail_ratios.push_back(
+            PoolLuma(ColourInLight(across[i].rail, encoding)) /
+            std::max(in_light ? 0.1 : 1.0, PoolLuma(ColourInLight(cloth, encoding))));
     }
     // The median side's (with no side read, no side has points to place either).
     std::sort(rail_ratios.begin(), rail_ratios.end());
@@ -798,7 +799,7 @@ absl::StatusOr<PoolTableDetection> DetectPoolTableFrom(IdealView* view, const cv
                                                                                  : 0;
     for (int i = 0; i < 4; ++i) {
       Line refined;
-      const std::vector<cv::Point2d> points = EdgePoints(across[i], cloth, rail_step, in_light);
+      const std::vector<cv::Point2d> points = EdgePoints(across[i], cloth, rail_step, encoding);
       if (FitLine(points, &refined)) {
         sides[i] = refined;
         if (pass == 1)

@@ -83,6 +83,9 @@ absl::StatusOr<PoolTableDetection> DetectPoolTable(IdealView* view, const cv::Ma
 float SrgbLight(float level);
 // SrgbLight of each whole level, for per-pixel loops.
 const std::array<float, 256>& SrgbLightTable();
+// A colour (BGR, 0-255) as the light it stands for, on the same scale: each channel
+// decoded (SrgbLight) for kSrgb, the colour itself for kLinear.
+cv::Vec3f ColourInLight(const cv::Vec3f& colour, PixelEncoding encoding);
 
 // Colour angle (degrees) between two BGR colours (seed eq. 4.1).
 double ColorAngleDeg(const cv::Vec3f& a, const cv::Vec3f& b);
