@@ -1069,6 +1069,18 @@ inline float PixelLuma(const cv::Vec3b& p) { return 0.114f * p[0] + 0.587f * p[1
 // other edges: 24 -> 27 balls over 10 mm on seed 7's set, 26 with the share).
 constexpr double kBrighterLuma = 1.15;
 constexpr double kLumaSnapRadii = 0.15;
+// PoolBallOptions::near_half_dark_share: the near half is the silhouette's pixels more than
+// this many apparent radii from its centre towards the camera, and is judged on at least
+// this many of them.
+constexpr double kNearHalfFrom = 0.18;
+constexpr size_t kMinNearHalfPixels = 5;
+
+// The median of `values` (not empty), which are reordered.
+float MedianOf(std::vector<float>* values) {
+  auto middle = values->begin() + values->size() / 2;
+  std::nth_element(values->begin(), middle, values->end());
+  return *middle;
+}
 
 }  // namespace
 
@@ -1142,6 +1154,8 @@ absl::Status PoolBallOptions::Validate() const {
     return absl::InvalidArgumentError("rim_outward_reach must be in [0, 2]");
   if (!(edge_point_reach >= 0 && edge_point_reach <= 2))
     return absl::InvalidArgumentError("edge_point_reach must be in [0, 2]");
+  if (!(near_half_dark_share >= 0 && near_half_dark_share <= 1))
+    return absl::InvalidArgumentError("near_half_dark_share must be in [0, 1]");
   if (!(rim_full_colour_saturation >= 0 && rim_full_colour_saturation <= 1))
     return absl::InvalidArgumentError("rim_full_colour_saturation must be in [0, 1]");
   if (!(edge_point_prior >= 0 && edge_point_prior <= 100))
@@ -1650,6 +1664,17 @@ class BallFinder {
                                        : in[x];
     }
     return out;
+  }
+  // The image direction (unit, or zero) from the centre of a ball at table position `xy`
+  // to its top and far side.
+  cv::Point2d FarSideDirectionPx(const cv::Point2d& xy) const {
+    cv::Point2d away(xy.x - camera_[0], xy.y - camera_[1]);
+    away /= std::max(1e-9, cv::norm(away));
+    const cv::Point2d up =
+        ProjectIdeal(pose_, K_, {xy.x + r_ * away.x, xy.y + r_ * away.y, 2 * r_}) -
+        ProjectIdeal(pose_, K_, {xy.x, xy.y, r_});
+    const double length = cv::norm(up);
+    return length > 0 ? up / length : cv::Point2d(0, 0);
   }
   // Distance from the camera to the centre of a ball at table position `xy`.
   double FromCamera(const cv::Point2d& xy) const {
@@ -2259,6 +2284,17 @@ void BallFinder::RefineOutlines() {
     std::vector<cv::Vec3f> cloth_pixels;
     std::vector<float> cloth_brightness;  // of those not on a cushion's face
     std::vector<float> ball_intensities, ball_chromatic, ball_saturations, ball_lumas;
+    // Brightness in light of the silhouette's near half and of the cloth around it
+    // (options.near_half_dark_share): `far_dir` is the image direction of the ball's far
+    // side, `near_from_px` how far from its centre against it the near half is taken.
+    std::vector<float> near_half_light, cloth_light;
+    const cv::Point2d centre_px = ProjectIdeal(pose_, K_, centre);
+    const double near_from_px = kNearHalfFrom * ApparentRadiusPx(pose_, K_, seeds_[i], r_);
+    const cv::Point2d far_dir = FarSideDirectionPx(seeds_[i]);
+    const auto brightness_in_light = [&](const cv::Vec3b& p) {
+      const cv::Vec3f l = ColourInLight(cv::Vec3f(p[0], p[1], p[2]), options_.pixel_encoding);
+      return (l[0] + l[1] + l[2]) / 3;
+    };
     for (int v = box.y; v < box.y + box.height; ++v)
       for (int u = box.x; u < box.x + box.width; ++u) {
         if (claimed_.at<float>(v - roi_.y, u - roi_.x) > 0.01) continue;
@@ -2269,6 +2305,8 @@ void BallFinder::RefineOutlines() {
         if (cov >= 0.99 && b > 0.5) {
           const float intensity = (p[0] + p[1] + p[2]) / 3.f;
           ball_intensities.push_back(intensity);
+          if ((u - centre_px.x) * far_dir.x + (v - centre_px.y) * far_dir.y < -near_from_px)
+            near_half_light.push_back(brightness_in_light(p));
           ball_lumas.push_back(PixelLuma(p));
           const float cx = p[2] - 0.5f * (p[1] + p[0]), cy = 0.8660254f * (p[1] - p[0]);
           if (std::hypot(cx, cy) > 0.25f * std::max(1.f, intensity))
@@ -2280,8 +2318,10 @@ void BallFinder::RefineOutlines() {
         if (cov > 0 || b >= 0.5 || b < 0 || !playing_volume_.at<uchar>(v - roi_.y, u - roi_.x))
           continue;
         cloth_pixels.emplace_back(p[0], p[1], p[2]);
-        if (!scorer.OverCushionFace(u + 0.5, v + 0.5))
+        if (!scorer.OverCushionFace(u + 0.5, v + 0.5)) {
           cloth_brightness.push_back((p[0] + p[1] + p[2]) / 3.f);
+          cloth_light.push_back(brightness_in_light(p));
+        }
       }
     if (cloth_pixels.size() < 5) continue;
     cv::Vec3f local_cloth;
@@ -2301,12 +2341,7 @@ void BallFinder::RefineOutlines() {
     // and any ball darker than the cloth, chromaticity counts only as much as the pixel's
     // brightness can carry.
     float ball_median = cloth_i;
-    if (!ball_intensities.empty()) {
-      std::nth_element(ball_intensities.begin(),
-                       ball_intensities.begin() + ball_intensities.size() / 2,
-                       ball_intensities.end());
-      ball_median = ball_intensities[ball_intensities.size() / 2];
-    }
+    if (!ball_intensities.empty()) ball_median = MedianOf(&ball_intensities);
     int lit_chromatic = 0;
     for (float v : ball_chromatic) lit_chromatic += v > 0.4f * cloth_i;
     const bool dark_ball =
@@ -2319,13 +2354,11 @@ void BallFinder::RefineOutlines() {
     // -> 22 + 29), most of the change far 6s (seed 53's frame 18: 19.4 -> 0.6 mm, seed
     // 17's frame 2: 12.3 -> 3.3 mm).
     float cloth_level = cloth_i;
-    if (cloth_brightness.size() >= 5) {
-      std::nth_element(cloth_brightness.begin(),
-                       cloth_brightness.begin() + cloth_brightness.size() / 2,
-                       cloth_brightness.end());
-      cloth_level = std::max(15.f, cloth_brightness[cloth_brightness.size() / 2]);
-    }
-    const bool darker_than_cloth = ball_median < 0.9f * cloth_level;
+    if (cloth_brightness.size() >= 5) cloth_level = std::max(15.f, MedianOf(&cloth_brightness));
+    const bool dark_near_half =
+        near_half_light.size() >= kMinNearHalfPixels && cloth_light.size() >= 5 &&
+        MedianOf(&near_half_light) < options_.near_half_dark_share * MedianOf(&cloth_light);
+    const bool darker_than_cloth = ball_median < 0.9f * cloth_level || dark_near_half;
     // The ball's colour distance from the cloth over `grown`: in full colour, or mostly in
     // chromaticity (the colour with the light's strength divided out), so that a ball as
     // bright as the cloth (the lit top of a green 6) still stands out, and a shadow on the
@@ -2439,17 +2472,10 @@ void BallFinder::RefineOutlines() {
       bool face_behind = false;
       if (darker_than_cloth) {
         const cv::Point2d c = ProjectIdeal(pose_, K_, {silhouette_xy.x, silhouette_xy.y, r_});
-        cv::Point2d away(silhouette_xy.x - camera_[0], silhouette_xy.y - camera_[1]);
-        away /= std::max(1e-9, cv::norm(away));
-        // The image direction of the ball's top and far side.
-        const cv::Point2d up =
-            ProjectIdeal(pose_, K_,
-                         {silhouette_xy.x + r_ * away.x, silhouette_xy.y + r_ * away.y, 2 * r_}) -
-            c;
-        const double length = cv::norm(up);
-        if (length > 0) {
+        const cv::Point2d up = FarSideDirectionPx(silhouette_xy);
+        if (up != cv::Point2d(0, 0)) {
           const double r_px = ApparentRadiusPx(pose_, K_, silhouette_xy, r_);
-          const cv::Point2d beyond = c + up * ((r_px + 2) / length);
+          const cv::Point2d beyond = c + up * (r_px + 2);
           face_behind = scorer.OverCushionFace(beyond.x, beyond.y);
         }
       }

@@ -156,6 +156,20 @@ struct PoolBallOptions {
   // with those gains applied (and the cloth colour with it). A profile whose colours were
   // learned under the table's own light (CalibrateColors) sees no cast. 0 turns this off.
   double white_balance_min_cast = 0.06;
+  // A ball is taken as darker than the cloth (its outline beside its shadow left out of
+  // the edge pass, then fitted on its far rim, as below) when its median brightness is
+  // under 0.9 of the cloth's, or when the near half of its silhouette (the pixels more
+  // than 0.18 apparent radii from its centre towards the camera), in light, is under this
+  // share of the cloth's light. An 8 whose white number disc faces up is as bright as the
+  // cloth over its whole silhouette, but its lower half is black against its shadow: taken
+  // as a bright ball, the edge pass slid it into that shadow (benchmark seed 7's frame 26,
+  // 20 mm towards the camera; 4.7 mm with this). Every ball's lower half is shaded by the
+  // lamps above, so the share must be well under 1: over the twenty benchmark sets
+  // rendered sRGB, balls over 10 mm 126 + 151 -> 94 + 124 at 0.5 with their means 2.59 +
+  // 2.73 -> 2.57 + 2.71 mm (at 0.9 of the brightness as encoded: 101 + 134, but 2.74 + 2.91
+  // mm, the lower half of the 2, the 4 and the 7 under it); on the linear renders 50 + 75
+  // -> 50 + 74. 0 turns this off.
+  double near_half_dark_share = 0.5;
   // A ball darker than the cloth (the 8, a shaded 6) has its shadow, as dark as itself,
   // joined to the near side of its outline; the far side, where the cloth seen beyond the
   // ball lies behind it, is its one clean edge. When set, its rim fit takes rim points on

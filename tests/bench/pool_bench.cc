@@ -331,6 +331,9 @@ int main(int argc, char** argv) {
   ball_option("--edge-luma-snap", &analyzer_options.balls.edge_luma_snap_px,
               "Edge points of a ball brighter than the cloth in luma move to the luma's edge "
               "within this many pixels (0: never)");
+  ball_option("--near-half-dark-share", &analyzer_options.balls.near_half_dark_share,
+              "A ball whose silhouette's near half has under this share of the cloth's light "
+              "is fitted as one darker than the cloth (0: only by its median brightness)");
   app.add_flag("!--no-fit-separation", analyzer_options.balls.separate_overlapping_fits,
                "Leave fits closer than two radii where they are (PoolBallOptions::"
                "separate_overlapping_fits)");

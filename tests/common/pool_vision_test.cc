@@ -1107,6 +1107,30 @@ TEST(PoolDarkBalls, FarGreenSixInAnSrgbPictureIsFound) {
   EXPECT_EQ(scored->score.false_balls, 0);
 }
 
+// An 8 with its white number disc facing up is as bright as the cloth over its silhouette,
+// but its lower half is black against its own shadow. Fitted as a bright ball, the edge
+// pass slid it 2.5 px into that shadow, 20 mm towards the camera (seed 7's frame 26
+// rendered sRGB); judged by its near half (PoolBallOptions::near_half_dark_share) it is
+// fitted on its far rim.
+TEST(PoolDarkBalls, EightWithItsNumberUpIsNotSlidIntoItsShadow) {
+  PoolScene scene = BenchScene(26);
+  scene.srgb_tone = true;
+  const PoolView view = testdata::RenderPoolView(scene, 7 * 100003 + 26);
+  auto scored = AnalyzeAndScore(scene, view);
+  ASSERT_TRUE(scored.ok()) << scored.status();
+  ExpectSeparatedBallNamed(scored->score, 8, 8.0);
+  // By its median brightness alone it is taken for a bright ball, and slides.
+  PoolAnalyzerOptions by_median;
+  by_median.balls.near_half_dark_share = 0;
+  auto slid = AnalyzeAndScore(scene, view, by_median);
+  ASSERT_TRUE(slid.ok()) << slid.status();
+  for (const auto& m : slid->score.matches) {
+    if (m.truth_number == 8) {
+      EXPECT_GT(m.error_mm, 15.0);
+    }
+  }
+}
+
 // A ball near the far cushion with the cushion's shaded face behind it: the dark face
 // reads as ball and lengthens the blob upwards, and the hidden-ball split took the ball's
 // lit top with the face for a ball behind its lower half, which was then pushed 2-3 px down
