@@ -1074,6 +1074,17 @@ constexpr double kLumaSnapRadii = 0.15;
 // this many of them.
 constexpr double kNearHalfFrom = 0.18;
 constexpr size_t kMinNearHalfPixels = 5;
+// A ball's body for whether it is darker than the cloth (RefineOutlines): its coloured
+// pixels and its grey ones under this share of the cloth's brightness, when they are at
+// least this share of its pixels. Over the twenty benchmark sets rendered sRGB, balls over
+// 10 mm 94 + 124 -> 87 + 117 (false balls 16 + 12 -> 14 + 10); linear 50 + 74 -> 51 + 73.
+// With every grey pixel under the cloth's brightness in the body, a cue ball's shaded
+// half was its body (linear: 52 + 78, seven cue balls over 10 mm more).
+constexpr float kBodyGreyMax = 0.5f;
+constexpr double kMinBodyShare = 0.25;
+// PoolBallOptions::darker_edge_pass_srgb: a ball is of the cloth's hue when the median
+// hue of its coloured pixels is within this of the cloth's (30 and 60 measured the same).
+constexpr double kClothLikeHueGapDeg = 45;
 
 // The median of `values` (not empty), which are reordered.
 float MedianOf(std::vector<float>* values) {
@@ -2287,7 +2298,7 @@ void BallFinder::RefineOutlines() {
     // Brightness in light of the silhouette's near half and of the cloth around it
     // (options.near_half_dark_share): `far_dir` is the image direction of the ball's far
     // side, `near_from_px` how far from its centre against it the near half is taken.
-    std::vector<float> near_half_light, cloth_light;
+    std::vector<float> near_half_light, cloth_light, ball_grey, ball_hues;
     const cv::Point2d centre_px = ProjectIdeal(pose_, K_, centre);
     const double near_from_px = kNearHalfFrom * ApparentRadiusPx(pose_, K_, seeds_[i], r_);
     const cv::Point2d far_dir = FarSideDirectionPx(seeds_[i]);
@@ -2309,8 +2320,11 @@ void BallFinder::RefineOutlines() {
             near_half_light.push_back(brightness_in_light(p));
           ball_lumas.push_back(PixelLuma(p));
           const float cx = p[2] - 0.5f * (p[1] + p[0]), cy = 0.8660254f * (p[1] - p[0]);
-          if (std::hypot(cx, cy) > 0.25f * std::max(1.f, intensity))
+          if (std::hypot(cx, cy) > 0.25f * std::max(1.f, intensity)) {
             ball_chromatic.push_back(intensity);
+            ball_hues.push_back(static_cast<float>(std::atan2(cy, cx)));
+          } else
+            ball_grey.push_back(intensity);
           ball_saturations.push_back(std::hypot(cx, cy) / std::max(15.f, intensity));
         }
         // The cloth around the ball: not a pocket, not the rail beyond the playing volume
@@ -2358,7 +2372,22 @@ void BallFinder::RefineOutlines() {
     const bool dark_near_half =
         near_half_light.size() >= kMinNearHalfPixels && cloth_light.size() >= 5 &&
         MedianOf(&near_half_light) < options_.near_half_dark_share * MedianOf(&cloth_light);
-    const bool darker_than_cloth = ball_median < 0.9f * cloth_level || dark_near_half;
+    // Whether the ball is darker than the cloth is told by its body: its coloured pixels
+    // and its black, without the white of its number disc, its highlight and a shaded
+    // white (grey pixels over half the cloth's brightness). A 6 or an 8 whose disc faces
+    // the camera is half white on a small ball, and by the median of all its pixels it was
+    // taken for a bright ball and its edge pass slid it into its shadow (held-out seed
+    // 59's frame 21: a 6 7.7 mm off on its silhouette, 21.9 mm after). A ball with too
+    // little body (the cue ball) keeps the median of all its pixels.
+    float body_median = ball_median;
+    {
+      std::vector<float> body = ball_chromatic;
+      for (float g : ball_grey)
+        if (g <= kBodyGreyMax * cloth_i) body.push_back(g);
+      if (body.size() >= 5 && body.size() >= kMinBodyShare * ball_intensities.size())
+        body_median = MedianOf(&body);
+    }
+    const bool darker_than_cloth = body_median < 0.9f * cloth_level || dark_near_half;
     // The ball's colour distance from the cloth over `grown`: in full colour, or mostly in
     // chromaticity (the colour with the light's strength divided out), so that a ball as
     // bright as the cloth (the lit top of a green 6) still stands out, and a shadow on the
@@ -2408,7 +2437,27 @@ void BallFinder::RefineOutlines() {
       edge.Score(seeds_[i], &used);
       if (used < kMinOutlinePoints) edge.SkipShadowedOutline(false);
     }
-    seeds_[i] = edge.Fit(seeds_[i], camera_);
+    // A ball darker than the cloth and of the cloth's hue or of none, in an sRGB picture,
+    // goes from its silhouette fit to its rim fit below (options.darker_edge_pass_srgb).
+    // Of the cloth's hue or of none (options.darker_edge_pass_srgb): the median gap between
+    // the hue of the ball's coloured pixels and the cloth's, when they are a good part of
+    // it; a grey or black ball has too few of them.
+    bool cloth_like = true;
+    {
+      const float ccx = local_cloth[2] - 0.5f * (local_cloth[1] + local_cloth[0]);
+      const float ccy = 0.8660254f * (local_cloth[1] - local_cloth[0]);
+      const float cloth_hue = std::atan2(ccy, ccx);
+      std::vector<float> gaps;
+      for (float h : ball_hues) {
+        float g = std::abs(h - cloth_hue);
+        if (g > 3.14159265f) g = 2 * 3.14159265f - g;
+        gaps.push_back(g * 57.29578f);
+      }
+      if (gaps.size() >= kMinBodyShare * ball_intensities.size() && gaps.size() >= 5)
+        cloth_like = MedianOf(&gaps) < kClothLikeHueGapDeg;
+    }
+    if (!darker_than_cloth || !in_light || options_.darker_edge_pass_srgb || !cloth_like)
+      seeds_[i] = edge.Fit(seeds_[i], camera_);
     if (!darker_than_cloth && options_.edge_point_reach > 0) {
       // The edge pass's mean fall is drawn to where the ball's contrast is strongest; its
       // outline is where the edge is (options.edge_point_reach).

@@ -334,6 +334,9 @@ int main(int argc, char** argv) {
   ball_option("--near-half-dark-share", &analyzer_options.balls.near_half_dark_share,
               "A ball whose silhouette's near half has under this share of the cloth's light "
               "is fitted as one darker than the cloth (0: only by its median brightness)");
+  app.add_flag("--darker-edge-pass-srgb", analyzer_options.balls.darker_edge_pass_srgb,
+               "Give a ball darker than the cloth in an sRGB picture the edge pass between its "
+               "silhouette and rim fits (PoolBallOptions::darker_edge_pass_srgb)");
   app.add_flag("!--no-fit-separation", analyzer_options.balls.separate_overlapping_fits,
                "Leave fits closer than two radii where they are (PoolBallOptions::"
                "separate_overlapping_fits)");
