@@ -130,6 +130,16 @@ BenchFrame RenderBenchFrame(int frame, uint64_t seed = 7, double scale = 1, bool
   return out;
 }
 
+// Frame `frame` of the benchmark's set `seed` rendered sRGB-encoded (texfree-bench-pool
+// --srgb), as a phone's picture is.
+BenchFrame SrgbBenchFrame(int frame, uint64_t seed = 7) {
+  BenchFrame out;
+  out.scene = BenchScene(frame, seed);
+  out.scene.srgb_tone = true;
+  out.view = testdata::RenderPoolView(out.scene, seed * 100003 + frame);
+  return out;
+}
+
 // A fixed, well-spread layout of all ten balls (none touching).
 std::vector<testdata::PoolBallPlacement> SpreadLayout() {
   return {{0, 300, 350}, {1, 520, 200}, {2, 700, 520}, {3, 900, 180},  {4, 1050, 450},
@@ -725,9 +735,7 @@ TEST(PoolNumbers, RedThreeAndMaroonSevenOfAnSrgbPictureAreReadInLight) {
   const std::tuple<uint64_t, int, int> cases[] = {{11, 41, 3}, {13, 46, 7}, {13, 36, 3}};
   for (const auto& [seed, frame, number] : cases) {
     SCOPED_TRACE("seed " + std::to_string(seed) + " frame " + std::to_string(frame));
-    PoolScene scene = BenchScene(frame, seed);
-    scene.srgb_tone = true;
-    const PoolView view = testdata::RenderPoolView(scene, seed * 100003 + frame);
+    const auto [scene, view] = SrgbBenchFrame(frame, seed);
     auto scored = AnalyzeAndScore(scene, view);
     ASSERT_TRUE(scored.ok()) << scored.status();
     ExpectSeparatedBallNamed(scored->score, number, 10.0);
@@ -1077,9 +1085,7 @@ TEST(PoolHardBalls, OneBallsHaloIsNotASecondBallBehindIt) {
   int false_without = 0;
   for (int frame : {15, 32}) {
     SCOPED_TRACE("frame " + std::to_string(frame));
-    PoolScene scene = BenchScene(frame);
-    scene.srgb_tone = true;
-    const PoolView view = testdata::RenderPoolView(scene, 7 * 100003 + frame);
+    const auto [scene, view] = SrgbBenchFrame(frame);
     ExpectEveryBallWithin10Mm(scene, view);
     PoolAnalyzerOptions unchecked;
     unchecked.balls.split_hidden_min_unexplained = 0;  // off
@@ -1097,9 +1103,7 @@ TEST(PoolHardBalls, OneBallsHaloIsNotASecondBallBehindIt) {
 // green 6 on green cloth came within the colour angle of the cloth, and the ball, broken
 // up, was not found (seed 7's frame 35 rendered sRGB). The angle is now taken in light.
 TEST(PoolDarkBalls, FarGreenSixInAnSrgbPictureIsFound) {
-  PoolScene scene = BenchScene(35);
-  scene.srgb_tone = true;
-  const PoolView view = testdata::RenderPoolView(scene, 7 * 100003 + 35);
+  const auto [scene, view] = SrgbBenchFrame(35);
   auto scored = AnalyzeAndScore(scene, view);
   ASSERT_TRUE(scored.ok()) << scored.status();
   ExpectSeparatedBallNamed(scored->score, 6, 10.0);
@@ -1117,9 +1121,7 @@ TEST(PoolDarkBalls, BallWithADarkNearHalfIsFittedAsDarkerThanTheCloth) {
   const std::tuple<uint64_t, int, int> cases[] = {{23, 42, 6}, {7, 53, 4}};
   for (const auto& [seed, frame, number] : cases) {
     SCOPED_TRACE("seed " + std::to_string(seed) + " frame " + std::to_string(frame));
-    PoolScene scene = BenchScene(frame, seed);
-    scene.srgb_tone = true;
-    const PoolView view = testdata::RenderPoolView(scene, seed * 100003 + frame);
+    const auto [scene, view] = SrgbBenchFrame(frame, seed);
     auto scored = AnalyzeAndScore(scene, view);
     ASSERT_TRUE(scored.ok()) << scored.status();
     ExpectSeparatedBallNamed(scored->score, number, 8.0);
@@ -1141,9 +1143,7 @@ TEST(PoolDarkBalls, BallWithADarkNearHalfIsFittedAsDarkerThanTheCloth) {
 // the camera (seed 7's frame 26 rendered sRGB). Its body without the disc's white (median
 // 29) is darker than the cloth.
 TEST(PoolDarkBalls, EightWithItsNumberUpIsToldByItsBlackBody) {
-  PoolScene scene = BenchScene(26);
-  scene.srgb_tone = true;
-  const PoolView view = testdata::RenderPoolView(scene, 7 * 100003 + 26);
+  const auto [scene, view] = SrgbBenchFrame(26);
   auto scored = AnalyzeAndScore(scene, view);
   ASSERT_TRUE(scored.ok()) << scored.status();
   ExpectSeparatedBallNamed(scored->score, 8, 8.0);
@@ -1156,9 +1156,7 @@ TEST(PoolDarkBalls, EightWithItsNumberUpIsToldByItsBlackBody) {
 // (PoolBallOptions::darker_edge_pass_srgb) it is within 5 mm, and so is every ball of the
 // view.
 TEST(PoolDarkBalls, SixWithItsDiscToTheCameraIsFittedOnItsRim) {
-  PoolScene scene = BenchScene(12, 61);
-  scene.srgb_tone = true;
-  const PoolView view = testdata::RenderPoolView(scene, 61 * 100003 + 12);
+  const auto [scene, view] = SrgbBenchFrame(12, 61);
   auto scored = AnalyzeAndScore(scene, view);
   ASSERT_TRUE(scored.ok()) << scored.status();
   ExpectSeparatedBallNamed(scored->score, 6, 6.0);
@@ -1415,9 +1413,7 @@ TEST(PoolEdgeFit, AnSrgbPictureIsFittedInLight) {
   int count = 0;
   double error_sum = 0;
   for (int frame = 0; frame < 12; ++frame) {
-    PoolScene scene = BenchScene(frame);
-    scene.srgb_tone = true;
-    const PoolView view = testdata::RenderPoolView(scene, 7 * 100003 + frame);
+    const auto [scene, view] = SrgbBenchFrame(frame);
     auto scored = AnalyzeAndScore(scene, view);
     ASSERT_TRUE(scored.ok()) << "frame " << frame << ": " << scored.status();
     for (const auto& m : scored->score.matches) {
