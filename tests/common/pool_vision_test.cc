@@ -130,6 +130,13 @@ BenchFrame RenderBenchFrame(int frame, uint64_t seed = 7, double scale = 1, bool
   return out;
 }
 
+// The position error of the ball numbered `number` in the view (mm; -1 when not found).
+double ErrorOf(const testdata::PoolScore& score, int number) {
+  for (const auto& m : score.matches)
+    if (m.truth_number == number) return m.error_mm;
+  return -1;
+}
+
 // Frame `frame` of the benchmark's set `seed` rendered sRGB-encoded (texfree-bench-pool
 // --srgb), as a phone's picture is.
 BenchFrame SrgbBenchFrame(int frame, uint64_t seed = 7) {
@@ -1129,11 +1136,7 @@ TEST(PoolDarkBalls, BallWithADarkNearHalfIsFittedAsDarkerThanTheCloth) {
     by_body_only.balls.near_half_dark_share = 0;
     auto slid = AnalyzeAndScore(scene, view, by_body_only);
     ASSERT_TRUE(slid.ok()) << slid.status();
-    for (const auto& m : slid->score.matches) {
-      if (m.truth_number == number) {
-        EXPECT_GT(m.error_mm, 10.0);
-      }
-    }
+    EXPECT_GT(ErrorOf(slid->score, number), 10.0);
   }
 }
 
@@ -1165,11 +1168,7 @@ TEST(PoolDarkBalls, SixWithItsDiscToTheCameraIsFittedOnItsRim) {
   with_edge_pass.balls.darker_edge_pass_srgb = true;
   auto drawn = AnalyzeAndScore(scene, view, with_edge_pass);
   ASSERT_TRUE(drawn.ok()) << drawn.status();
-  for (const auto& m : drawn->score.matches) {
-    if (m.truth_number == 6) {
-      EXPECT_GT(m.error_mm, 15.0);
-    }
-  }
+  EXPECT_GT(ErrorOf(drawn->score, 6), 15.0);
 }
 
 // A ball near the far cushion with the cushion's shaded face behind it: the dark face
