@@ -2322,7 +2322,7 @@ void BallFinder::RefineOutlines() {
           const float cx = p[2] - 0.5f * (p[1] + p[0]), cy = 0.8660254f * (p[1] - p[0]);
           if (std::hypot(cx, cy) > 0.25f * std::max(1.f, intensity)) {
             ball_chromatic.push_back(intensity);
-            ball_hues.push_back(static_cast<float>(std::atan2(cy, cx)));
+            ball_hues.push_back(static_cast<float>(std::atan2(cy, cx) * 180 / kPi));
           } else
             ball_grey.push_back(intensity);
           ball_saturations.push_back(std::hypot(cx, cy) / std::max(15.f, intensity));
@@ -2375,10 +2375,11 @@ void BallFinder::RefineOutlines() {
     // Whether the ball is darker than the cloth is told by its body: its coloured pixels
     // and its black, without the white of its number disc, its highlight and a shaded
     // white (grey pixels over half the cloth's brightness). A 6 or an 8 whose disc faces
-    // the camera is half white on a small ball, and by the median of all its pixels it was
-    // taken for a bright ball and its edge pass slid it into its shadow (held-out seed
-    // 59's frame 21: a 6 7.7 mm off on its silhouette, 21.9 mm after). A ball with too
-    // little body (the cue ball) keeps the median of all its pixels.
+    // up or to the camera is half white on a small ball, and by the median of all its
+    // pixels it was taken for a bright ball and its edge pass slid it into its shadow
+    // (benchmark seed 7's frame 26 rendered sRGB: an 8 of median 98 against the cloth's
+    // 104, body 29; 20 mm towards the camera before, 3.1 mm now). A ball with too little
+    // body (the cue ball) keeps the median of all its pixels.
     float body_median = ball_median;
     {
       std::vector<float> body = ball_chromatic;
@@ -2438,23 +2439,17 @@ void BallFinder::RefineOutlines() {
       if (used < kMinOutlinePoints) edge.SkipShadowedOutline(false);
     }
     // A ball darker than the cloth and of the cloth's hue or of none, in an sRGB picture,
-    // goes from its silhouette fit to its rim fit below (options.darker_edge_pass_srgb).
-    // Of the cloth's hue or of none (options.darker_edge_pass_srgb): the median gap between
-    // the hue of the ball's coloured pixels and the cloth's, when they are a good part of
-    // it; a grey or black ball has too few of them.
+    // goes from its silhouette fit to its rim fit below (options.darker_edge_pass_srgb):
+    // of the cloth's hue when the median gap between the hue of its coloured pixels and
+    // the cloth's is small, and they are a good part of it (a grey or black ball has too
+    // few of them).
     bool cloth_like = true;
-    {
-      const float ccx = local_cloth[2] - 0.5f * (local_cloth[1] + local_cloth[0]);
-      const float ccy = 0.8660254f * (local_cloth[1] - local_cloth[0]);
-      const float cloth_hue = std::atan2(ccy, ccx);
+    if (ball_hues.size() >= 5 && ball_hues.size() >= kMinBodyShare * ball_intensities.size()) {
+      double cloth_hue, unused_saturation, unused_intensity;
+      HueSaturation(local_cloth, &cloth_hue, &unused_saturation, &unused_intensity);
       std::vector<float> gaps;
-      for (float h : ball_hues) {
-        float g = std::abs(h - cloth_hue);
-        if (g > 3.14159265f) g = 2 * 3.14159265f - g;
-        gaps.push_back(g * 57.29578f);
-      }
-      if (gaps.size() >= kMinBodyShare * ball_intensities.size() && gaps.size() >= 5)
-        cloth_like = MedianOf(&gaps) < kClothLikeHueGapDeg;
+      for (float h : ball_hues) gaps.push_back(static_cast<float>(HueGapDeg(h, cloth_hue)));
+      cloth_like = MedianOf(&gaps) < kClothLikeHueGapDeg;
     }
     if (!darker_than_cloth || !in_light || options_.darker_edge_pass_srgb || !cloth_like)
       seeds_[i] = edge.Fit(seeds_[i], camera_);

@@ -157,18 +157,20 @@ struct PoolBallOptions {
   // learned under the table's own light (CalibrateColors) sees no cast. 0 turns this off.
   double white_balance_min_cast = 0.06;
   // A ball is taken as darker than the cloth (its outline beside its shadow left out of
-  // the edge pass, then fitted on its far rim, as below) when its median brightness is
-  // under 0.9 of the cloth's, or when the near half of its silhouette (the pixels more
-  // than 0.18 apparent radii from its centre towards the camera), in light, is under this
-  // share of the cloth's light. An 8 whose white number disc faces up is as bright as the
-  // cloth over its whole silhouette, but its lower half is black against its shadow: taken
-  // as a bright ball, the edge pass slid it into that shadow (benchmark seed 7's frame 26,
-  // 20 mm towards the camera; 4.7 mm with this). Every ball's lower half is shaded by the
-  // lamps above, so the share must be well under 1: over the twenty benchmark sets
-  // rendered sRGB, balls over 10 mm 126 + 151 -> 94 + 124 at 0.5 with their means 2.59 +
-  // 2.73 -> 2.57 + 2.71 mm (at 0.9 of the brightness as encoded: 101 + 134, but 2.74 + 2.91
-  // mm, the lower half of the 2, the 4 and the 7 under it); on the linear renders 50 + 75
-  // -> 50 + 74. 0 turns this off.
+  // the edge pass, then fitted on its far rim, as below) when the median brightness of its
+  // body (its pixels without the white of its number disc and highlight) is under 0.9 of
+  // the cloth's, or when the near half of its silhouette (the pixels more than 0.18
+  // apparent radii from its centre towards the camera), in light, is under this share of
+  // the cloth's light. A ball whose lit top is as bright as the cloth can have a lower
+  // half dark against its shadow: taken for a bright ball, the edge pass slid it into
+  // that shadow (benchmark seed 23's frame 42 rendered sRGB, a 6 11.9 mm towards the
+  // camera, 3.1 mm with this; seed 7's frame 53, a purple 4, 12.4 -> 3.1 mm). Every
+  // ball's lower half is shaded by the lamps above, so the share must be well under 1:
+  // over the twenty benchmark sets rendered sRGB, with the ball's median for its body
+  // (session 31's round 47), balls over 10 mm 126 + 151 -> 94 + 124 at 0.5, means 2.59 +
+  // 2.73 -> 2.57 + 2.71 mm (at 0.9 of the brightness as encoded: 101 + 134, but 2.74 +
+  // 2.91 mm, the lower half of the 2, the 4 and the 7 under it); linear 50 + 75 -> 50 +
+  // 74. With the body (round 49), 81 + 98 -> 72 + 98 over 10 mm. 0 turns this off.
   double near_half_dark_share = 0.5;
   // Whether a ball darker than the cloth, of the cloth's hue or of none (a green 6 on green
   // cloth, the 8), in an sRGB picture has the edge pass (the mean fall of its colour
@@ -176,7 +178,7 @@ struct PoolBallOptions {
   // shadow is 0.6-0.75 of the cloth's brightness, not dark enough to be ball-ness, so the
   // silhouette fit is not drawn into it; the edge pass was, by a white number disc whose
   // edge is a stronger fall than the ball's own against the cloth (held-out seed 61's
-  // frame 12: a 6 on its rim 4 mm off from its silhouette fit, 21.7 mm from the edge
+  // frame 12: a 6 4.0 mm off on its rim from its silhouette fit, 21.7 mm from the edge
   // pass's). A ball of another hue (the purple 4, the blue 2) has a clear outline and
   // keeps it. Over the twenty benchmark sets rendered sRGB, balls over 10 mm 87 + 117 ->
   // 72 + 98 without it (73 + 106 without it for every ball darker than the cloth, four
