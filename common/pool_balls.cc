@@ -1093,6 +1093,18 @@ float MedianOf(std::vector<float>* values) {
   return *middle;
 }
 
+// Whether a ball is of the cloth's hue or of none (PoolBallOptions::darker_edge_pass_srgb):
+// the median gap between `hues` (degrees, of its coloured pixels; reordered) and the
+// cloth's is under kClothLikeHueGapDeg, or they are too few of its `ball_pixels` to say
+// (a grey or black ball).
+bool OfClothHueOrNone(std::vector<float>* hues, size_t ball_pixels, const cv::Vec3f& cloth) {
+  if (hues->size() < 5 || hues->size() < kMinBodyShare * ball_pixels) return true;
+  double cloth_hue, unused_saturation, unused_intensity;
+  HueSaturation(cloth, &cloth_hue, &unused_saturation, &unused_intensity);
+  for (float& h : *hues) h = static_cast<float>(HueGapDeg(h, cloth_hue));
+  return MedianOf(hues) < kClothLikeHueGapDeg;
+}
+
 }  // namespace
 
 absl::Status PoolBallOptions::Validate() const {
@@ -2439,20 +2451,10 @@ void BallFinder::RefineOutlines() {
       if (used < kMinOutlinePoints) edge.SkipShadowedOutline(false);
     }
     // A ball darker than the cloth and of the cloth's hue or of none, in an sRGB picture,
-    // goes from its silhouette fit to its rim fit below (options.darker_edge_pass_srgb):
-    // of the cloth's hue when the median gap between the hue of its coloured pixels and
-    // the cloth's is small, and they are a good part of it (a grey or black ball has too
-    // few of them).
-    bool cloth_like = true;
-    if (ball_hues.size() >= 5 && ball_hues.size() >= kMinBodyShare * ball_intensities.size()) {
-      double cloth_hue, unused_saturation, unused_intensity;
-      HueSaturation(local_cloth, &cloth_hue, &unused_saturation, &unused_intensity);
-      std::vector<float> gaps;
-      for (float h : ball_hues) gaps.push_back(static_cast<float>(HueGapDeg(h, cloth_hue)));
-      cloth_like = MedianOf(&gaps) < kClothLikeHueGapDeg;
-    }
-    if (!darker_than_cloth || !in_light || options_.darker_edge_pass_srgb || !cloth_like)
-      seeds_[i] = edge.Fit(seeds_[i], camera_);
+    // goes from its silhouette fit to its rim fit below (options.darker_edge_pass_srgb).
+    const bool straight_to_rim = darker_than_cloth && in_light && !options_.darker_edge_pass_srgb &&
+                                 OfClothHueOrNone(&ball_hues, ball_intensities.size(), local_cloth);
+    if (!straight_to_rim) seeds_[i] = edge.Fit(seeds_[i], camera_);
     if (!darker_than_cloth && options_.edge_point_reach > 0) {
       // The edge pass's mean fall is drawn to where the ball's contrast is strongest; its
       // outline is where the edge is (options.edge_point_reach).

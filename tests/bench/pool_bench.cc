@@ -333,7 +333,7 @@ int main(int argc, char** argv) {
               "within this many pixels (0: never)");
   ball_option("--near-half-dark-share", &analyzer_options.balls.near_half_dark_share,
               "A ball whose silhouette's near half has under this share of the cloth's light "
-              "is fitted as one darker than the cloth (0: only by its median brightness)");
+              "is fitted as one darker than the cloth (0: only by its body's median brightness)");
   app.add_flag("--darker-edge-pass-srgb", analyzer_options.balls.darker_edge_pass_srgb,
                "Give a ball darker than the cloth in an sRGB picture the edge pass between its "
                "silhouette and rim fits (PoolBallOptions::darker_edge_pass_srgb)");
