@@ -1192,6 +1192,10 @@ absl::Status PoolBallOptions::Validate() const {
   if (!(dark_reflection_brightness >= 0 && dark_reflection_brightness < 1))
     return absl::InvalidArgumentError(
         "dark_reflection_brightness must be in [0, 1) (a share of the lit cloth's brightness)");
+  if (!(dark_reflection_chroma_srgb >= 0 && dark_reflection_chroma_srgb < 1))
+    return absl::InvalidArgumentError(absl::StrCat(
+        "dark_reflection_chroma_srgb must be in [0, 1) (a share of the lit cloth's colour), got ",
+        dark_reflection_chroma_srgb));
   if (!(dark_reflection_hue_deg >= 0 && dark_reflection_hue_deg <= 180))
     return absl::InvalidArgumentError("dark_reflection_hue_deg must be in [0, 180] degrees");
   if (!(split_hidden_min_visible >= 0 && split_hidden_min_visible <= 1))
@@ -1767,6 +1771,7 @@ class BallFinder {
   std::vector<PoolDetectedBall> balls_;
   std::vector<char> balls_moved_;  // per ball: placed by the overlap rule
   double cloth_hue_ = 0;           // for the dark reflection votes
+  double cloth_saturation_ = 0;    // the same
 };
 
 bool BallFinder::FindBallPixels(const cv::Rect& valid) {
@@ -2741,8 +2746,8 @@ void BallFinder::ResolveOverlaps() {
 
 void BallFinder::KeepBalls() {
   // Keep distinct, well-supported balls on the table.
-  double unused_saturation, unused_intensity;
-  HueSaturation(cloth_, &cloth_hue_, &unused_saturation, &unused_intensity);
+  double unused_intensity;
+  HueSaturation(cloth_, &cloth_hue_, &cloth_saturation_, &unused_intensity);
   std::vector<cv::Point2d> kept;
   for (size_t i = 0; i < seeds_.size(); ++i) {
     if (seeds_[i].x < -r_ / 2 || seeds_[i].y < -r_ / 2 || seeds_[i].x > L_ + r_ / 2 ||
@@ -2894,6 +2899,14 @@ void BallFinder::KeepBalls() {
         if (vote != 8 && q < options_.dark_reflection_brightness) {
           if (HueGapDeg(hue, cloth_hue_) < options_.dark_reflection_hue_deg) vote = 8;
         }
+        // In an sRGB picture the 8's dark pixels take the cloth's colour from JPEG's
+        // colour smear well above dark_reflection_brightness: of the cloth's hue, they are
+        // told from a solid ball of it (the green 6) by how little colour they carry
+        // against the cloth's (options.dark_reflection_chroma_srgb).
+        if (srgb && vote > 1 && vote != 8 &&
+            sat * q < options_.dark_reflection_chroma_srgb * cloth_saturation_ &&
+            HueGapDeg(hue, cloth_hue_) < options_.dark_reflection_hue_deg)
+          vote = 8;
         if (vote == 0 || vote == 1) {
           // White and yellow mix at the 9's stripe edges, in the highlight and in any
           // blur: the pixel's blue share (blue is what yellow lacks) says how much of it

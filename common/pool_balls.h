@@ -287,6 +287,16 @@ struct PoolBallOptions {
   // and its lit top brighter: its votes under 0.2 are a few percent. 0 turns this off.
   double dark_reflection_brightness = 0.2;
   double dark_reflection_hue_deg = 30;
+  // In an sRGB picture (pixel_encoding kSrgb), a ball pixel of a solid colour within
+  // dark_reflection_hue_deg of the cloth's whose colour (its chroma over the lit cloth's
+  // brightness) is under this share of the cloth's own votes for the 8, however bright:
+  // JPEG halves the colour resolution, and the 8's dark pixels beside the cloth or its
+  // white disc take the cloth's colour at a fifth to a third of its strength, where the
+  // green 6's own pixels carry 0.35 and more of it (99th percentile over the twenty sets
+  // rendered sRGB). An 8 was read as the 6 in 12 of them. In a linear picture a 6's shaded
+  // pixels carry as little colour, and its 8s were read as the 6 once: it is not used
+  // there. 0 turns this off.
+  double dark_reflection_chroma_srgb = 0.3;
 
   absl::Status Validate() const;
 };

@@ -334,6 +334,9 @@ int main(int argc, char** argv) {
   ball_option("--near-half-dark-share", &analyzer_options.balls.near_half_dark_share,
               "A ball whose silhouette's near half has under this share of the cloth's light "
               "is fitted as one darker than the cloth (0: only by its body's median brightness)");
+  ball_option("--dark-reflection-chroma-srgb", &analyzer_options.balls.dark_reflection_chroma_srgb,
+              "In an sRGB picture a ball pixel of the cloth's hue with under this share of the "
+              "cloth's colour votes for the 8 (0: never)");
   app.add_flag("--darker-edge-pass-srgb", analyzer_options.balls.darker_edge_pass_srgb,
                "Give a ball darker than the cloth in an sRGB picture the edge pass between its "
                "silhouette and rim fits (PoolBallOptions::darker_edge_pass_srgb)");
