@@ -1196,6 +1196,10 @@ absl::Status PoolBallOptions::Validate() const {
     return absl::InvalidArgumentError(absl::StrCat(
         "dark_reflection_chroma_srgb must be in [0, 1) (a share of the lit cloth's colour), got ",
         dark_reflection_chroma_srgb));
+  if (!(vote_min_colour_share >= 0 && vote_min_colour_share <= 1))
+    return absl::InvalidArgumentError(
+        absl::StrCat("vote_min_colour_share must be in [0, 1] (a share of a colour's chroma), got ",
+                     vote_min_colour_share));
   if (!(dark_reflection_hue_deg >= 0 && dark_reflection_hue_deg <= 180))
     return absl::InvalidArgumentError("dark_reflection_hue_deg must be in [0, 180] degrees");
   if (!(split_hidden_min_visible >= 0 && split_hidden_min_visible <= 1))
@@ -2878,23 +2882,45 @@ void BallFinder::KeepBalls() {
         HueSaturation(cv::Vec3f(p[0], p[1], p[2]), &hue, &sat, &intensity);
         const double q = intensity / (profile_cloth * light);
         int vote;
+        bool red_cue = false;  // the 3's and the 7's cues are read on this pixel
         if (q < 0.45 && sat < 0.6) {
           vote = 8;
         } else if (sat < 0.25) {
           vote = q < 0.55 ? 8 : 0;
         } else {
           // Nearest solid colour in the intensity-normalised chroma plane (seed eq. 4.1
-          // on the chromatic part, which is independent of the light's strength).
+          // on the chromatic part, which is independent of the light's strength), as the
+          // segment from grey to the colour for a pixel brighter than the lit cloth: one that
+          // mixes a ball's colour with white (its highlight, its number disc, the blur
+          // between them) lies on that segment. A darker pale pixel is shade, noise or the
+          // cloth mixed in, and keeps the colour's point (a maroon 7's shade read as the 5).
+          // By the colour's point alone, the lit orange 5's pale pixels were nearer the
+          // maroon 7, which is less saturated, than their own colour
+          // (options.vote_min_colour_share). The 3 and the 7 are told apart by the
+          // saturation and brightness of their pixels nearest a red colour's point: the
+          // pale ones would only dilute that.
           const double x = sat * std::cos(hue * kPi / 180), y = sat * std::sin(hue * kPi / 180);
           vote = 1;
-          double best = 1e9;
+          int point_vote = 1;
+          double best = 1e9, best_point = 1e9;
           for (int k = 1; k <= 7; ++k) {
-            const double d = std::hypot(x - refs[k].chroma_x, y - refs[k].chroma_y);
+            const double rx = refs[k].chroma_x, ry = refs[k].chroma_y;
+            const double t = q < 1
+                                 ? 1.0
+                                 : std::clamp((x * rx + y * ry) / std::max(1e-9, rx * rx + ry * ry),
+                                              options_.vote_min_colour_share, 1.0);
+            const double d = std::hypot(x - t * rx, y - t * ry);
             if (d < best) {
               best = d;
               vote = k;
             }
+            const double d_point = std::hypot(x - rx, y - ry);
+            if (d_point < best_point) {
+              best_point = d_point;
+              point_vote = k;
+            }
           }
+          red_cue = point_vote == 3 || point_vote == 7;
         }
         if (vote != 8 && q < options_.dark_reflection_brightness) {
           if (HueGapDeg(hue, cloth_hue_) < options_.dark_reflection_hue_deg) vote = 8;
@@ -2922,6 +2948,10 @@ void BallFinder::KeepBalls() {
           yellow_rho += (1 - w) * rho;
         } else if (vote == 3 || vote == 7) {
           red_votes += 1;
+        } else {
+          ball.votes[vote] += 1;
+        }
+        if (red_cue && vote != 8) {
           if (std::max({p[0], p[1], p[2]}) < 250 && red_in_light) {
             double light_hue, light_sat, light_intensity;
             HueSaturation(cv::Vec3f(light_of[p[0]], light_of[p[1]], light_of[p[2]]), &light_hue,
@@ -2932,8 +2962,6 @@ void BallFinder::KeepBalls() {
             red_saturation.push_back(static_cast<float>(sat));
             red_brightness.push_back(static_cast<float>(q));
           }
-        } else {
-          ball.votes[vote] += 1;
         }
       }
     if (red_votes > 0) {

@@ -297,6 +297,14 @@ struct PoolBallOptions {
   // pixels carry as little colour, and its 8s were read as the 6 once: it is not used
   // there. 0 turns this off.
   double dark_reflection_chroma_srgb = 0.3;
+  // A chromatic ball pixel brighter than the lit cloth votes for the solid colour nearest
+  // to it in the chroma plane, taken as the segment from this share of the colour's chroma
+  // up to all of it: a pixel mixing a ball's colour with white (highlight, number disc,
+  // blur) lies on that segment nearer grey. By the colour's point, the orange 5's pale
+  // pixels were nearer the maroon 7, which is less saturated, and a 5 of a few pixels was
+  // read as the 7 or the 3 (the 9-ft table rendered sRGB: 84% of separated balls named).
+  // 0.4-0.7 name the same over the twenty sets rendered sRGB. 1: the colour's point alone.
+  double vote_min_colour_share = 0.5;
 
   absl::Status Validate() const;
 };

@@ -337,6 +337,9 @@ int main(int argc, char** argv) {
   ball_option("--dark-reflection-chroma-srgb", &analyzer_options.balls.dark_reflection_chroma_srgb,
               "In an sRGB picture a ball pixel of the cloth's hue with under this share of the "
               "cloth's colour votes for the 8 (0: never)");
+  ball_option("--vote-min-colour-share", &analyzer_options.balls.vote_min_colour_share,
+              "A chromatic pixel votes for the colour whose chroma, from this share of it to "
+              "all of it, lies nearest (1: the colour's point alone)");
   app.add_flag("--darker-edge-pass-srgb", analyzer_options.balls.darker_edge_pass_srgb,
                "Give a ball darker than the cloth in an sRGB picture the edge pass between its "
                "silhouette and rim fits (PoolBallOptions::darker_edge_pass_srgb)");

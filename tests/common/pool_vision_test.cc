@@ -754,6 +754,39 @@ TEST(PoolNumbers, RedThreeAndMaroonSevenOfAnSrgbPictureAreReadInLight) {
   EXPECT_LT(PoolRedShareOfThree(2.3, 0.65, profile, PixelEncoding::kSrgb), 0.1);
 }
 
+// The orange 5 of a few pixels in an sRGB picture, lit: its pale pixels (its colour mixed
+// with the highlight's and the number disc's white) were nearer the maroon 7's colour,
+// which is less saturated, than the 5's own, and it was read as the 7 (seed 13's frame 20:
+// 36 votes of the red group against 20 for the 5; seed 83's frame 10: 32 against none).
+// Taken as the segment from grey to each colour (PoolBallOptions::vote_min_colour_share),
+// they vote for the 5.
+TEST(PoolNumbers, PaleOrangeFiveOfAnSrgbPictureIsNotARedBall) {
+  const std::pair<uint64_t, int> cases[] = {{13, 20}, {83, 10}};
+  for (const auto& [seed, frame] : cases) {
+    SCOPED_TRACE("seed " + std::to_string(seed) + " frame " + std::to_string(frame));
+    const auto [scene, view] = SrgbBenchFrame(frame, seed);
+    auto scored = AnalyzeAndScore(scene, view);
+    ASSERT_TRUE(scored.ok()) << scored.status();
+    ExpectSeparatedBallNamed(scored->score, 5, 10.0);
+    PoolAnalyzerOptions by_point;
+    by_point.balls.vote_min_colour_share = 1;
+    auto pale = AnalyzeAndScore(scene, view, by_point);
+    ASSERT_TRUE(pale.ok()) << pale.status();
+    bool seen = false;
+    for (const auto& m : pale->score.matches)
+      if (m.truth_number == 5) {
+        seen = true;
+        EXPECT_EQ(m.estimated_number, 7);
+      }
+    EXPECT_TRUE(seen);
+  }
+  PoolBallOptions options;
+  options.vote_min_colour_share = 1.5;
+  EXPECT_FALSE(options.Validate().ok());
+  options.vote_min_colour_share = -0.5;
+  EXPECT_FALSE(options.Validate().ok());
+}
+
 // The balls the benchmark found hardest, under JPEG: the black 8 (dark against its own
 // shadow), the green 6 on green cloth, the red 3 and maroon 7 (told by saturation) and the
 // 9 against the 1 and the cue; near and far, from a long and a short side.
