@@ -1218,6 +1218,36 @@ TEST(PoolDarkBalls, EightTintedByTheClothIsNotTheSix) {
   EXPECT_FALSE(options.Validate().ok());
 }
 
+// An 8 whose white number disc faces the camera, in an sRGB picture: two thirds of its
+// votes white, and it was read as the cue ball (seed 31's frame 12, no cue ball in view:
+// 25 white votes, 17 black; seed 61's frame 59: 25 and 11). An sRGB picture lifts a cue
+// ball's shaded side to grey, so black votes rule the cue ball out
+// (PoolBallOptions::cue_max_black_share_srgb): named the 8.
+TEST(PoolDarkBalls, EightWithItsDiscUpIsNotTheCueBall) {
+  const std::pair<uint64_t, int> cases[] = {{31, 12}, {61, 59}};
+  for (const auto& [seed, frame] : cases) {
+    SCOPED_TRACE("seed " + std::to_string(seed) + " frame " + std::to_string(frame));
+    const auto [scene, view] = SrgbBenchFrame(frame, seed);
+    auto scored = AnalyzeAndScore(scene, view);
+    ASSERT_TRUE(scored.ok()) << scored.status();
+    ExpectSeparatedBallNamed(scored->score, 8, 10.0);
+    PoolAnalyzerOptions black_allowed;
+    black_allowed.balls.cue_max_black_share_srgb = 0;
+    auto white = AnalyzeAndScore(scene, view, black_allowed);
+    ASSERT_TRUE(white.ok()) << white.status();
+    bool seen = false;
+    for (const auto& m : white->score.matches)
+      if (m.truth_number == 8) {
+        seen = true;
+        EXPECT_EQ(m.estimated_number, 0);
+      }
+    EXPECT_TRUE(seen);
+  }
+  PoolBallOptions options;
+  options.cue_max_black_share_srgb = 1.5;
+  EXPECT_FALSE(options.Validate().ok());
+}
+
 // A green 6 on green cloth whose white number disc faces the camera: the disc's edge is a
 // stronger fall of the colour distance than the ball's own outline, and the edge pass
 // drew the fit 2.8 px down to it, 21.7 mm towards the camera (held-out seed 61's frame 12
