@@ -305,6 +305,8 @@ int main(int argc, char** argv) {
   const auto ball_option = [&app](const char* name, double* value, const std::string& help) {
     app.add_option(name, *value, help)->capture_default_str();
   };
+  ball_option("--ball-chroma-distance", &analyzer_options.balls.ball_chroma_distance,
+              "A pixel whose chromaticity is this far from the cloth's is ball");
   ball_option("--stick-opening-radius", &analyzer_options.balls.stick_opening_radius,
               "Cue-stick strips are what an opening with a disc of this many ball radii "
               "removes (0: nothing is a stick)");
