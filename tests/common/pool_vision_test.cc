@@ -147,6 +147,30 @@ BenchFrame SrgbBenchFrame(int frame, uint64_t seed = 7) {
   return out;
 }
 
+// For each (seed, frame) of the benchmark's sets rendered sRGB: the separated ball numbered
+// `number` is named and within `max_error_mm`, and with `without` (the options that turn
+// the change under test off) it is read as `read_as`.
+void ExpectSrgbBallNamedAndReadAsWithout(const std::vector<std::pair<uint64_t, int>>& cases,
+                                         int number, double max_error_mm,
+                                         const PoolAnalyzerOptions& without, int read_as) {
+  for (const auto& [seed, frame] : cases) {
+    SCOPED_TRACE("seed " + std::to_string(seed) + " frame " + std::to_string(frame));
+    const auto [scene, view] = SrgbBenchFrame(frame, seed);
+    auto scored = AnalyzeAndScore(scene, view);
+    ASSERT_TRUE(scored.ok()) << scored.status();
+    ExpectSeparatedBallNamed(scored->score, number, max_error_mm);
+    auto before = AnalyzeAndScore(scene, view, without);
+    ASSERT_TRUE(before.ok()) << before.status();
+    bool seen = false;
+    for (const auto& m : before->score.matches)
+      if (m.truth_number == number) {
+        seen = true;
+        EXPECT_EQ(m.estimated_number, read_as);
+      }
+    EXPECT_TRUE(seen) << "no " << number << " in view";
+  }
+}
+
 // A fixed, well-spread layout of all ten balls (none touching).
 std::vector<testdata::PoolBallPlacement> SpreadLayout() {
   return {{0, 300, 350}, {1, 520, 200}, {2, 700, 520}, {3, 900, 180},  {4, 1050, 450},
@@ -761,25 +785,9 @@ TEST(PoolNumbers, RedThreeAndMaroonSevenOfAnSrgbPictureAreReadInLight) {
 // Taken as the segment from grey to each colour (PoolBallOptions::vote_min_colour_share),
 // they vote for the 5.
 TEST(PoolNumbers, PaleOrangeFiveOfAnSrgbPictureIsNotARedBall) {
-  const std::pair<uint64_t, int> cases[] = {{13, 20}, {83, 10}};
-  for (const auto& [seed, frame] : cases) {
-    SCOPED_TRACE("seed " + std::to_string(seed) + " frame " + std::to_string(frame));
-    const auto [scene, view] = SrgbBenchFrame(frame, seed);
-    auto scored = AnalyzeAndScore(scene, view);
-    ASSERT_TRUE(scored.ok()) << scored.status();
-    ExpectSeparatedBallNamed(scored->score, 5, 10.0);
-    PoolAnalyzerOptions by_point;
-    by_point.balls.vote_min_colour_share = 1;
-    auto pale = AnalyzeAndScore(scene, view, by_point);
-    ASSERT_TRUE(pale.ok()) << pale.status();
-    bool seen = false;
-    for (const auto& m : pale->score.matches)
-      if (m.truth_number == 5) {
-        seen = true;
-        EXPECT_EQ(m.estimated_number, 7);
-      }
-    EXPECT_TRUE(seen);
-  }
+  PoolAnalyzerOptions by_point;
+  by_point.balls.vote_min_colour_share = 1;
+  ExpectSrgbBallNamedAndReadAsWithout({{13, 20}, {83, 10}}, 5, 10.0, by_point, 7);
   PoolBallOptions options;
   options.vote_min_colour_share = 1.5;
   EXPECT_FALSE(options.Validate().ok());
@@ -1192,25 +1200,9 @@ TEST(PoolDarkBalls, EightWithItsNumberUpIsToldByItsBlackBody) {
 // Told by how little colour they carry (PoolBallOptions::dark_reflection_chroma_srgb), it
 // is named the 8.
 TEST(PoolDarkBalls, EightTintedByTheClothIsNotTheSix) {
-  const std::pair<uint64_t, int> cases[] = {{13, 12}, {43, 16}};
-  for (const auto& [seed, frame] : cases) {
-    SCOPED_TRACE("seed " + std::to_string(seed) + " frame " + std::to_string(frame));
-    const auto [scene, view] = SrgbBenchFrame(frame, seed);
-    auto scored = AnalyzeAndScore(scene, view);
-    ASSERT_TRUE(scored.ok()) << scored.status();
-    ExpectSeparatedBallNamed(scored->score, 8, 8.0);
-    PoolAnalyzerOptions by_hue;
-    by_hue.balls.dark_reflection_chroma_srgb = 0;
-    auto tinted = AnalyzeAndScore(scene, view, by_hue);
-    ASSERT_TRUE(tinted.ok()) << tinted.status();
-    bool seen = false;
-    for (const auto& m : tinted->score.matches)
-      if (m.truth_number == 8) {
-        seen = true;
-        EXPECT_EQ(m.estimated_number, 6);
-      }
-    EXPECT_TRUE(seen);
-  }
+  PoolAnalyzerOptions by_hue;
+  by_hue.balls.dark_reflection_chroma_srgb = 0;
+  ExpectSrgbBallNamedAndReadAsWithout({{13, 12}, {43, 16}}, 8, 8.0, by_hue, 6);
   PoolBallOptions options;
   options.dark_reflection_chroma_srgb = 1.5;
   EXPECT_FALSE(options.Validate().ok());
@@ -1224,25 +1216,9 @@ TEST(PoolDarkBalls, EightTintedByTheClothIsNotTheSix) {
 // ball's shaded side to grey, so black votes rule the cue ball out
 // (PoolBallOptions::cue_max_black_share_srgb): named the 8.
 TEST(PoolDarkBalls, EightWithItsDiscUpIsNotTheCueBall) {
-  const std::pair<uint64_t, int> cases[] = {{31, 12}, {61, 59}};
-  for (const auto& [seed, frame] : cases) {
-    SCOPED_TRACE("seed " + std::to_string(seed) + " frame " + std::to_string(frame));
-    const auto [scene, view] = SrgbBenchFrame(frame, seed);
-    auto scored = AnalyzeAndScore(scene, view);
-    ASSERT_TRUE(scored.ok()) << scored.status();
-    ExpectSeparatedBallNamed(scored->score, 8, 10.0);
-    PoolAnalyzerOptions black_allowed;
-    black_allowed.balls.cue_max_black_share_srgb = 0;
-    auto white = AnalyzeAndScore(scene, view, black_allowed);
-    ASSERT_TRUE(white.ok()) << white.status();
-    bool seen = false;
-    for (const auto& m : white->score.matches)
-      if (m.truth_number == 8) {
-        seen = true;
-        EXPECT_EQ(m.estimated_number, 0);
-      }
-    EXPECT_TRUE(seen);
-  }
+  PoolAnalyzerOptions black_allowed;
+  black_allowed.balls.cue_max_black_share_srgb = 0;
+  ExpectSrgbBallNamedAndReadAsWithout({{31, 12}, {61, 59}}, 8, 10.0, black_allowed, 0);
   PoolBallOptions options;
   options.cue_max_black_share_srgb = 1.5;
   EXPECT_FALSE(options.Validate().ok());
