@@ -1786,7 +1786,7 @@ class BallFinder {
   std::vector<PoolDetectedBall> balls_;
   std::vector<char> balls_moved_;  // per ball: placed by the overlap rule
   double cloth_hue_ = 0;           // for the dark reflection votes
-  double cloth_saturation_ = 0;    // the same
+  double cloth_saturation_ = 0;    // for dark_reflection_chroma_srgb
 };
 
 bool BallFinder::FindBallPixels(const cv::Rect& valid) {
@@ -2900,16 +2900,15 @@ void BallFinder::KeepBalls() {
           vote = q < 0.55 ? 8 : 0;
         } else {
           // Nearest solid colour in the intensity-normalised chroma plane (seed eq. 4.1
-          // on the chromatic part, which is independent of the light's strength), as the
-          // segment from grey to the colour for a pixel brighter than the lit cloth: one that
-          // mixes a ball's colour with white (its highlight, its number disc, the blur
-          // between them) lies on that segment. A darker pale pixel is shade, noise or the
-          // cloth mixed in, and keeps the colour's point (a maroon 7's shade read as the 5).
-          // By the colour's point alone, the lit orange 5's pale pixels were nearer the
-          // maroon 7, which is less saturated, than their own colour
-          // (options.vote_min_colour_share). The 3 and the 7 are told apart by the
-          // saturation and brightness of their pixels nearest a red colour's point: the
-          // pale ones would only dilute that.
+          // on the chromatic part, which is independent of the light's strength). For a
+          // pixel brighter than the lit cloth, the colour is the segment from grey to it
+          // (options.vote_min_colour_share): such a pixel mixes a ball's colour with white
+          // (its highlight, its number disc, the blur between them), and by the colour's
+          // point the lit orange 5's pale pixels were nearer the maroon 7, which is less
+          // saturated, than their own colour. A darker pale pixel is shade, noise or the
+          // cloth mixed in, and keeps the point (else a maroon 7's shade read as the 5).
+          // The 3 and the 7 are told apart by the saturation and brightness of the pixels
+          // nearest a red colour's point: the pale ones would only dilute that.
           const double x = sat * std::cos(hue * kPi / 180), y = sat * std::sin(hue * kPi / 180);
           vote = 1;
           int point_vote = 1;
