@@ -1284,6 +1284,18 @@ constexpr double kRedClothHueGapDeg = 45;
 // The two calibrated red colours' cues: saturation and log brightness over the cloth.
 struct RedCues {
   double sat[2], log_bright[2];  // [0] the 3, [1] the 7; log_bright NaN when unusable
+  // How far each cue may go, in quarters of the gap (SaturationZ, BrightnessZ): the one that
+  // decides up to the whole gap, the other up to half of it, where it only tips a ball
+  // that the first leaves near the middle. In a linear picture saturation decides:
+  // brightness depends on how each ball sits in the light (a 3 away from the lamps is as
+  // dark as a 7 under one). In an sRGB picture, read in light, brightness decides: JPEG's
+  // colour smear, undone by the decoding, takes a small 3's saturation down to the 7's
+  // (over the twenty sets rendered sRGB, the 3s' 5th percentile 2.32 against the 7s' 95th
+  // 2.43), while its brightness over the cloth around it stays clear of theirs (1st
+  // percentile 1.40 against 99th 1.58). Linear, saturation 1.47 against 1.57 and brightness
+  // 0.92 against 1.09. With saturation deciding, 9 separated red balls of the twenty sets
+  // rendered sRGB were misnamed, and 3 of the 9-ft set's; none is now.
+  double sat_cap = 4, bright_cap = 2;
 };
 // In light for kSrgb (the profile's colours decoded).
 RedCues RedCuesOf(const PoolTableProfile& profile, PixelEncoding encoding) {
@@ -1291,6 +1303,10 @@ RedCues RedCuesOf(const PoolTableProfile& profile, PixelEncoding encoding) {
     return ColourInLight(cv::Vec3f(v[0], v[1], v[2]), encoding);
   };
   RedCues c;
+  if (encoding == PixelEncoding::kSrgb) {
+    c.sat_cap = 2;
+    c.bright_cap = 4;
+  }
   const cv::Vec3f pc = values(profile.cloth_bgr);
   const double cloth = std::max(0.1, (pc[0] + pc[1] + pc[2]) / 3.0);
   for (int k = 0; k < 2; ++k) {
@@ -1301,17 +1317,16 @@ RedCues RedCuesOf(const PoolTableProfile& profile, PixelEncoding encoding) {
   return c;
 }
 // Each cue as a signed distance in quarters of the gap between the two calibrated colours
-// (positive: towards the 3); 0 when the colours do not differ in it. Brightness depends on
-// how each ball sits in the light (a 3 away from the lamps is as dark as a 7 under one), so
-// it is capped at half the gap: it tips a ball whose saturation lies within half the gap,
-// never a clear one.
+// (positive: towards the 3), capped as RedCues says; 0 when the colours do not differ in
+// it.
 double SaturationZ(double saturation_delta, const RedCues& c) {
   if (std::abs(c.sat[0] - c.sat[1]) <= 0.05) return 0;
-  return std::clamp(saturation_delta / ((c.sat[0] - c.sat[1]) / 4), -4.0, 4.0);
+  return std::clamp(saturation_delta / ((c.sat[0] - c.sat[1]) / 4), -c.sat_cap, c.sat_cap);
 }
 double BrightnessZ(double log_brightness_delta, const RedCues& c) {
   if (!(std::abs(c.log_bright[0] - c.log_bright[1]) > 0.1)) return 0;
-  return std::clamp(log_brightness_delta / ((c.log_bright[0] - c.log_bright[1]) / 4), -2.0, 2.0);
+  return std::clamp(log_brightness_delta / ((c.log_bright[0] - c.log_bright[1]) / 4), -c.bright_cap,
+                    c.bright_cap);
 }
 }  // namespace
 

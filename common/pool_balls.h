@@ -389,12 +389,13 @@ std::array<double, 10> PoolNumberScores(const PoolVotes& votes, const PoolBallOp
 // cues tell them apart against the profile's calibrated colours: saturation (chroma over
 // intensity) and brightness over the cloth's (the 3 reflects about half as much light
 // again as the 7). Each is scaled by the gap between the two calibrated colours in it.
-// Brightness also depends on where the ball sits in the light, so it only decides a ball
-// whose saturation lies within half the gap of the middle (a small ball loses some
-// saturation to the cloth mixed in at its edge), never against a clear saturation.
-// `brightness` <= 0: saturation alone. `encoding`: what the cues were measured on, the
-// picture's values (kLinear) or the light an sRGB picture encodes (kSrgb, the profile's
-// colours decoded alike).
+// In a linear picture (kLinear) brightness also depends on where the ball sits in the
+// light, so it only decides a ball whose saturation lies within half the gap of the middle
+// (a small ball loses some saturation to the cloth mixed in at its edge), never against a
+// clear saturation. In an sRGB picture (kSrgb, the cues read in light and the profile's
+// colours decoded alike) JPEG's colour smear takes more of a small 3's saturation, and the
+// roles are the other way round: brightness decides, saturation tips.
+// `brightness` <= 0: saturation alone.
 double PoolRedShareOfThree(double saturation, double brightness, const PoolTableProfile& profile,
                            PixelEncoding encoding);
 // The same for two red balls of one picture, one of which is the 3 and the other the 7:
