@@ -1293,8 +1293,8 @@ struct RedCues {
   // (over the twenty sets rendered sRGB, the 3s' 5th percentile 2.32 against the 7s' 95th
   // 2.43), while its brightness over the cloth around it stays clear of theirs (1st
   // percentile 1.40 against 99th 1.58). Linear, saturation 1.47 against 1.57 and brightness
-  // 0.92 against 1.09. With saturation deciding, 9 separated red balls of the twenty sets
-  // rendered sRGB were misnamed, and 3 of the 9-ft set's; none is now.
+  // 0.92 against 1.09. With saturation deciding, 9 separated 3s and 7s of the twenty sets
+  // rendered sRGB were misnamed (none is now), and the 9-ft set named 3 balls fewer.
   double sat_cap = 4, bright_cap = 2;
 };
 // In light for kSrgb (the profile's colours decoded).
