@@ -1170,10 +1170,10 @@ absl::Status PoolBallOptions::Validate() const {
     return absl::InvalidArgumentError(absl::StrCat(
         "moved_number_weight must be in (0, 1] (a factor on a moved ball's number scores), got ",
         moved_number_weight));
-  if (!(cue_max_black_share_srgb >= 0 && cue_max_black_share_srgb <= 1))
+  if (!(max_black_share_srgb >= 0 && max_black_share_srgb <= 1))
     return absl::InvalidArgumentError(
-        absl::StrCat("cue_max_black_share_srgb must be in [0, 1] (a share of a ball's votes), got ",
-                     cue_max_black_share_srgb));
+        absl::StrCat("max_black_share_srgb must be in [0, 1] (a share of a ball's votes), got ",
+                     max_black_share_srgb));
   if (!(unnamed_score >= 0 && unnamed_score < 1))
     return absl::InvalidArgumentError(absl::StrCat(
         "unnamed_score must be in [0, 1) (a number's share of the votes), got ", unnamed_score));
@@ -1255,12 +1255,15 @@ std::array<double, 10> PoolNumberScores(const PoolVotes& votes, const PoolBallOp
   const double mid = (o.cue_white_share + o.one_white_share) / 2;
   const double half = (o.cue_white_share - o.one_white_share) / 2;
   s[0] = group * std::clamp((w - mid) / (1 - mid), 0.0, 1.0);
-  // In an sRGB picture the cue ball has no black: its shaded side is lifted to grey
-  // (options.cue_max_black_share_srgb). An 8 whose number disc faces the camera is as
-  // white as a cue ball besides its black.
-  if (o.pixel_encoding == PixelEncoding::kSrgb && o.cue_max_black_share_srgb > 0) {
-    const double black_share = votes[8] / total, most = o.cue_max_black_share_srgb;
-    s[0] *= std::clamp((most - black_share) / (0.5 * most), 0.0, 1.0);
+  // In an sRGB picture neither the cue ball nor the green 6 has black: their shaded sides
+  // are lifted to grey and dark green (options.max_black_share_srgb). An 8 whose number
+  // disc faces the camera is as white as a cue ball besides its black, and on green cloth
+  // its few dark pixels tinted by the cloth read as the 6's.
+  if (o.pixel_encoding == PixelEncoding::kSrgb && o.max_black_share_srgb > 0) {
+    const double black_share = votes[8] / total, most = o.max_black_share_srgb;
+    const double not_black = std::clamp((most - black_share) / (0.5 * most), 0.0, 1.0);
+    s[0] *= not_black;
+    s[6] *= not_black;
   }
   // Between the 1 and the 9, white at the outline counts as more of the 9's white caps.
   const double w19 =

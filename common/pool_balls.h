@@ -106,13 +106,14 @@ struct PoolBallOptions {
   // named, no other ball of the ten green sets is named otherwise, and one false ball (a
   // dark patch on seed 29, no 8 found in that frame) is named 8 instead of nothing.
   double unnamed_score = 0.08;
-  // In an sRGB picture (pixel_encoding kSrgb) the cue ball's score falls from full at half
-  // this share of black votes to none at it: its shaded side is lifted to grey, and over the
-  // twenty sets rendered sRGB no cue ball had more than 0.053 of its votes black, while an
-  // 8 whose white number disc faces the camera, as white as a cue ball besides, has 0.1-0.5
-  // (it was read as the cue ball 5 times). In a linear picture a cue ball's shaded side
-  // reads black (up to 0.27), and this is not used. 0 turns it off.
-  double cue_max_black_share_srgb = 0.12;
+  // In an sRGB picture (pixel_encoding kSrgb) the cue ball's and the 6's scores fall from
+  // full at half this share of black votes to none at it: their shaded sides are lifted to
+  // grey and dark green. Over the twenty sets rendered sRGB no cue ball had more than 0.053
+  // of its votes black and no 6 more than 0.086, while an 8 whose white number disc faces
+  // the camera has 0.1-0.5: it was read as the cue ball 5 times, and on green cloth, its
+  // few dark pixels tinted by the cloth, as the 6 3 times. In a linear picture a cue
+  // ball's shaded side reads black (up to 0.27), and this is not used. 0 turns it off.
+  double max_black_share_srgb = 0.12;
   // A ball that the overlap rule placed (moved out of a neighbour it overlapped, to touch
   // it) stands there by the rule, not by its own pixels: a dark fit moved out of a
   // coloured ball is often that ball's shadow. Its number scores are weighed by this, so

@@ -342,9 +342,9 @@ int main(int argc, char** argv) {
   ball_option("--vote-min-colour-share", &analyzer_options.balls.vote_min_colour_share,
               "A chromatic pixel votes for the colour whose chroma, from this share of it to "
               "all of it, lies nearest (1: the colour's point alone)");
-  ball_option("--cue-max-black-share-srgb", &analyzer_options.balls.cue_max_black_share_srgb,
-              "In an sRGB picture a ball with this share of black votes is not the cue ball (0: "
-              "black does not count against it)");
+  ball_option("--max-black-share-srgb", &analyzer_options.balls.max_black_share_srgb,
+              "In an sRGB picture a ball with this share of black votes is neither the cue ball "
+              "nor the 6 (0: black does not count against them)");
   app.add_flag("--darker-edge-pass-srgb", analyzer_options.balls.darker_edge_pass_srgb,
                "Give a ball darker than the cloth in an sRGB picture the edge pass between its "
                "silhouette and rim fits (PoolBallOptions::darker_edge_pass_srgb)");
