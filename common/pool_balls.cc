@@ -2933,33 +2933,33 @@ void BallFinder::KeepBalls() {
           double best = 1e9, best_point = 1e9;
           for (int k = 1; k <= 7; ++k) {
             const double rx = refs[k].chroma_x, ry = refs[k].chroma_y;
-            const double t = q < 1
-                                 ? 1.0
-                                 : std::clamp((x * rx + y * ry) / std::max(1e-9, rx * rx + ry * ry),
-                                              options_.vote_min_colour_share, 1.0);
-            const double d = std::hypot(x - t * rx, y - t * ry);
-            if (d < best) {
-              best = d;
-              vote = k;
-            }
             const double d_point = std::hypot(x - rx, y - ry);
             if (d_point < best_point) {
               best_point = d_point;
               point_vote = k;
             }
+            double d = d_point;
+            if (q >= 1) {
+              const double t = std::clamp((x * rx + y * ry) / std::max(1e-9, rx * rx + ry * ry),
+                                          options_.vote_min_colour_share, 1.0);
+              d = std::hypot(x - t * rx, y - t * ry);
+            }
+            if (d < best) {
+              best = d;
+              vote = k;
+            }
           }
           red_cue = point_vote == 3 || point_vote == 7;
         }
-        if (vote != 8 && q < options_.dark_reflection_brightness) {
-          if (HueGapDeg(hue, cloth_hue_) < options_.dark_reflection_hue_deg) vote = 8;
-        }
-        // In an sRGB picture the 8's dark pixels take the cloth's colour from JPEG's
-        // colour smear well above dark_reflection_brightness: of the cloth's hue, they are
-        // told from a solid ball of it (the green 6) by how little colour they carry
-        // against the cloth's (options.dark_reflection_chroma_srgb).
-        if (srgb && vote > 1 && vote != 8 &&
-            sat * q < options_.dark_reflection_chroma_srgb * cloth_saturation_ &&
-            HueGapDeg(hue, cloth_hue_) < options_.dark_reflection_hue_deg)
+        // A pixel of the cloth's hue is the 8 mirroring the cloth when it is dark
+        // (options.dark_reflection_brightness), and in an sRGB picture, of a solid colour,
+        // when it carries little colour against the cloth's: the 8's dark pixels take the
+        // cloth's colour from JPEG's colour smear well above that darkness, and are told
+        // from a solid ball of it (the green 6) so (options.dark_reflection_chroma_srgb).
+        if (vote != 8 && HueGapDeg(hue, cloth_hue_) < options_.dark_reflection_hue_deg &&
+            (q < options_.dark_reflection_brightness ||
+             (srgb && vote > 1 &&
+              sat * q < options_.dark_reflection_chroma_srgb * cloth_saturation_)))
           vote = 8;
         if (vote == 0 || vote == 1) {
           // White and yellow mix at the 9's stripe edges, in the highlight and in any

@@ -85,18 +85,21 @@ void ExpectEveryBallLocatedWithin(const testdata::PoolScore& score, const PoolVi
   }
 }
 
+// The match of true ball `number` in `score` (null when the view has no such ball).
+const testdata::PoolBallMatch* FindMatch(const testdata::PoolScore& score, int number) {
+  for (const auto& m : score.matches)
+    if (m.truth_number == number) return &m;
+  return nullptr;
+}
+
 // Ball `number` is in view, separated, found within `max_error_mm` and named.
 void ExpectSeparatedBallNamed(const testdata::PoolScore& score, int number, double max_error_mm) {
-  bool seen = false;
-  for (const auto& m : score.matches) {
-    if (m.truth_number != number) continue;
-    seen = true;
-    EXPECT_TRUE(m.separated);
-    EXPECT_GE(m.error_mm, 0) << "the " << number << " not found";
-    EXPECT_LT(m.error_mm, max_error_mm);
-    EXPECT_EQ(m.estimated_number, number);
-  }
-  EXPECT_TRUE(seen) << "no " << number << " in view";
+  const testdata::PoolBallMatch* m = FindMatch(score, number);
+  ASSERT_NE(m, nullptr) << "no " << number << " in view";
+  EXPECT_TRUE(m->separated);
+  EXPECT_GE(m->error_mm, 0) << "the " << number << " not found";
+  EXPECT_LT(m->error_mm, max_error_mm);
+  EXPECT_EQ(m->estimated_number, number);
 }
 
 // Frame `frame` of the benchmark's seed-7 set (texfree-bench-pool --frames 60), rendered
@@ -132,9 +135,8 @@ BenchFrame RenderBenchFrame(int frame, uint64_t seed = 7, double scale = 1, bool
 
 // The position error of the ball numbered `number` in the view (mm; -1 when not found).
 double ErrorOf(const testdata::PoolScore& score, int number) {
-  for (const auto& m : score.matches)
-    if (m.truth_number == number) return m.error_mm;
-  return -1;
+  const testdata::PoolBallMatch* m = FindMatch(score, number);
+  return m ? m->error_mm : -1;
 }
 
 // Frame `frame` of the benchmark's set `seed` rendered sRGB-encoded (texfree-bench-pool
@@ -162,13 +164,11 @@ void ExpectSrgbBallNamedAndReadAsWithout(const std::vector<std::pair<uint64_t, i
     ExpectSeparatedBallNamed(scored->score, number, max_error_mm);
     auto before = AnalyzeAndScore(scene, view, without);
     ASSERT_TRUE(before.ok()) << before.status();
-    bool seen = false;
-    for (const auto& m : before->score.matches)
-      if (m.truth_number == number) {
-        seen = true;
-        EXPECT_EQ(m.estimated_number, read_as);
-      }
-    EXPECT_TRUE(seen) << "no " << number << " in view";
+    const testdata::PoolBallMatch* m = FindMatch(before->score, number);
+    EXPECT_NE(m, nullptr) << "no " << number << " in view";
+    if (m) {
+      EXPECT_EQ(m->estimated_number, read_as);
+    }
   }
 }
 
@@ -1547,8 +1547,7 @@ testdata::PoolBallMatch MatchOfBall(int number, int frame, uint64_t seed) {
   auto scored = AnalyzeAndScore(scene, view);
   EXPECT_TRUE(scored.ok()) << "frame " << frame << ": " << scored.status();
   if (scored.ok())
-    for (const auto& m : scored->score.matches)
-      if (m.truth_number == number) return m;
+    if (const testdata::PoolBallMatch* m = FindMatch(scored->score, number)) return *m;
   ADD_FAILURE() << "frame " << frame << " of seed " << seed << ": no ball " << number;
   return {};
 }
