@@ -1081,6 +1081,10 @@ constexpr size_t kMinNearHalfPixels = 5;
 // With every grey pixel under the cloth's brightness in the body, a cue ball's shaded
 // half was its body (linear: 52 + 78, seven cue balls over 10 mm more).
 constexpr float kBodyGreyMax = 0.5f;
+// PoolBallOptions::edge_interior_level: a ball's interior is its pixels this far inside
+// its outline (pixels), read on a ball of at least kMinInteriorRadiusPx apparent radius.
+constexpr double kInteriorDepthPx = 1;
+constexpr double kMinInteriorRadiusPx = 4;
 constexpr double kMinBodyShare = 0.25;
 // PoolBallOptions::darker_edge_pass_srgb: a ball is of the cloth's hue when the median
 // hue of its coloured pixels is within this of the cloth's (30 and 60 measured the same).
@@ -1185,6 +1189,9 @@ absl::Status PoolBallOptions::Validate() const {
     return absl::InvalidArgumentError("near_half_dark_share must be in [0, 1]");
   if (!(rim_full_colour_saturation >= 0 && rim_full_colour_saturation <= 1))
     return absl::InvalidArgumentError("rim_full_colour_saturation must be in [0, 1]");
+  if (!(edge_interior_level > 0 && edge_interior_level <= 1))
+    return absl::InvalidArgumentError(
+        "edge_interior_level must be in (0, 1] (a quantile of a ball's interior; 1: off)");
   if (!(edge_point_prior >= 0 && edge_point_prior <= 100))
     return absl::InvalidArgumentError("edge_point_prior must be in [0, 100]");
   if (!(edge_max_ballness_drop > 0 && edge_max_ballness_drop <= 1))
@@ -2476,8 +2483,33 @@ void BallFinder::RefineOutlines() {
     };
     fill_distance(dark_ball);
     cv::Mat gx, gy;
-    cv::Sobel(distance, gx, CV_32F, 1, 0, 3, 1.0 / 8);
-    cv::Sobel(distance, gy, CV_32F, 0, 1, 3, 1.0 / 8);
+    {
+      // The edge pass sees the step from the cloth to the ball's own level, not the
+      // contrasts inside the ball (options.edge_interior_level).
+      cv::Mat capped;  // a buffer of its own: `distance` stays whole for the fits below
+      if (options_.edge_interior_level < 1 &&
+          ApparentRadiusPx(pose_, K_, seeds_[i], r_) >= kMinInteriorRadiusPx) {
+        std::vector<float> interior;
+        const cv::Rect inner = box & grown;
+        for (int v = inner.y; v < inner.br().y; ++v)
+          for (int u = inner.x; u < inner.br().x; ++u)
+            if (claimed_.at<float>(v - roi_.y, u - roi_.x) <= 0.01 &&
+                !scorer.InShadowZone(centre, u, v) &&
+                SilhouetteScorer::InsideDistance(Q, u, v) >= kInteriorDepthPx)
+              interior.push_back(distance.at<float>(v - grown.y, u - grown.x));
+        if (interior.size() >= 5) {
+          const auto level =
+              interior.begin() +
+              std::min(interior.size() - 1,
+                       static_cast<size_t>(options_.edge_interior_level * interior.size()));
+          std::nth_element(interior.begin(), level, interior.end());
+          capped = cv::min(distance, *level);
+        }
+      }
+      if (capped.empty()) capped = distance;
+      cv::Sobel(capped, gx, CV_32F, 1, 0, 3, 1.0 / 8);
+      cv::Sobel(capped, gy, CV_32F, 0, 1, 3, 1.0 / 8);
+    }
     EdgeFitter edge(gx, gy, grown, claimed_, roi_, scorer, K_, pose_, r_);
     if (darker_than_cloth) {
       // The outline beside the ball's own shadow is left out, unless that leaves too little

@@ -219,6 +219,17 @@ struct PoolBallOptions {
   // outline points at its sides pull it to where they sample the strongest contrast, not
   // to where the edge is. 0 turns this off.
   double edge_point_reach = 0.5;
+  // The edge pass reads a ball's colour distance from the cloth capped at this quantile
+  // of the distance over its interior (the pixels 1 px or more inside its silhouette fit's
+  // outline), so that only the step from the cloth up to the ball's own level is an edge
+  // to it. Uncapped, a contrast inside the ball that is stronger than the ball's against
+  // the cloth drew the outline to itself: the lower edge of a green 6's white number disc
+  // took the 6 2-3 px towards the camera (held-out seed 59's frame 23: 2.3 mm off on its
+  // silhouette fit, 22.6 mm after the edge pass). Only for a ball of 4 px apparent radius
+  // or more: a smaller one has no interior out of the blur's reach of its outline (the
+  // 9-ft table's far balls). Over the twenty benchmark sets rendered sRGB, balls over
+  // 10 mm 72 + 98 -> 64 + 73; linear 51 + 73 -> 52 + 68. 1 turns this off.
+  double edge_interior_level = 0.65;
   // The edge pass's position counts in that fit as this many edge points lying on its
   // outline: where a neighbour or the shadow zone leaves edge points on one side only,
   // the fit is poorly held across them and would slide along that direction.

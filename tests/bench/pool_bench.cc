@@ -325,6 +325,9 @@ int main(int argc, char** argv) {
   ball_option("--edge-point-reach", &analyzer_options.balls.edge_point_reach,
               "Edge points of a ball not darker than the cloth are sought this many apparent "
               "radii either side of its outline (0: no edge fit)");
+  ball_option("--edge-interior-level", &analyzer_options.balls.edge_interior_level,
+              "The edge pass reads a ball's colour distance capped at this quantile of its "
+              "interior's (1: not capped)");
   ball_option("--edge-point-prior", &analyzer_options.balls.edge_point_prior,
               "The edge fit's start counts as this many points on its outline");
   ball_option("--cushion-shade", &analyzer_options.balls.cushion_shade_dark_share,
