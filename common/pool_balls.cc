@@ -1189,6 +1189,10 @@ absl::Status PoolBallOptions::Validate() const {
     return absl::InvalidArgumentError("near_half_dark_share must be in [0, 1]");
   if (!(rim_full_colour_saturation >= 0 && rim_full_colour_saturation <= 1))
     return absl::InvalidArgumentError("rim_full_colour_saturation must be in [0, 1]");
+  if (!(straight_rim_silhouette_share >= 0 && straight_rim_silhouette_share < 1))
+    return absl::InvalidArgumentError(
+        "straight_rim_silhouette_share must be in [0, 1) (0: the rim fit alone; at 1 the rim "
+        "fit would not count)");
   if (!(edge_interior_level > 0 && edge_interior_level <= 1))
     return absl::InvalidArgumentError(
         "edge_interior_level must be in (0, 1] (a quantile of a ball's interior; 1: off)");
@@ -2672,7 +2676,13 @@ void BallFinder::RefineOutlines() {
             by_colour.Score(seeds_[i], &edge_colour);
             little_lost = rim_colour >= edge_colour - options_.edge_max_ballness_drop;
           }
-          if (rim_ballness >= 0.5 || edge_ballness < 0.5 || little_lost) seeds_[i] = on_rim;
+          if (rim_ballness >= 0.5 || edge_ballness < 0.5 || little_lost) {
+            // Straight from its silhouette fit, the rim fit is the second of two
+            // independent measures of the ball (options.straight_rim_silhouette_share).
+            seeds_[i] = straight_to_rim ? on_rim + options_.straight_rim_silhouette_share *
+                                                       (silhouette_xy - on_rim)
+                                        : on_rim;
+          }
         }
       }
     }

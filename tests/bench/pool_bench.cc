@@ -325,6 +325,10 @@ int main(int argc, char** argv) {
   ball_option("--edge-point-reach", &analyzer_options.balls.edge_point_reach,
               "Edge points of a ball not darker than the cloth are sought this many apparent "
               "radii either side of its outline (0: no edge fit)");
+  ball_option("--straight-rim-silhouette-share",
+              &analyzer_options.balls.straight_rim_silhouette_share,
+              "A dark ball fitted straight to its far rim (sRGB) is placed this share of the way "
+              "back to its silhouette fit (0: on its rim)");
   ball_option("--edge-interior-level", &analyzer_options.balls.edge_interior_level,
               "The edge pass reads a ball's colour distance capped at this quantile of its "
               "interior's (1: not capped)");

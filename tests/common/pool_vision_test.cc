@@ -1234,6 +1234,10 @@ TEST(PoolDarkBalls, EightTintedByTheClothIsNotTheSix) {
   votes_alone.balls.max_black_share_srgb = 0;
   PoolAnalyzerOptions by_hue = votes_alone;
   by_hue.balls.dark_reflection_chroma_srgb = 0;
+  // On its rim alone, as the 8 was placed when this rule came (round 50): placed between
+  // its rim and silhouette fits (straight_rim_silhouette_share), it takes in fewer tinted
+  // pixels and is read as the 8 without the rule too.
+  by_hue.balls.straight_rim_silhouette_share = 0;
   ExpectSrgbBallNamedAndReadAsWithout({{13, 12}, {43, 16}}, 8, 8.0, by_hue, 6, votes_alone);
   PoolBallOptions options;
   options.dark_reflection_chroma_srgb = 1.5;
@@ -1251,6 +1255,10 @@ TEST(PoolDarkBalls, EightTintedByTheClothIsNotTheSix) {
 TEST(PoolDarkBalls, EightWithItsDiscUpIsNeitherTheCueBallNorTheSix) {
   PoolAnalyzerOptions black_allowed;
   black_allowed.balls.max_black_share_srgb = 0;
+  // On their rims alone, as when this rule came (round 52): seed 71's 8, placed between
+  // its rim and silhouette fits (straight_rim_silhouette_share), is read as the 8 without
+  // the rule too.
+  black_allowed.balls.straight_rim_silhouette_share = 0;
   ExpectSrgbBallNamedAndReadAsWithout({{31, 12}, {61, 59}}, 8, 10.0, black_allowed, 0);
   ExpectSrgbBallNamedAndReadAsWithout({{71, 16}}, 8, 10.0, black_allowed, 6);
   PoolBallOptions options;
@@ -1306,6 +1314,34 @@ TEST(PoolDarkBalls, EdgePassIsNotDrawnToTheNumberDisc) {
   options.edge_interior_level = 0;
   EXPECT_FALSE(options.Validate().ok());
   options.edge_interior_level = 1.2;
+  EXPECT_FALSE(options.Validate().ok());
+}
+
+// A dark ball of the cloth's hue or of none in an sRGB picture goes from its silhouette fit
+// straight to its far rim (darker_edge_pass_srgb); the two fits measure it apart, with
+// errors that do not go together, and it is placed between them
+// (PoolBallOptions::straight_rim_silhouette_share): seed 7's frame 6, seed 53's frame 22
+// and seed 79's frame 0 (separated 6s 12.1, 12.3 and 13.1 mm off on the rim alone) and seed
+// 67's frame 56 (a separated 8, 12.8 mm).
+TEST(PoolDarkBalls, DarkBallFittedStraightToItsRimIsPlacedByBothFits) {
+  const std::tuple<uint64_t, int, int> cases[] = {{7, 6, 6}, {53, 22, 6}, {79, 0, 6}, {67, 56, 8}};
+  PoolAnalyzerOptions rim_alone;
+  rim_alone.balls.straight_rim_silhouette_share = 0;
+  for (const auto& [seed, frame, number] : cases) {
+    SCOPED_TRACE("seed " + std::to_string(seed) + " frame " + std::to_string(frame));
+    const auto [scene, view] = SrgbBenchFrame(frame, seed);
+    auto scored = AnalyzeAndScore(scene, view);
+    ASSERT_TRUE(scored.ok()) << scored.status();
+    ExpectSeparatedBallNamed(scored->score, number, 9.0);
+    ExpectEveryBallLocatedWithin(scored->score, view, 10.0);
+    auto on_rim = AnalyzeAndScore(scene, view, rim_alone);
+    ASSERT_TRUE(on_rim.ok()) << on_rim.status();
+    EXPECT_GT(ErrorOf(on_rim->score, number), 12.0);
+  }
+  PoolBallOptions options;
+  options.straight_rim_silhouette_share = 1;
+  EXPECT_FALSE(options.Validate().ok());
+  options.straight_rim_silhouette_share = -0.1;
   EXPECT_FALSE(options.Validate().ok());
 }
 
