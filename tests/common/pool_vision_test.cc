@@ -172,6 +172,26 @@ void ExpectSrgbBallNamedAndReadAsWithout(const std::vector<std::pair<uint64_t, i
   }
 }
 
+// For each (seed, frame, number) of the benchmark's sets rendered sRGB: the separated ball
+// numbered `number` is named and within `max_error_mm`, and every ball of the view within
+// 10 mm; with `without` (the options that turn the change under test off) that ball is
+// more than `min_error_without_mm` off.
+void ExpectSrgbBallPlacedAndOffWithout(const std::vector<std::tuple<uint64_t, int, int>>& cases,
+                                       double max_error_mm, const PoolAnalyzerOptions& without,
+                                       double min_error_without_mm) {
+  for (const auto& [seed, frame, number] : cases) {
+    SCOPED_TRACE("seed " + std::to_string(seed) + " frame " + std::to_string(frame));
+    const auto [scene, view] = SrgbBenchFrame(frame, seed);
+    auto scored = AnalyzeAndScore(scene, view);
+    ASSERT_TRUE(scored.ok()) << scored.status();
+    ExpectSeparatedBallNamed(scored->score, number, max_error_mm);
+    ExpectEveryBallLocatedWithin(scored->score, view, 10.0);
+    auto before = AnalyzeAndScore(scene, view, without);
+    ASSERT_TRUE(before.ok()) << before.status();
+    EXPECT_GT(ErrorOf(before->score, number), min_error_without_mm);
+  }
+}
+
 // A fixed, well-spread layout of all ten balls (none touching).
 std::vector<testdata::PoolBallPlacement> SpreadLayout() {
   return {{0, 300, 350}, {1, 520, 200}, {2, 700, 520}, {3, 900, 180},  {4, 1050, 450},
@@ -1296,20 +1316,9 @@ TEST(PoolDarkBalls, SixWithItsDiscToTheCameraIsFittedOnItsRim) {
 // (PoolBallOptions::edge_interior_level), the edge pass sees only the step from the cloth
 // to the ball, and every ball of these views is within 10 mm.
 TEST(PoolDarkBalls, EdgePassIsNotDrawnToTheNumberDisc) {
-  const std::pair<uint64_t, int> cases[] = {{47, 54}, {59, 21}, {59, 24}};
   PoolAnalyzerOptions uncapped;
   uncapped.balls.edge_interior_level = 1;
-  for (const auto& [seed, frame] : cases) {
-    SCOPED_TRACE("seed " + std::to_string(seed) + " frame " + std::to_string(frame));
-    const auto [scene, view] = SrgbBenchFrame(frame, seed);
-    auto scored = AnalyzeAndScore(scene, view);
-    ASSERT_TRUE(scored.ok()) << scored.status();
-    ExpectSeparatedBallNamed(scored->score, 6, 8.0);
-    ExpectEveryBallLocatedWithin(scored->score, view, 10.0);
-    auto drawn = AnalyzeAndScore(scene, view, uncapped);
-    ASSERT_TRUE(drawn.ok()) << drawn.status();
-    EXPECT_GT(ErrorOf(drawn->score, 6), 15.0);
-  }
+  ExpectSrgbBallPlacedAndOffWithout({{47, 54, 6}, {59, 21, 6}, {59, 24, 6}}, 8.0, uncapped, 15.0);
   PoolBallOptions options;
   options.edge_interior_level = 0;
   EXPECT_FALSE(options.Validate().ok());
@@ -1324,20 +1333,10 @@ TEST(PoolDarkBalls, EdgePassIsNotDrawnToTheNumberDisc) {
 // and seed 79's frame 0 (separated 6s 12.1, 12.3 and 13.1 mm off on the rim alone) and seed
 // 67's frame 56 (a separated 8, 12.8 mm).
 TEST(PoolDarkBalls, DarkBallFittedStraightToItsRimIsPlacedByBothFits) {
-  const std::tuple<uint64_t, int, int> cases[] = {{7, 6, 6}, {53, 22, 6}, {79, 0, 6}, {67, 56, 8}};
   PoolAnalyzerOptions rim_alone;
   rim_alone.balls.straight_rim_silhouette_share = 0;
-  for (const auto& [seed, frame, number] : cases) {
-    SCOPED_TRACE("seed " + std::to_string(seed) + " frame " + std::to_string(frame));
-    const auto [scene, view] = SrgbBenchFrame(frame, seed);
-    auto scored = AnalyzeAndScore(scene, view);
-    ASSERT_TRUE(scored.ok()) << scored.status();
-    ExpectSeparatedBallNamed(scored->score, number, 9.0);
-    ExpectEveryBallLocatedWithin(scored->score, view, 10.0);
-    auto on_rim = AnalyzeAndScore(scene, view, rim_alone);
-    ASSERT_TRUE(on_rim.ok()) << on_rim.status();
-    EXPECT_GT(ErrorOf(on_rim->score, number), 12.0);
-  }
+  ExpectSrgbBallPlacedAndOffWithout({{7, 6, 6}, {53, 22, 6}, {79, 0, 6}, {67, 56, 8}}, 9.0,
+                                    rim_alone, 12.0);
   PoolBallOptions options;
   options.straight_rim_silhouette_share = 1;
   EXPECT_FALSE(options.Validate().ok());
