@@ -235,10 +235,9 @@ struct PoolBallOptions {
   // the cloth drew the outline to itself: the lower edge of a green 6's white number disc
   // took the 6 2-3 px towards the camera (held-out seed 47's frame 54: 4.5 mm off on its
   // silhouette fit, 21.5 mm after the edge pass, 4.5 mm now). Only for a ball of 4 px
-  // apparent radius
-  // or more: a smaller one has no interior out of the blur's reach of its outline (the
-  // 9-ft table's far balls). Over the twenty benchmark sets rendered sRGB, balls over
-  // 10 mm 72 + 98 -> 64 + 73; linear 51 + 73 -> 52 + 68. 1 turns this off.
+  // apparent radius or more: a smaller one has no interior out of the blur's reach of its
+  // outline (the 9-ft table's far balls). Over the twenty benchmark sets rendered sRGB,
+  // balls over 10 mm 72 + 98 -> 64 + 73; linear 51 + 73 -> 52 + 68. 1 turns this off.
   double edge_interior_level = 0.65;
   // The edge pass's position counts in that fit as this many edge points lying on its
   // outline: where a neighbour or the shadow zone leaves edge points on one side only,
