@@ -1193,6 +1193,9 @@ absl::Status PoolBallOptions::Validate() const {
     return absl::InvalidArgumentError(
         "straight_rim_silhouette_share must be in [0, 1) (0: the rim fit alone; at 1 the rim "
         "fit would not count)");
+  if (!(min_fit_ballness_by_colour >= 0 && min_fit_ballness_by_colour <= min_fit_ballness))
+    return absl::InvalidArgumentError(
+        "min_fit_ballness_by_colour must be in [0, min_fit_ballness] (0: off)");
   if (!(edge_interior_level > 0 && edge_interior_level <= 1))
     return absl::InvalidArgumentError(
         "edge_interior_level must be in (0, 1] (a quantile of a ball's interior; 1: off)");
@@ -2844,6 +2847,7 @@ void BallFinder::KeepBalls() {
     SilhouetteScorer scorer(ballness_in_region_, roi_, claimed_, K_, pose_, profile_);
     double mean_ballness = 0;
     scorer.Score(xy, &mean_ballness);
+    bool kept_by_colour = false;
     if (!moved_[i] && mean_ballness < options_.min_fit_ballness) {
       // A small dark ball of nearly the cloth's hue (a far green 6 on green cloth) shows
       // ball only in its lower half, dark and far from the cloth's chromaticity; its lit
@@ -2859,10 +2863,16 @@ void BallFinder::KeepBalls() {
       if (colour_mean >= options_.min_fit_ballness && cv::norm(refit - xy) < r_) {
         seeds_[i] = xy = refit;
         mean_ballness = colour_mean;
+      } else if (options_.min_fit_ballness_by_colour > 0 &&
+                 mean_ballness >= options_.min_fit_ballness_by_colour) {
+        // A green 6 whose lit cap reads as cloth (options.min_fit_ballness_by_colour).
+        double here = 0;
+        by_colour.Score(xy, &here);
+        kept_by_colour = here >= options_.min_fit_ballness_by_colour;
       }
     }
     // A ball moved out of its neighbour is where the rule put it: it must be half ball.
-    if (mean_ballness < (moved_[i] ? 0.5 : options_.min_fit_ballness)) continue;
+    if (!kept_by_colour && mean_ballness < (moved_[i] ? 0.5 : options_.min_fit_ballness)) continue;
     // Votes: pixels not covered by a nearer ball (by distance now: a ball split off a
     // blob behind another one was added after the others).
     {

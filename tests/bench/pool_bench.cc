@@ -325,6 +325,9 @@ int main(int argc, char** argv) {
   ball_option("--edge-point-reach", &analyzer_options.balls.edge_point_reach,
               "Edge points of a ball not darker than the cloth are sought this many apparent "
               "radii either side of its outline (0: no edge fit)");
+  ball_option("--min-fit-ballness-by-colour", &analyzer_options.balls.min_fit_ballness_by_colour,
+              "A fit under the ball-ness to keep it is kept when it is this much ball as fitted "
+              "and by colour alone (0: never)");
   ball_option("--straight-rim-silhouette-share",
               &analyzer_options.balls.straight_rim_silhouette_share,
               "A dark ball fitted straight to its far rim (sRGB) is placed this share of the way "
