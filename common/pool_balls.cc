@@ -2364,8 +2364,15 @@ void BallFinder::RefineOutlines() {
     // side, `near_from_px` how far from its centre against it the near half is taken.
     std::vector<float> near_half_light, cloth_light, ball_grey, ball_hues;
     const cv::Point2d centre_px = ProjectIdeal(pose_, K_, centre);
-    const double near_from_px = kNearHalfFrom * ApparentRadiusPx(pose_, K_, seeds_[i], r_);
+    const double radius_px = ApparentRadiusPx(pose_, K_, seeds_[i], r_);
+    const double near_from_px = kNearHalfFrom * radius_px;
     const cv::Point2d far_dir = FarSideDirectionPx(seeds_[i]);
+    // The interior whose level caps the edge pass's distance (options.edge_interior_level):
+    // its pixels, taken in the pass below, which leaves out the same claimed and shadowed
+    // ones.
+    const bool cap_edge_pass =
+        options_.edge_interior_level < 1 && radius_px >= kMinInteriorRadiusPx;
+    std::vector<cv::Point> interior_px;
     const auto brightness_in_light = [&](const cv::Vec3b& p) {
       const cv::Vec3f l = ColourInLight(cv::Vec3f(p[0], p[1], p[2]), options_.pixel_encoding);
       return (l[0] + l[1] + l[2]) / 3;
@@ -2374,6 +2381,8 @@ void BallFinder::RefineOutlines() {
       for (int u = box.x; u < box.x + box.width; ++u) {
         if (claimed_.at<float>(v - roi_.y, u - roi_.x) > 0.01) continue;
         if (scorer.InShadowZone(centre, u, v)) continue;
+        if (cap_edge_pass && SilhouetteScorer::InsideDistance(Q, u, v) >= kInteriorDepthPx)
+          interior_px.emplace_back(u, v);
         const cv::Vec3b& p = bgr_.at<cv::Vec3b>(v, u);
         const float b = ballness_in_region_.at<float>(v - roi_.y, u - roi_.x);
         const double cov = SilhouetteScorer::Coverage(Q, u, v);
@@ -2493,29 +2502,21 @@ void BallFinder::RefineOutlines() {
     {
       // The edge pass sees the step from the cloth to the ball's own level, not the
       // contrasts inside the ball (options.edge_interior_level).
+      std::vector<float> interior;
+      for (const cv::Point& q : interior_px)
+        if (grown.contains(q)) interior.push_back(distance.at<float>(q.y - grown.y, q.x - grown.x));
       cv::Mat capped;  // a buffer of its own: `distance` stays whole for the fits below
-      if (options_.edge_interior_level < 1 &&
-          ApparentRadiusPx(pose_, K_, seeds_[i], r_) >= kMinInteriorRadiusPx) {
-        std::vector<float> interior;
-        const cv::Rect inner = box & grown;
-        for (int v = inner.y; v < inner.br().y; ++v)
-          for (int u = inner.x; u < inner.br().x; ++u)
-            if (claimed_.at<float>(v - roi_.y, u - roi_.x) <= 0.01 &&
-                !scorer.InShadowZone(centre, u, v) &&
-                SilhouetteScorer::InsideDistance(Q, u, v) >= kInteriorDepthPx)
-              interior.push_back(distance.at<float>(v - grown.y, u - grown.x));
-        if (interior.size() >= 5) {
-          const auto level =
-              interior.begin() +
-              std::min(interior.size() - 1,
-                       static_cast<size_t>(options_.edge_interior_level * interior.size()));
-          std::nth_element(interior.begin(), level, interior.end());
-          capped = cv::min(distance, *level);
-        }
+      if (interior.size() >= 5) {
+        const auto level =
+            interior.begin() +
+            std::min(interior.size() - 1,
+                     static_cast<size_t>(options_.edge_interior_level * interior.size()));
+        std::nth_element(interior.begin(), level, interior.end());
+        cv::min(distance, *level, capped);
       }
-      if (capped.empty()) capped = distance;
-      cv::Sobel(capped, gx, CV_32F, 1, 0, 3, 1.0 / 8);
-      cv::Sobel(capped, gy, CV_32F, 0, 1, 3, 1.0 / 8);
+      const cv::Mat& edge_map = capped.empty() ? distance : capped;
+      cv::Sobel(edge_map, gx, CV_32F, 1, 0, 3, 1.0 / 8);
+      cv::Sobel(edge_map, gy, CV_32F, 0, 1, 3, 1.0 / 8);
     }
     EdgeFitter edge(gx, gy, grown, claimed_, roi_, scorer, K_, pose_, r_);
     if (darker_than_cloth) {

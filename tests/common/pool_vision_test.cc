@@ -174,11 +174,12 @@ void ExpectSrgbBallNamedAndReadAsWithout(const std::vector<std::pair<uint64_t, i
 
 // For each (seed, frame, number) of the benchmark's sets rendered sRGB: the separated ball
 // numbered `number` is named and within `max_error_mm`, and every ball of the view within
-// 10 mm; with `without` (the options that turn the change under test off) that ball is
-// more than `min_error_without_mm` off.
-void ExpectSrgbBallPlacedAndOffWithout(const std::vector<std::tuple<uint64_t, int, int>>& cases,
-                                       double max_error_mm, const PoolAnalyzerOptions& without,
-                                       double min_error_without_mm) {
+// 10 mm; then check(score, score_without, number) judges the view as analysed with and
+// with `without` (the options that turn the change under test off).
+template <typename Check>
+void ExpectSrgbBallPlaced(const std::vector<std::tuple<uint64_t, int, int>>& cases,
+                          double max_error_mm, const PoolAnalyzerOptions& without,
+                          const Check& check) {
   for (const auto& [seed, frame, number] : cases) {
     SCOPED_TRACE("seed " + std::to_string(seed) + " frame " + std::to_string(frame));
     const auto [scene, view] = SrgbBenchFrame(frame, seed);
@@ -188,8 +189,19 @@ void ExpectSrgbBallPlacedAndOffWithout(const std::vector<std::tuple<uint64_t, in
     ExpectEveryBallLocatedWithin(scored->score, view, 10.0);
     auto before = AnalyzeAndScore(scene, view, without);
     ASSERT_TRUE(before.ok()) << before.status();
-    EXPECT_GT(ErrorOf(before->score, number), min_error_without_mm);
+    check(scored->score, before->score, number);
   }
+}
+// ExpectSrgbBallPlaced, and without the change the ball is more than
+// `min_error_without_mm` off.
+void ExpectSrgbBallPlacedAndOffWithout(const std::vector<std::tuple<uint64_t, int, int>>& cases,
+                                       double max_error_mm, const PoolAnalyzerOptions& without,
+                                       double min_error_without_mm) {
+  ExpectSrgbBallPlaced(
+      cases, max_error_mm, without,
+      [&](const testdata::PoolScore&, const testdata::PoolScore& before, int number) {
+        EXPECT_GT(ErrorOf(before, number), min_error_without_mm);
+      });
 }
 
 // A fixed, well-spread layout of all ten balls (none touching).
@@ -1352,18 +1364,12 @@ TEST(PoolDarkBalls, DarkBallFittedStraightToItsRimIsPlacedByBothFits) {
 TEST(PoolDarkBalls, SixWhoseLitCapReadsAsClothIsKeptByItsColour) {
   PoolAnalyzerOptions overall_only;
   overall_only.balls.min_fit_ballness_by_colour = 0;
-  for (int frame : {32, 54}) {
-    SCOPED_TRACE("frame " + std::to_string(frame));
-    const auto [scene, view] = SrgbBenchFrame(frame, 83);
-    auto scored = AnalyzeAndScore(scene, view);
-    ASSERT_TRUE(scored.ok()) << scored.status();
-    ExpectSeparatedBallNamed(scored->score, 6, 8.0);
-    ExpectEveryBallLocatedWithin(scored->score, view, 10.0);
-    EXPECT_EQ(scored->score.false_balls, 0);
-    auto lost = AnalyzeAndScore(scene, view, overall_only);
-    ASSERT_TRUE(lost.ok()) << lost.status();
-    EXPECT_LT(ErrorOf(lost->score, 6), 0) << "found without the rule";
-  }
+  ExpectSrgbBallPlaced(
+      {{83, 32, 6}, {83, 54, 6}}, 8.0, overall_only,
+      [](const testdata::PoolScore& score, const testdata::PoolScore& lost, int number) {
+        EXPECT_EQ(score.false_balls, 0);
+        EXPECT_LT(ErrorOf(lost, number), 0) << "found without the rule";
+      });
   PoolBallOptions options;
   options.min_fit_ballness_by_colour = 0.45;  // over min_fit_ballness
   EXPECT_FALSE(options.Validate().ok());
