@@ -425,6 +425,13 @@ class SilhouetteScorer {
   // Score() and Fit() over the dark zone under the ball as well: right for a ball-ness by
   // colour alone, in which a shadow stays cloth.
   void CountShadowZone() { count_shadow_zone_ = true; }
+  // Pixels of the dark zone under the ball that lie outside its silhouette and are ball by
+  // colour in `colour` (over the roi) at `level` or more count as ball outside it (a ball
+  // in front of this one), not as the ball's own shadow.
+  void CountColouredBelow(const cv::Mat* colour, double level) {
+    colour_below_ = colour;
+    colour_below_level_ = level;
+  }
 
   // A ball against a cushion is partly hidden behind it: is the sphere point seen through
   // pixel (u, v) below the cushion top and the ray over the cushion when it gets there?
@@ -511,15 +518,22 @@ class SilhouetteScorer {
         const double bn = b[u - roi_.x];
         if (bn < 0) continue;  // kMaskedOut: a pocket
         const int i = u - box.x;
-        if (!count_shadow_zone_) {  // InShadowZone(centre, u, v)
-          const cv::Vec3d d = ray_at_column[i] + ray_row;
-          if (to_centre.dot(d) * d[2] < shadow_level * d.dot(d)) continue;
-        }
         // Coverage(Q, u, v)
         const cv::Vec3d& c = conic_at_column[i];
         const double qx = c[0] + qv0 + Q(0, 2);
         const double qy = c[1] + qv1 + Q(1, 2);
         const double qz = c[2] + qv2 + Q(2, 2);
+        if (!count_shadow_zone_) {  // InShadowZone(centre, u, v)
+          const cv::Vec3d d = ray_at_column[i] + ray_row;
+          if (to_centre.dot(d) * d[2] < shadow_level * d.dot(d)) {
+            if (colour_below_ == nullptr ||
+                colour_below_->at<float>(v - roi_.y, u - roi_.x) < colour_below_level_)
+              continue;
+            const double cov = CoverageFromGradient(qx, qy, qz, u, v);
+            if (cov < 0.5) score += w * (2 * cov - 1);
+            continue;
+          }
+        }
         const double cov = CoverageFromGradient(qx, qy, qz, u, v);
         if (near_cushion && cov > 0 && HiddenByCushion(centre, u, v)) continue;
         score += w * (2 * cov - 1) * (2 * bn - 1);
@@ -578,6 +592,8 @@ class SilhouetteScorer {
   cv::Rect roi_;
   const cv::Mat& claimed_;
   bool count_shadow_zone_ = false;
+  const cv::Mat* colour_below_ = nullptr;
+  double colour_below_level_ = 1;
   cv::Matx33d K_, K_inv_;
   PlanarPose pose_;
   cv::Vec3d camera_;
@@ -1196,6 +1212,9 @@ absl::Status PoolBallOptions::Validate() const {
   if (!(min_fit_ballness_by_colour >= 0 && min_fit_ballness_by_colour <= min_fit_ballness))
     return absl::InvalidArgumentError(
         "min_fit_ballness_by_colour must be in [0, min_fit_ballness] (0: off)");
+  if (!(colour_below_ballness >= 0 && colour_below_ballness <= 1))
+    return absl::InvalidArgumentError(
+        "colour_below_ballness must be in [0, 1] (a ball-ness by colour; 0: off)");
   if (!(edge_interior_level > 0 && edge_interior_level <= 1))
     return absl::InvalidArgumentError(
         "edge_interior_level must be in (0, 1] (a quantile of a ball's interior; 1: off)");
@@ -2177,6 +2196,8 @@ void BallFinder::FitSilhouettes() {
         }
       }
       SilhouetteScorer scorer(ballness_in_region_, roi_, claimed_, K_, pose_, profile_);
+      if (pass == 1 && options_.colour_below_ballness > 0)
+        scorer.CountColouredBelow(&ByColourAlone(), options_.colour_below_ballness);
       seeds_[i] = scorer.Fit(seeds_[i], 0.35 * r_);
     }
   }

@@ -165,6 +165,20 @@ struct PoolBallOptions {
   // named; one pair that was one ball (seed 29's frame 33, the 7 in front of the 4) is
   // two, 23 mm off.
   double seed_merge_distance = 1.4;
+  // The silhouette fit leaves out the dark zone under a ball (its unlit underside and its
+  // shadow are ball by darkness, not by shape). In its second pass, where every other fit
+  // is claimed, a pixel of that zone outside the silhouette that is this much ball by
+  // colour alone or more counts against the fit as a ball pixel it leaves out: it is this
+  // ball's own, and the fit has slid off it. Left out, the nearer of two touching balls
+  // seen one behind the other slid onto the farther one, its own pixels then all in that
+  // zone (seed 11's frame 15 rendered sRGB: the red 3 in front of the blue 2, both 20 mm
+  // off, 2.5 px up the picture; now 3.3 and 5.9 mm). In the first pass the farther balls
+  // are not fitted yet and the nearer one's pixels would pull them down onto it. Over the
+  // twenty benchmark sets, sRGB: balls over 10 mm 63 + 69 -> 56 + 67, located 4,771 +
+  // 4,761 -> 4,787 + 4,776, false balls 12 + 8 -> 7 + 4; linear: 52 + 68 -> 49 + 69,
+  // located 4,763 + 4,758 -> 4,773 + 4,766, false balls 19 + 17 -> 15 + 15. 0 turns this
+  // off.
+  double colour_below_ballness = 0.5;
   // The light's colour. Bar lamps are warm (2700-3000 K) and a camera's white balance
   // corrects only part of it: the white cue ball then reads as yellow (the 1 or the 9), the
   // maroon 7 as the red 3, and the 6 nears the cloth's colour. The white of the balls in

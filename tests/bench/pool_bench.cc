@@ -328,6 +328,9 @@ int main(int argc, char** argv) {
   ball_option("--min-fit-ballness-by-colour", &analyzer_options.balls.min_fit_ballness_by_colour,
               "A fit under the ball-ness to keep it is kept when it is this much ball as fitted "
               "and by colour alone (0: never)");
+  ball_option("--colour-below-ballness", &analyzer_options.balls.colour_below_ballness,
+              "In the silhouette fit's second pass, pixels under a ball's silhouette this much "
+              "ball by colour count as ball it leaves out (0: never)");
   ball_option("--straight-rim-silhouette-share",
               &analyzer_options.balls.straight_rim_silhouette_share,
               "A dark ball fitted straight to its far rim (sRGB) is placed this share of the way "
