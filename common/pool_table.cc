@@ -392,6 +392,9 @@ absl::Status PoolTableOptions::Validate() const {
     return absl::InvalidArgumentError("min_cloth_fraction must be in (0, 1)");
   if (!(max_rectangle_inconsistency > 0))
     return absl::InvalidArgumentError("max_rectangle_inconsistency must be positive");
+  if (!(cloth_close_fraction >= 0 && cloth_close_fraction <= 0.05))
+    return absl::InvalidArgumentError(
+        "cloth_close_fraction must be in [0, 0.05] (a share of the image's width)");
   if (other_cloth_colours < 0 || other_cloth_colours > 8)
     return absl::InvalidArgumentError("other_cloth_colours must be in [0, 8]");
   return absl::OkStatus();
@@ -633,8 +636,11 @@ absl::StatusOr<PoolTableDetection> DetectPoolTableFrom(IdealView* view, const cv
   // 2. Seed eq. 4.1 at the cloth angle; the largest region is the table.
   cv::Mat mask = AngleMask(small, cloth, options.cloth_angle_deg,
                            3 * options.min_cloth_brightness * brightness);
+  // Gaps up to options.cloth_close_fraction of the width closed (a cue stick's).
+  const int close_size = 1 + 2 * std::max(1, static_cast<int>(std::lround(
+                                                 0.5 * options.cloth_close_fraction * small.cols)));
   cv::morphologyEx(mask, mask, cv::MORPH_CLOSE,
-                   cv::getStructuringElement(cv::MORPH_RECT, cv::Size(3, 3)));
+                   cv::getStructuringElement(cv::MORPH_RECT, cv::Size(close_size, close_size)));
   det.cloth_mask = LargestRegion(mask, &area);
   if (area < min_area)
     return absl::FailedPreconditionError("no pool table in view: the cloth region is too small");
