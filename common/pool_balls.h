@@ -172,7 +172,7 @@ struct PoolBallOptions {
   // ball's own, and the fit has slid off it. Left out, the nearer of two touching balls
   // seen one behind the other slid onto the farther one, its own pixels then all in that
   // zone (seed 11's frame 15 rendered sRGB: the red 3 in front of the blue 2, both 20 mm
-  // off, 2.5 px up the picture; now 3.3 and 5.9 mm). In the first pass the farther balls
+  // off, 2.5 px up the picture; now 3.8 and 4.8 mm). In the first pass the farther balls
   // are not fitted yet and the nearer one's pixels would pull them down onto it. Over the
   // twenty benchmark sets, sRGB: balls over 10 mm 63 + 69 -> 56 + 67, located 4,771 +
   // 4,761 -> 4,787 + 4,776, false balls 12 + 8 -> 7 + 4; linear: 52 + 68 -> 49 + 69,

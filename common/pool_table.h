@@ -30,14 +30,14 @@ struct PoolTableOptions {
   // Smallest cloth area, fraction of the image, to call it a table.
   double min_cloth_fraction = 0.03;
   // Gaps in the cloth region up to this share of the image's width are closed before its
-  // outline is taken (at least 1 px at half resolution, as before this option). A cue stick
+  // outline is taken (never less than the 3x3 closing at half resolution of before). A cue stick
   // laid over the cloth, its shaft and its shadow a few pixels wide, cut an inlet into the
   // region from the cushion it crosses, or cut the region in two: the outline then ran
   // along both of the stick's edges, the side search took that line for a side, and the
   // table was not found ("only part of the table is in view") or found wrong. On the ten
   // cue-stick benchmark sets rendered sRGB, 17 of 600 frames had no table and one a wrong
   // one; at 0.0125 (4 px at 320 px half width) every table is found, and the ten sets
-  // without a stick measure the same. 0 closes 1 px gaps only.
+  // without a stick measure the same. 0 keeps the 3x3 closing alone.
   double cloth_close_fraction = 0.0125;
   // Largest allowed inconsistency of the pose from the corners (0 = a perfect rectangle
   // of the profile's proportions seen by this camera).

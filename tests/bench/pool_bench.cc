@@ -364,9 +364,10 @@ int main(int argc, char** argv) {
   app.add_flag("!--no-fit-separation", analyzer_options.balls.separate_overlapping_fits,
                "Leave fits closer than two radii where they are (PoolBallOptions::"
                "separate_overlapping_fits)");
-  ball_option("--cloth-close-fraction", &analyzer_options.table.cloth_close_fraction,
-              "Gaps in the cloth region up to this share of the image's width are closed before "
-              "the table's outline is taken (0: 1 px ones)");
+  app.add_option("--cloth-close-fraction", analyzer_options.table.cloth_close_fraction,
+                 "Gaps in the cloth region up to this share of the image's width are closed "
+                 "before the table's outline is taken (0: the 3x3 closing alone)")
+      ->capture_default_str();
   app.add_option("--max-working-pixels", analyzer_options.max_working_pixels,
                  "Larger images are analysed reduced to this many pixels (0: never)")
       ->capture_default_str();
