@@ -518,23 +518,26 @@ class SilhouetteScorer {
         const double bn = b[u - roi_.x];
         if (bn < 0) continue;  // kMaskedOut: a pocket
         const int i = u - box.x;
+        bool in_shadow_zone = false;
+        if (!count_shadow_zone_) {  // InShadowZone(centre, u, v)
+          const cv::Vec3d d = ray_at_column[i] + ray_row;
+          in_shadow_zone = to_centre.dot(d) * d[2] < shadow_level * d.dot(d);
+          // Of the zone, only pixels ball by colour count (CountColouredBelow).
+          if (in_shadow_zone &&
+              (colour_below_ == nullptr ||
+               colour_below_->at<float>(v - roi_.y, u - roi_.x) < colour_below_level_))
+            continue;
+        }
         // Coverage(Q, u, v)
         const cv::Vec3d& c = conic_at_column[i];
         const double qx = c[0] + qv0 + Q(0, 2);
         const double qy = c[1] + qv1 + Q(1, 2);
         const double qz = c[2] + qv2 + Q(2, 2);
-        if (!count_shadow_zone_) {  // InShadowZone(centre, u, v)
-          const cv::Vec3d d = ray_at_column[i] + ray_row;
-          if (to_centre.dot(d) * d[2] < shadow_level * d.dot(d)) {
-            if (colour_below_ == nullptr ||
-                colour_below_->at<float>(v - roi_.y, u - roi_.x) < colour_below_level_)
-              continue;
-            const double cov = CoverageFromGradient(qx, qy, qz, u, v);
-            if (cov < 0.5) score += w * (2 * cov - 1);
-            continue;
-          }
-        }
         const double cov = CoverageFromGradient(qx, qy, qz, u, v);
+        if (in_shadow_zone) {  // a ball pixel the silhouette leaves out, or none
+          if (cov < 0.5) score += w * (2 * cov - 1);
+          continue;
+        }
         if (near_cushion && cov > 0 && HiddenByCushion(centre, u, v)) continue;
         score += w * (2 * cov - 1) * (2 * bn - 1);
         cov_sum += cov * w;

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <initializer_list>
 #include <limits>
 #include <opencv2/imgproc.hpp>
 #include <random>
@@ -206,6 +207,16 @@ void ExpectSrgbBallPlacedAndOffWithout(const std::vector<std::tuple<uint64_t, in
       [&](const testdata::PoolScore&, const testdata::PoolScore& before, int number) {
         EXPECT_GT(ErrorOf(before, number), min_error_without_mm);
       });
+}
+
+// Options::Validate() rejects each of `values` in `field`, the others at their defaults.
+template <typename Options>
+void ExpectRejected(double Options::*field, std::initializer_list<double> values) {
+  for (double value : values) {
+    Options options;
+    options.*field = value;
+    EXPECT_FALSE(options.Validate().ok()) << value;
+  }
 }
 
 // A fixed, well-spread layout of all ten balls (none touching).
@@ -1339,11 +1350,7 @@ TEST(PoolDarkBalls, EdgePassIsNotDrawnToTheNumberDisc) {
   PoolAnalyzerOptions uncapped;
   uncapped.balls.edge_interior_level = 1;
   ExpectSrgbBallPlacedAndOffWithout({{47, 54, 6}, {59, 21, 6}, {59, 24, 6}}, 8.0, uncapped, 15.0);
-  PoolBallOptions options;
-  options.edge_interior_level = 0;
-  EXPECT_FALSE(options.Validate().ok());
-  options.edge_interior_level = 1.2;
-  EXPECT_FALSE(options.Validate().ok());
+  ExpectRejected(&PoolBallOptions::edge_interior_level, {0, 1.2});
 }
 
 // A dark ball of the cloth's hue or of none in an sRGB picture goes from its silhouette fit
@@ -1357,11 +1364,7 @@ TEST(PoolDarkBalls, DarkBallFittedStraightToItsRimIsPlacedByBothFits) {
   rim_alone.balls.straight_rim_silhouette_share = 0;
   ExpectSrgbBallPlacedAndOffWithout({{7, 6, 6}, {53, 22, 6}, {79, 0, 6}, {67, 56, 8}}, 9.0,
                                     rim_alone, 12.0);
-  PoolBallOptions options;
-  options.straight_rim_silhouette_share = 1;
-  EXPECT_FALSE(options.Validate().ok());
-  options.straight_rim_silhouette_share = -0.1;
-  EXPECT_FALSE(options.Validate().ok());
+  ExpectRejected(&PoolBallOptions::straight_rim_silhouette_share, {1, -0.1});
 }
 
 // A green 6 on green cloth in an sRGB picture whose lit cap reads as cloth: fitted within a
@@ -1378,9 +1381,7 @@ TEST(PoolDarkBalls, SixWhoseLitCapReadsAsClothIsKeptByItsColour) {
         EXPECT_EQ(score.false_balls, 0);
         EXPECT_LT(ErrorOf(lost, number), 0) << "found without the rule";
       });
-  PoolBallOptions options;
-  options.min_fit_ballness_by_colour = 0.45;  // over min_fit_ballness
-  EXPECT_FALSE(options.Validate().ok());
+  ExpectRejected(&PoolBallOptions::min_fit_ballness_by_colour, {0.45});  // > min_fit_ballness
 }
 
 // A ball near the far cushion with the cushion's shaded face behind it: the dark face
@@ -1560,11 +1561,7 @@ TEST(PoolTouchingBalls, NearerBallOfAPairIsNotFittedOntoTheFartherOne) {
                                   : m.error_mm);
     EXPECT_GT(worst, 12.0) << "every ball placed without the rule";
   }
-  PoolBallOptions options;
-  options.colour_below_ballness = 1.5;
-  EXPECT_FALSE(options.Validate().ok());
-  options.colour_below_ballness = -0.1;
-  EXPECT_FALSE(options.Validate().ok());
+  ExpectRejected(&PoolBallOptions::colour_below_ballness, {1.5, -0.1});
 }
 
 // A ball not darker than the cloth is refined on its edge points, not on the mean fall of
@@ -1988,11 +1985,7 @@ TEST(PoolTablePose, CueStickOverTheClothLeavesTheTableFound) {
     auto before = AnalyzeAndScore(scene, view, one_pixel_gaps);
     EXPECT_FALSE(before.ok()) << "found with 1 px gaps closed only";
   }
-  PoolTableOptions options;
-  options.cloth_close_fraction = 0.2;
-  EXPECT_FALSE(options.Validate().ok());
-  options.cloth_close_fraction = -0.01;
-  EXPECT_FALSE(options.Validate().ok());
+  ExpectRejected(&PoolTableOptions::cloth_close_fraction, {0.2, -0.01});
 }
 
 // The sides are found on the chromaticity step (which a dark cushion face cannot fake)
