@@ -1218,6 +1218,12 @@ absl::Status PoolBallOptions::Validate() const {
   if (!(colour_below_ballness >= 0 && colour_below_ballness <= 1))
     return absl::InvalidArgumentError(
         "colour_below_ballness must be in [0, 1] (a ball-ness by colour; 0: off)");
+  if (!(colour_below_front_ballness >= 0 && colour_below_front_ballness <= 1))
+    return absl::InvalidArgumentError(
+        "colour_below_front_ballness must be in [0, 1] (a ball-ness by colour; 0: off)");
+  if (!(same_ball_colour_ballness >= 0 && same_ball_colour_ballness <= 1))
+    return absl::InvalidArgumentError(
+        "same_ball_colour_ballness must be in [0, 1] (a ball-ness by colour; 0: off)");
   if (!(edge_interior_level > 0 && edge_interior_level <= 1))
     return absl::InvalidArgumentError(
         "edge_interior_level must be in (0, 1] (a quantile of a ball's interior; 1: off)");
@@ -1722,6 +1728,9 @@ class BallFinder {
   // Each seed's silhouette fitted, nearest first, then again with all others claimed;
   // two seeds of one ball merged.
   void FitSilhouettes();
+  // Whether seed i (seeds_ sorted nearest first) is the nearest of two or more seeds whose
+  // balls' centres project into the same blob.
+  bool FrontOfBlob(size_t i) const;
   // A blob of two balls, one behind the other, with one seed: fitted as two.
   void SplitHiddenBalls();
   // The pixels of blob `label` (labels_) more than kBallHaloPx outside the silhouette of
@@ -2199,11 +2208,34 @@ void BallFinder::FitSilhouettes() {
         }
       }
       SilhouetteScorer scorer(ballness_in_region_, roi_, claimed_, K_, pose_, profile_);
-      if (pass == 1 && options_.colour_below_ballness > 0)
+      if (pass == 1 && options_.colour_below_ballness > 0) {
         scorer.CountColouredBelow(&ByColourAlone(), options_.colour_below_ballness);
+      } else if (pass == 0 && options_.colour_below_front_ballness > 0 && FrontOfBlob(i)) {
+        // The nearest ball of a blob is fitted with nothing of the blob claimed yet, and
+        // is the one that slides onto the ball behind it
+        // (options.colour_below_front_ballness).
+        scorer.CountColouredBelow(&ByColourAlone(), options_.colour_below_front_ballness);
+      }
       seeds_[i] = scorer.Fit(seeds_[i], 0.35 * r_);
     }
   }
+}
+
+bool BallFinder::FrontOfBlob(size_t i) const {
+  const auto blob_of = [&](const cv::Point2d& xy) {
+    const cv::Point2d px = ProjectIdeal(pose_, K_, {xy.x, xy.y, r_});
+    const cv::Point at(cvRound(px.x) - roi_.x, cvRound(px.y) - roi_.y);
+    return at.inside(cv::Rect(0, 0, roi_.width, roi_.height)) ? labels_.at<int>(at) : 0;
+  };
+  const int blob = blob_of(seeds_[i]);
+  if (blob <= 0) return false;
+  bool later = false;
+  for (size_t j = 0; j < seeds_.size(); ++j) {
+    if (j == i || blob_of(seeds_[j]) != blob) continue;
+    if (j < i) return false;  // a nearer seed of the blob
+    later = true;
+  }
+  return later;
 }
 
 double BallFinder::UnexplainedByOneBall(size_t i, int label) {
@@ -2813,7 +2845,24 @@ void BallFinder::ResolveOverlaps() {
           scorer.Score(seeds_[self], &fit[k]);
           dark[k] = fit_dark(seeds_[self]);
         }
-        const size_t worse = fit[0] >= fit[1] ? j : i, better = worse == i ? j : i;
+        size_t worse = fit[0] >= fit[1] ? j : i;
+        if (gap < r_ && options_.same_ball_colour_ballness > 0) {
+          // Closer than a radius, the two are fits of one ball. The ball-ness counts the
+          // ball's shadow as ball and can favour a fit that slid into it; by colour alone
+          // the shadow is cloth (options.same_ball_colour_ballness).
+          double by_colour[2];
+          std::vector<cv::Point2d> rest;
+          for (size_t m = 0; m < seeds_.size(); ++m)
+            if (m != i && m != j) rest.push_back(seeds_[m]);
+          Claim(rest, rest.size(), rest.size());
+          SilhouetteScorer colour_scorer(ByColourAlone(), roi_, claimed_, K_, pose_, profile_);
+          colour_scorer.CountShadowZone();
+          colour_scorer.Score(seeds_[i], &by_colour[0]);
+          colour_scorer.Score(seeds_[j], &by_colour[1]);
+          if (std::max(by_colour[0], by_colour[1]) >= options_.same_ball_colour_ballness)
+            worse = by_colour[0] >= by_colour[1] ? j : i;
+        }
+        const size_t better = worse == i ? j : i;
         const int w = worse == i ? 0 : 1;
         const bool other_colour =
             coloured[w] && (!coloured[1 - w] ||

@@ -179,6 +179,22 @@ struct PoolBallOptions {
   // located 4,763 + 4,758 -> 4,773 + 4,766, false balls 19 + 17 -> 15 + 15. 0 turns this
   // off.
   double colour_below_ballness = 0.5;
+  // The same count in the first pass for the nearest ball of a blob that holds other
+  // seeds: fitted first, with nothing of the blob claimed, it is the one that slides onto
+  // the ball behind it, and a farther ball of the blob is not yet fitted to be pulled down
+  // (seed 73's frame 33 rendered sRGB: the 5 in front of the 7, 11.2 mm up the picture
+  // onto it and the 7 lost; now 0.3 mm and the 7 found). Measured over the twenty
+  // benchmark sets with same_ball_colour_ballness in the figures of the latter. 0 turns
+  // this off.
+  double colour_below_front_ballness = 0.5;
+  // Two fits closer than a ball's radius are two fits of one ball (ResolveOverlaps keeps
+  // one). Which is kept is decided by the ball-ness, which counts the ball's dark
+  // underside and shadow as ball, so a fit slid into its shadow can win; when either fit
+  // is at least this much ball by colour alone (over its silhouette and the zone under
+  // it, where a shadow is cloth), the one more ball by colour is kept instead (seed 7's
+  // frame 8 on red cloth, rendered sRGB: the maroon 7 kept on its shadow 23.4 mm towards
+  // the camera; now 4 mm). 0 turns this off.
+  double same_ball_colour_ballness = 0.33;
   // The light's colour. Bar lamps are warm (2700-3000 K) and a camera's white balance
   // corrects only part of it: the white cue ball then reads as yellow (the 1 or the 9), the
   // maroon 7 as the red 3, and the 6 nears the cloth's colour. The white of the balls in

@@ -331,6 +331,11 @@ int main(int argc, char** argv) {
   ball_option("--colour-below-ballness", &analyzer_options.balls.colour_below_ballness,
               "In the silhouette fit's second pass, pixels under a ball's silhouette this much "
               "ball by colour count as ball it leaves out (0: never)");
+  ball_option("--colour-below-front-ballness", &analyzer_options.balls.colour_below_front_ballness,
+              "The same in the first pass for the nearest ball of a blob of several (0: never)");
+  ball_option("--same-ball-colour-ballness", &analyzer_options.balls.same_ball_colour_ballness,
+              "Of two fits closer than a radius, the one more ball by colour alone is kept when "
+              "either is this much (0: by ball-ness)");
   ball_option("--straight-rim-silhouette-share",
               &analyzer_options.balls.straight_rim_silhouette_share,
               "A dark ball fitted straight to its far rim (sRGB) is placed this share of the way "
