@@ -183,9 +183,9 @@ struct PoolBallOptions {
   // seeds: fitted first, with nothing of the blob claimed, it is the one that slides onto
   // the ball behind it, and a farther ball of the blob is not yet fitted to be pulled down
   // (seed 73's frame 33 rendered sRGB: the 5 in front of the 7, 11.2 mm up the picture
-  // onto it and the 7 lost; now 0.3 mm and the 7 found). Measured over the twenty
-  // benchmark sets with same_ball_colour_ballness in the figures of the latter. 0 turns
-  // this off.
+  // onto it and the 7 lost; now 0.3 and 0.5 mm). Over the twenty benchmark sets, sRGB:
+  // balls over 10 mm 56 + 67 -> 53 + 65, located 4,787 + 4,776 -> 4,788 + 4,780; linear:
+  // 49 + 69 -> 47 + 66, located 4,773 + 4,766 -> 4,779 + 4,772. 0 turns this off.
   double colour_below_front_ballness = 0.5;
   // Two fits closer than a ball's radius are two fits of one ball (ResolveOverlaps keeps
   // one). Which is kept is decided by the ball-ness, which counts the ball's dark
@@ -193,7 +193,9 @@ struct PoolBallOptions {
   // is at least this much ball by colour alone (over its silhouette and the zone under
   // it, where a shadow is cloth), the one more ball by colour is kept instead (seed 7's
   // frame 8 on red cloth, rendered sRGB: the maroon 7 kept on its shadow 23.4 mm towards
-  // the camera; now 4 mm). 0 turns this off.
+  // the camera; now under 6 mm). With colour_below_front_ballness, over the twenty sets:
+  // balls over 10 mm on the held-out sets 65 -> 64 (sRGB) and 66 -> 65 (linear), the
+  // others alike. 0 turns this off.
   double same_ball_colour_ballness = 0.33;
   // The light's colour. Bar lamps are warm (2700-3000 K) and a camera's white balance
   // corrects only part of it: the white cue ball then reads as yellow (the 1 or the 9), the
