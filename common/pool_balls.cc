@@ -135,6 +135,28 @@ void AddDarkness(const cv::Mat& bgr, const cv::Rect& roi, const cv::Vec3f& cloth
   }
 }
 
+// Ball-ness of pixels much brighter than the cloth added to `ballness` (over `roi`):
+// PoolBallOptions::bright_fraction_srgb.
+void AddBrightness(const cv::Mat& bgr, const cv::Rect& roi, const cv::Vec3f& cloth, double fraction,
+                   cv::Mat* ballness) {
+  constexpr double kSoft = 0.05;  // half the soft band, a share of the cloth's brightness
+  const float cloth_sum = cloth[0] + cloth[1] + cloth[2];
+  const float bright_lo = static_cast<float>((fraction - kSoft) * cloth_sum);
+  const float bright_hi = static_cast<float>((fraction + kSoft) * cloth_sum);
+  for (int y = 0; y < roi.height; ++y) {
+    const cv::Vec3b* p = bgr.ptr<cv::Vec3b>(y + roi.y) + roi.x;
+    float* q = ballness->ptr<float>(y);
+    for (int x = 0; x < roi.width; ++x) {
+      const float sum = static_cast<float>(p[x][0]) + p[x][1] + p[x][2];
+      if (sum <= bright_lo) continue;
+      q[x] = std::max(
+          q[x], sum >= bright_hi
+                    ? 1.f
+                    : static_cast<float>(SmoothStep((sum - bright_lo) / (bright_hi - bright_lo))));
+    }
+  }
+}
+
 // The ball-ness by colour of every pixel in `roi` (0 = cloth, 1 = ball), soft around the
 // thresholds so that sub-pixel fitting sees a continuous image (a shadow on the cloth is
 // dark, never coloured; AddDarkness adds the dark balls). The colour angle to the cloth is
@@ -1137,6 +1159,11 @@ absl::Status PoolBallOptions::Validate() const {
     return absl::InvalidArgumentError("ball_angle_soft_deg must be in (0, ball_angle_deg)");
   if (!(ball_chroma_distance > 0.1 && ball_chroma_distance < 2))
     return absl::InvalidArgumentError("ball_chroma_distance must be in (0.1, 2)");
+  if (!(bright_fraction_srgb == 0 || (bright_fraction_srgb >= 1.2 && bright_fraction_srgb <= 4)))
+    return absl::InvalidArgumentError(absl::StrCat(
+        "bright_fraction_srgb must be 0 (off) or in [1.2, 4] (a multiple of the cloth's "
+        "brightness; nearer 1 the lit cloth itself reads as ball), got ",
+        bright_fraction_srgb));
   if (!(dark_fraction > 0.05 && dark_fraction < 0.9))
     return absl::InvalidArgumentError("dark_fraction must be in (0.05, 0.9)");
   if (!(cushion_shade_dark_share >= 0 && cushion_shade_dark_share <= 1))
@@ -1915,6 +1942,8 @@ bool BallFinder::FindBallPixels(const cv::Rect& valid) {
           : cv::Mat();
   cv::Mat ballness = colour_only_.clone();
   AddDarkness(bgr_, roi_, cloth_, options_, shade, &ballness);
+  if (options_.pixel_encoding == PixelEncoding::kSrgb && options_.bright_fraction_srgb > 0)
+    AddBrightness(bgr_, roi_, cloth_, options_.bright_fraction_srgb, &ballness);
   mask_.create(roi_.size(), CV_8UC1);
   for (int y = 0; y < roi_.height; ++y) {
     const float* b = ballness.ptr<float>(y);

@@ -31,6 +31,19 @@ struct PoolBallOptions {
   double ball_chroma_distance = 0.35;
   // Pixels darker than this fraction of the cloth brightness are ball (the 8 ball).
   double dark_fraction = 0.3;
+  // In an sRGB picture (pixel_encoding), pixels brighter than this multiple of the cloth's
+  // brightness (B + G + R) are ball as well. A ball of the cloth's own hue but lighter, as
+  // the red 3 on burgundy cloth, has the cloth's chromaticity over its lit body; only its
+  // highlight and its shaded rim were ball, a crescent that the fits slid along or lost
+  // (seed 7's set on red cloth, 60 frames: the 3 lost in five frames it stood alone in).
+  // Over the cloth the light varies less than that, and the white and coloured balls are
+  // ball by colour already: on green cloth the twenty benchmark sets are unchanged by it.
+  // Red cloth, sRGB, seeds 7 and 11 (60 frames): separated balls named 304 + 282 -> 310 +
+  // 284 of 317 + 290, located 451 + 466 -> 459 + 470, false balls 22 + 16 -> 16 + 14. At
+  // 1.3 the brighter patches of the cloth under the lamps were balls (351 false balls).
+  // Linear pictures are left out: at 1.6 there, red seed 11 named 5 balls more but placed
+  // 5 more over 10 mm. 0 turns this off.
+  double bright_fraction_srgb = 1.6;
   // Next to the cushions, where the cloth is darker than elsewhere (and on a cushion's face
   // that is itself as dark as a dark ball), a pixel is dark (ball) only when it is also
   // darker than this share of the cloth as lit there: a lamp not over the table's middle

@@ -331,6 +331,9 @@ int main(int argc, char** argv) {
   ball_option("--colour-below-ballness", &analyzer_options.balls.colour_below_ballness,
               "In the silhouette fit's second pass, pixels under a ball's silhouette this much "
               "ball by colour count as ball it leaves out (0: never)");
+  ball_option("--bright-fraction-srgb", &analyzer_options.balls.bright_fraction_srgb,
+              "In an sRGB picture pixels brighter than this multiple of the cloth are ball "
+              "(0: never)");
   ball_option("--colour-below-front-ballness", &analyzer_options.balls.colour_below_front_ballness,
               "The same in the first pass for the nearest ball of a blob of several (0: never)");
   ball_option("--same-ball-colour-ballness", &analyzer_options.balls.same_ball_colour_ballness,

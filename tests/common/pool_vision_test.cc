@@ -1582,6 +1582,30 @@ void ExpectEveryBallNamedButNotWithout(const std::vector<BenchViewCase>& cases,
   }
 }
 
+// A red 3 on burgundy cloth has the cloth's chromaticity over its lit body, which is
+// lighter than the cloth: only its highlight and shaded rim were ball, and the ball was
+// lost. Pixels of an sRGB picture over PoolBallOptions::bright_fraction_srgb of the cloth's
+// brightness are ball. Seed 7's set on the benchmark's red cloth (--cloth red --srgb),
+// frames 10, 15, 17, 23 and 37: the separated 3 is named within 10 mm; without the rule it
+// is not found.
+TEST(PoolClothColour, LightBallOfTheClothsHueIsFoundByItsBrightness) {
+  PoolAnalyzerOptions without;
+  without.balls.bright_fraction_srgb = 0;
+  for (int frame : {10, 15, 17, 23, 37}) {
+    const BenchViewCase red{7, frame, true, cv::Vec3d(125, 30, 40)};
+    SCOPED_TRACE(CaseName(red));
+    PoolTableProfile profile;
+    const auto [scene, view] = RenderBenchView(red, &profile);
+    auto scored = AnalyzeAndScore(scene, view, {}, &profile);
+    ASSERT_TRUE(scored.ok()) << scored.status();
+    ExpectSeparatedBallNamed(scored->score, 3, 10.0);
+    auto before = AnalyzeAndScore(scene, view, without, &profile);
+    ASSERT_TRUE(before.ok()) << before.status();
+    EXPECT_LT(ErrorOf(before->score, 3), 0) << "the 3 found without the rule";
+  }
+  ExpectRejected(&PoolBallOptions::bright_fraction_srgb, {1.0, 5, -1});
+}
+
 // The nearer of two touching balls seen one behind the other slid onto the farther one in
 // its silhouette fit: its own pixels were then in the dark zone under the fit, which the
 // fit leaves out. In the fit's second pass, pixels there that are ball by colour count as
