@@ -1557,24 +1557,39 @@ std::string CaseName(const BenchViewCase& c) {
          (c.srgb ? " sRGB" : " linear") + (c.cloth_rgb ? " other cloth" : "");
 }
 
+// A benchmark view analysed with the default options and with `without` (the change under
+// test turned off).
+struct WithAndWithout {
+  PoolView view;
+  testdata::PoolScore with, without;
+};
+void AnalyzeWithAndWithout(const BenchViewCase& c, const PoolAnalyzerOptions& without,
+                           WithAndWithout* out) {
+  PoolTableProfile profile;
+  const auto [scene, view] = RenderBenchView(c, &profile);
+  out->view = view;
+  auto scored = AnalyzeAndScore(scene, view, {}, &profile);
+  ASSERT_TRUE(scored.ok()) << scored.status();
+  out->with = scored->score;
+  auto before = AnalyzeAndScore(scene, view, without, &profile);
+  ASSERT_TRUE(before.ok()) << before.status();
+  out->without = before->score;
+}
+
 // For each view: every ball named within 10 mm with no false ball, and with `without` (the
 // change under test turned off) some ball 12 mm or more off, lost or misnamed.
 void ExpectEveryBallNamedButNotWithout(const std::vector<BenchViewCase>& cases,
                                        const PoolAnalyzerOptions& without) {
   for (const BenchViewCase& c : cases) {
     SCOPED_TRACE(CaseName(c));
-    PoolTableProfile profile;
-    const auto [scene, view] = RenderBenchView(c, &profile);
-    auto scored = AnalyzeAndScore(scene, view, {}, &profile);
-    ASSERT_TRUE(scored.ok()) << scored.status();
-    EXPECT_EQ(scored->score.false_balls, 0);
-    ExpectEveryBallLocatedWithin(scored->score, view, 10.0);
-    for (const auto& m : scored->score.matches)
+    WithAndWithout scored;
+    ASSERT_NO_FATAL_FAILURE(AnalyzeWithAndWithout(c, without, &scored));
+    EXPECT_EQ(scored.with.false_balls, 0);
+    ExpectEveryBallLocatedWithin(scored.with, scored.view, 10.0);
+    for (const auto& m : scored.with.matches)
       EXPECT_EQ(m.estimated_number, m.truth_number) << "ball " << m.truth_number;
-    auto before = AnalyzeAndScore(scene, view, without, &profile);
-    ASSERT_TRUE(before.ok()) << before.status();
     double worst = 0;  // a ball lost or misnamed counts as off without bound
-    for (const auto& m : before->score.matches)
+    for (const auto& m : scored.without.matches)
       worst = std::max(worst, m.error_mm < 0 || m.estimated_number != m.truth_number
                                   ? std::numeric_limits<double>::infinity()
                                   : m.error_mm);
@@ -1594,14 +1609,10 @@ TEST(PoolClothColour, LightBallOfTheClothsHueIsFoundByItsBrightness) {
   for (int frame : {10, 15, 17, 23, 37}) {
     const BenchViewCase red{7, frame, true, cv::Vec3d(125, 30, 40)};
     SCOPED_TRACE(CaseName(red));
-    PoolTableProfile profile;
-    const auto [scene, view] = RenderBenchView(red, &profile);
-    auto scored = AnalyzeAndScore(scene, view, {}, &profile);
-    ASSERT_TRUE(scored.ok()) << scored.status();
-    ExpectSeparatedBallNamed(scored->score, 3, 10.0);
-    auto before = AnalyzeAndScore(scene, view, without, &profile);
-    ASSERT_TRUE(before.ok()) << before.status();
-    EXPECT_LT(ErrorOf(before->score, 3), 0) << "the 3 found without the rule";
+    WithAndWithout scored;
+    ASSERT_NO_FATAL_FAILURE(AnalyzeWithAndWithout(red, without, &scored));
+    ExpectSeparatedBallNamed(scored.with, 3, 10.0);
+    EXPECT_LT(ErrorOf(scored.without, 3), 0) << "the 3 found without the rule";
   }
   ExpectRejected(&PoolBallOptions::bright_fraction_srgb, {1.0, 5, -1});
 }
@@ -1659,14 +1670,10 @@ TEST(PoolDarkBalls, OfTwoFitsOfOneBallTheOneMoreBallByColourIsKept) {
   // On red cloth the 3 of that view, touching the 8 in front of it, is lost either way.
   const BenchViewCase red{7, 8, true, cv::Vec3d(125, 30, 40)};
   SCOPED_TRACE(CaseName(red));
-  PoolTableProfile profile;
-  const auto [scene, view] = RenderBenchView(red, &profile);
-  auto scored = AnalyzeAndScore(scene, view, {}, &profile);
-  ASSERT_TRUE(scored.ok()) << scored.status();
-  ExpectSeparatedBallNamed(scored->score, 7, 10.0);
-  auto before = AnalyzeAndScore(scene, view, without, &profile);
-  ASSERT_TRUE(before.ok()) << before.status();
-  EXPECT_GT(ErrorOf(before->score, 7), 12.0);
+  WithAndWithout scored;
+  ASSERT_NO_FATAL_FAILURE(AnalyzeWithAndWithout(red, without, &scored));
+  ExpectSeparatedBallNamed(scored.with, 7, 10.0);
+  EXPECT_GT(ErrorOf(scored.without, 7), 12.0);
   ExpectRejected(&PoolBallOptions::same_ball_colour_ballness, {1.5, -0.1});
 }
 
