@@ -564,9 +564,12 @@ namespace {
 // a red cloth, the profile holding the default green): the peaks of a hue histogram of the
 // saturated, lit pixels of the half-resolution image, most common first, each as the mean
 // colour of its pixels. Only peaks that cover min_fraction of the image (a table does).
+// OpenCV's HSV saturation (of 255) under which a colour is not a cloth's: grey paper, walls
+// and floors.
+constexpr int kMinClothSaturation = 60;
+
 std::vector<cv::Vec3f> DominantColours(const cv::Mat& small, double min_fraction, int max_colours) {
   constexpr int kBins = 36;           // 5 of OpenCV's hue units (10 degrees) each
-  constexpr int kMinSaturation = 60;  // of 255: grey paper, walls and floors are out
   constexpr int kMinValue = 40;       // of 255: shadows' hue is noise
   cv::Mat hsv;
   cv::cvtColor(small, hsv, cv::COLOR_BGR2HSV);
@@ -576,7 +579,7 @@ std::vector<cv::Vec3f> DominantColours(const cv::Mat& small, double min_fraction
     const cv::Vec3b* h = hsv.ptr<cv::Vec3b>(y);
     const cv::Vec3b* p = small.ptr<cv::Vec3b>(y);
     for (int x = 0; x < hsv.cols; ++x) {
-      if (h[x][1] < kMinSaturation || h[x][2] < kMinValue) continue;
+      if (h[x][1] < kMinClothSaturation || h[x][2] < kMinValue) continue;
       const int bin = std::min(kBins - 1, h[x][0] * kBins / 180);
       count[bin] += 1;
       sum[bin] += cv::Vec3d(p[x][0], p[x][1], p[x][2]);
@@ -605,6 +608,14 @@ std::vector<cv::Vec3f> DominantColours(const cv::Mat& small, double min_fraction
                          static_cast<float>(s[2] / n));
   }
   return colours;
+}
+
+// Too little colour for the cloth to be found by its colour angle: HSV saturation under the
+// bound DominantColours keeps grey paper, walls and floors out with.
+bool IsNearlyGrey(const cv::Vec3b& bgr) {
+  const int most = std::max({bgr[0], bgr[1], bgr[2]});
+  const int least = std::min({bgr[0], bgr[1], bgr[2]});
+  return most == 0 || 255 * (most - least) < kMinClothSaturation * most;
 }
 
 // The table found from a cloth colour `seed` (the wide search's centre): steps 1-8 below.
@@ -658,8 +669,15 @@ absl::StatusOr<PoolTableDetection> DetectPoolTableFrom(IdealView* view, const cv
   const std::string partial_message =
       "only part of the table is in view: the cloth runs into the image border; step back "
       "or turn the camera so that all four cushions and corners are visible";
-  if (on_border > static_cast<int>(contour.size() / 50) + 3)
-    return absl::FailedPreconditionError(partial_message);
+  if (on_border > static_cast<int>(contour.size() / 50) + 3) {
+    // Or the whole table is in view and the region is not the table's alone: the cloth's
+    // colour is the floor's or the walls' too (a brown cloth on a wooden floor).
+    return absl::FailedPreconditionError(absl::StrCat(
+        partial_message, ". If all of it is in view, the floor or the walls around it have the ",
+        "cloth's colour (BGR ", static_cast<int>(det.cloth_bgr[0]), ",",
+        static_cast<int>(det.cloth_bgr[1]), ",", static_cast<int>(det.cloth_bgr[2]),
+        ") and the cloth cannot be told from them"));
+  }
 
   // 4. Hough lines on the outline, clustered into distinct lines.
   const int threshold = std::max(10, static_cast<int>(contour.size() / 40));
@@ -932,6 +950,17 @@ absl::StatusOr<PoolTableDetection> DetectPoolTable(IdealView* view, const cv::Ma
   const cv::Mat& small = view->half();
   const cv::Vec3f profile_cloth(profile.cloth_bgr[0], profile.cloth_bgr[1], profile.cloth_bgr[2]);
   auto found = DetectPoolTableFrom(view, K, profile, options, profile_cloth);
+  if (!found.ok() && IsNearlyGrey(profile.cloth_bgr)) {
+    // The colour angle to a grey is small for every grey, beige or dim pixel: the floor,
+    // the walls and the rails are cloth to it (and the balls' ball-ness is taken the same
+    // way), so the user is told why rather than only what failed.
+    return absl::FailedPreconditionError(absl::StrCat(
+        "the table profile's cloth colour (BGR ", static_cast<int>(profile.cloth_bgr[0]), ",",
+        static_cast<int>(profile.cloth_bgr[1]), ",", static_cast<int>(profile.cloth_bgr[2]),
+        ") is nearly grey: the table and the balls are found by the cloth's colour, and a grey, "
+        "black or white cloth is not supported (",
+        found.status().message(), ")"));
+  }
   if (found.ok() || options.other_cloth_colours == 0) return found;
   // A cloth of another colour than the profile's (blue, red): the image's own dominant
   // colours, each of which must still give a table of the profile's proportions. When none

@@ -455,6 +455,30 @@ TEST(PoolClothColour, ClothOfAnotherColourThanTheProfileIsFound) {
   EXPECT_EQ(table.status().code(), absl::StatusCode::kFailedPrecondition);
 }
 
+// A cloth of nearly no colour (charcoal) is refused with the reason: the table and the balls
+// are found by the cloth's colour, and to a grey every grey or beige pixel (the floor) is
+// cloth. A brown cloth, saturated enough, merges with the renderer's beige floor all the same:
+// "only part of the table" then also says that the floor may have the cloth's colour.
+TEST(PoolErrors, ClothThatCannotBeToldFromTheFloorIsRefusedWithTheReason) {
+  for (const auto& [rgb, message] :
+       {std::pair{cv::Vec3d(45, 45, 50), std::string("is nearly grey")},
+        std::pair{cv::Vec3d(90, 60, 40), std::string("the floor or the walls around it")}}) {
+    SCOPED_TRACE(message);
+    PoolScene scene = Scene(PoolViewSide::kLongNear, 40);
+    scene.table.cloth_rgb = rgb;
+    const PoolView view = testdata::RenderPoolView(scene, 5);
+    PoolTableProfile profile = ProfileFor(scene.table);
+    profile.cloth_bgr = cv::Vec3b(static_cast<uchar>(rgb[2]), static_cast<uchar>(rgb[1]),
+                                  static_cast<uchar>(rgb[0]));
+    auto analyzer = PoolAnalyzer::Create(profile, CameraOf(view), ForLinearRender());
+    ASSERT_TRUE(analyzer.ok()) << analyzer.status();
+    auto analysis = analyzer->Analyze(view.image);
+    ASSERT_FALSE(analysis.ok());
+    EXPECT_EQ(analysis.status().code(), absl::StatusCode::kFailedPrecondition);
+    EXPECT_NE(analysis.status().message().find(message), std::string::npos) << analysis.status();
+  }
+}
+
 TEST(PoolErrors, OnlyPartOfTheTable) {
   PoolScene scene = Scene(PoolViewSide::kLongNear, 45);
   // Zoom in on one end: the far cushion and one side leave the frame.
