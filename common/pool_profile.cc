@@ -10,6 +10,12 @@
 
 namespace texfree {
 
+bool IsNearlyGreyCloth(const cv::Vec3b& bgr) {
+  const int most = std::max({bgr[0], bgr[1], bgr[2]});
+  const int least = std::min({bgr[0], bgr[1], bgr[2]});
+  return most == 0 || 255 * (most - least) < kMinClothSaturation * most;
+}
+
 absl::Status PoolTableProfile::Validate() const {
   auto finite_positive = [](double v) { return std::isfinite(v) && v > 0; };
   if (!finite_positive(length_mm) || !finite_positive(width_mm))
@@ -38,6 +44,13 @@ absl::Status PoolTableProfile::Validate() const {
       side_pocket_mm > width_mm / 2)
     return absl::InvalidArgumentError(absl::StrCat(
         "side_pocket_mm (", side_pocket_mm, ") must be wider than a ball and below width/2"));
+  if (IsNearlyGreyCloth(cloth_bgr))
+    return absl::InvalidArgumentError(absl::StrCat(
+        "cloth_color (BGR ", static_cast<int>(cloth_bgr[0]), ",", static_cast<int>(cloth_bgr[1]),
+        ",", static_cast<int>(cloth_bgr[2]),
+        ") is nearly grey: the table and the balls are found by the cloth's colour, and a grey, "
+        "black or white cloth cannot be told from the floor and the rails; give the colour of a "
+        "coloured cloth (green, blue, red)"));
   return absl::OkStatus();
 }
 

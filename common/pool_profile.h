@@ -17,6 +17,13 @@ namespace texfree {
 
 inline constexpr int kPoolBallCount = 10;  // cue (0) and 1..9 for 9-ball
 
+// OpenCV's HSV saturation (of 255) under which a colour is not a cloth's: grey paper,
+// walls and floors. The table and the balls are found by their colour angle to the cloth's,
+// and to a grey every grey, beige or dim pixel (the floor, the rails) is cloth.
+inline constexpr int kMinClothSaturation = 60;
+// Whether `bgr` has too little colour for a cloth (kMinClothSaturation).
+bool IsNearlyGreyCloth(const cv::Vec3b& bgr);
+
 struct PoolTableProfile {
   std::string name = "9ft";
   // Playing surface inside the cushion noses, mm. Default: a standard 9-ft table.
@@ -39,7 +46,8 @@ struct PoolTableProfile {
       cv::Vec3b{20, 190, 245}};
 
   // Says what is wrong: sizes must be positive and plausible (a ball smaller than the
-  // table, cushions lower than the ball diameter, pockets wider than a ball).
+  // table, cushions lower than the ball diameter, pockets wider than a ball), and the
+  // cloth a colour, not nearly grey (IsNearlyGreyCloth).
   absl::Status Validate() const;
 };
 

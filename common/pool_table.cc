@@ -564,10 +564,6 @@ namespace {
 // a red cloth, the profile holding the default green): the peaks of a hue histogram of the
 // saturated, lit pixels of the half-resolution image, most common first, each as the mean
 // colour of its pixels. Only peaks that cover min_fraction of the image (a table does).
-// OpenCV's HSV saturation (of 255) under which a colour is not a cloth's: grey paper, walls
-// and floors.
-constexpr int kMinClothSaturation = 60;
-
 std::vector<cv::Vec3f> DominantColours(const cv::Mat& small, double min_fraction, int max_colours) {
   constexpr int kBins = 36;           // 5 of OpenCV's hue units (10 degrees) each
   constexpr int kMinValue = 40;       // of 255: shadows' hue is noise
@@ -608,14 +604,6 @@ std::vector<cv::Vec3f> DominantColours(const cv::Mat& small, double min_fraction
                          static_cast<float>(s[2] / n));
   }
   return colours;
-}
-
-// Too little colour for the cloth to be found by its colour angle: HSV saturation under the
-// bound DominantColours keeps grey paper, walls and floors out with.
-bool IsNearlyGrey(const cv::Vec3b& bgr) {
-  const int most = std::max({bgr[0], bgr[1], bgr[2]});
-  const int least = std::min({bgr[0], bgr[1], bgr[2]});
-  return most == 0 || 255 * (most - least) < kMinClothSaturation * most;
 }
 
 // The table found from a cloth colour `seed` (the wide search's centre): steps 1-8 below.
@@ -950,17 +938,6 @@ absl::StatusOr<PoolTableDetection> DetectPoolTable(IdealView* view, const cv::Ma
   const cv::Mat& small = view->half();
   const cv::Vec3f profile_cloth(profile.cloth_bgr[0], profile.cloth_bgr[1], profile.cloth_bgr[2]);
   auto found = DetectPoolTableFrom(view, K, profile, options, profile_cloth);
-  if (!found.ok() && IsNearlyGrey(profile.cloth_bgr)) {
-    // The colour angle to a grey is small for every grey, beige or dim pixel: the floor,
-    // the walls and the rails are cloth to it (and the balls' ball-ness is taken the same
-    // way), so the user is told why rather than only what failed.
-    return absl::FailedPreconditionError(absl::StrCat(
-        "the table profile's cloth colour (BGR ", static_cast<int>(profile.cloth_bgr[0]), ",",
-        static_cast<int>(profile.cloth_bgr[1]), ",", static_cast<int>(profile.cloth_bgr[2]),
-        ") is nearly grey: the table and the balls are found by the cloth's colour, and a grey, "
-        "black or white cloth is not supported (",
-        found.status().message(), ")"));
-  }
   if (found.ok() || options.other_cloth_colours == 0) return found;
   // A cloth of another colour than the profile's (blue, red): the image's own dominant
   // colours, each of which must still give a table of the profile's proportions. When none
