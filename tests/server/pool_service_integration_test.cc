@@ -230,6 +230,17 @@ TEST_F(PoolServiceIntegrationTest, BadInputGetsAClearErrorAndTheServerStaysUp) {
   status = stub_->SetTableProfile(&ctx, bad, &stored);
   EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
   EXPECT_NE(status.error_message().find("length_mm"), std::string::npos) << status.error_message();
+  // A cloth of nearly no colour: the table is found by its cloth's colour.
+  v1::SetTableProfileRequest grey;
+  *grey.mutable_profile() = BenchTable("grey");
+  grey.mutable_profile()->mutable_cloth_color()->set_r(70);
+  grey.mutable_profile()->mutable_cloth_color()->set_g(70);
+  grey.mutable_profile()->mutable_cloth_color()->set_b(75);
+  grpc::ClientContext grey_ctx;
+  status = stub_->SetTableProfile(&grey_ctx, grey, &stored);
+  EXPECT_EQ(status.error_code(), grpc::StatusCode::INVALID_ARGUMENT);
+  EXPECT_NE(status.error_message().find("nearly grey"), std::string::npos)
+      << status.error_message();
   EXPECT_TRUE(server_->running());
 }
 
