@@ -1758,6 +1758,15 @@ class BallFinder {
   // Whether seed i (seeds_ sorted nearest first) is the nearest of two or more seeds whose
   // balls' centres project into the same blob.
   bool FrontOfBlob(size_t i) const;
+  // The blob (labels_) under image pixel `pixel`; 0 off every blob or outside the roi.
+  int BlobAt(const cv::Point2d& pixel) const {
+    const cv::Point at(cvRound(pixel.x) - roi_.x, cvRound(pixel.y) - roi_.y);
+    return at.inside(cv::Rect(0, 0, roi_.width, roi_.height)) ? labels_.at<int>(at) : 0;
+  }
+  // The blob under the centre of the ball at table position `xy`.
+  int BlobOfBall(const cv::Point2d& xy) const {
+    return BlobAt(ProjectIdeal(pose_, K_, {xy.x, xy.y, r_}));
+  }
   // A blob of two balls, one behind the other, with one seed: fitted as two.
   void SplitHiddenBalls();
   // The pixels of blob `label` (labels_) more than kBallHaloPx outside the silhouette of
@@ -2187,10 +2196,6 @@ void BallFinder::FitSilhouettes() {
         // by its shadow (merged below when closer than options.seed_merge_distance): those
         // share their pixels.
         const cv::Point2d own = ProjectIdeal(pose_, K_, {seeds_[i].x, seeds_[i].y, r_});
-        const auto blob_at = [&](const cv::Point2d& pixel) {
-          const cv::Point at(cvRound(pixel.x) - roi_.x, cvRound(pixel.y) - roi_.y);
-          return at.inside(cv::Rect(0, 0, roi_.width, roi_.height)) ? labels_.at<int>(at) : 0;
-        };
         // A seed on a ball has colour about it; one on the shadow that lengthens a ball's
         // blob has none (the black 8 neither: its touching balls share pixels as before).
         const auto coloured = [&](const cv::Point2d& pixel, const cv::Point2d& xy) {
@@ -2212,12 +2217,12 @@ void BallFinder::FitSilhouettes() {
             }
           return count > 0 && sum >= 0.5 * count;
         };
-        const int blob = blob_at(own);
+        const int blob = BlobAt(own);
         std::vector<cv::Point2d> neighbours;
         for (size_t j = 0; j < seeds_.size() && blob > 0; ++j) {
           if (j == i || cv::norm(seeds_[j] - seeds_[i]) < 1.5 * r_) continue;
           const cv::Point2d other = ProjectIdeal(pose_, K_, {seeds_[j].x, seeds_[j].y, r_});
-          if (blob_at(other) == blob && coloured(other, seeds_[j])) neighbours.push_back(other);
+          if (BlobAt(other) == blob && coloured(other, seeds_[j])) neighbours.push_back(other);
         }
         if (!neighbours.empty() && !coloured(own, seeds_[i])) neighbours.clear();
         if (!neighbours.empty()) {
@@ -2251,16 +2256,11 @@ void BallFinder::FitSilhouettes() {
 }
 
 bool BallFinder::FrontOfBlob(size_t i) const {
-  const auto blob_of = [&](const cv::Point2d& xy) {
-    const cv::Point2d px = ProjectIdeal(pose_, K_, {xy.x, xy.y, r_});
-    const cv::Point at(cvRound(px.x) - roi_.x, cvRound(px.y) - roi_.y);
-    return at.inside(cv::Rect(0, 0, roi_.width, roi_.height)) ? labels_.at<int>(at) : 0;
-  };
-  const int blob = blob_of(seeds_[i]);
+  const int blob = BlobOfBall(seeds_[i]);
   if (blob <= 0) return false;
   bool later = false;
   for (size_t j = 0; j < seeds_.size(); ++j) {
-    if (j == i || blob_of(seeds_[j]) != blob) continue;
+    if (j == i || BlobOfBall(seeds_[j]) != blob) continue;
     if (j < i) return false;  // a nearer seed of the blob
     later = true;
   }
@@ -2316,9 +2316,7 @@ void BallFinder::SplitHiddenBalls() {
     for (int label : under_split_) {
       size_t a = seeds_.size(), found = 0;
       for (size_t i = 0; i < seeds_.size(); ++i) {
-        const cv::Point2d at = ProjectIdeal(pose_, K_, {seeds_[i].x, seeds_[i].y, r_});
-        const cv::Point p(cvRound(at.x) - roi_.x, cvRound(at.y) - roi_.y);
-        if (p.inside(cv::Rect(0, 0, roi_.width, roi_.height)) && labels_.at<int>(p) == label) {
+        if (BlobOfBall(seeds_[i]) == label) {
           a = i;
           ++found;
         }
@@ -2859,6 +2857,11 @@ void BallFinder::ResolveOverlaps() {
         double fit[2];
         cv::Point2d chroma[2];
         bool coloured[2], dark[2];
+        // Closer than a radius, the two are fits of one ball. The ball-ness counts the ball's
+        // shadow as ball and can favour a fit that slid into it; by colour alone the shadow
+        // is cloth (options.same_ball_colour_ballness).
+        const bool one_ball = gap < r_ && options_.same_ball_colour_ballness > 0;
+        double by_colour[2] = {0, 0};
         for (int k = 0; k < 2; ++k) {
           const size_t self = k == 0 ? i : j;
           std::vector<cv::Point2d> rest;
@@ -2873,24 +2876,15 @@ void BallFinder::ResolveOverlaps() {
           SilhouetteScorer scorer(ballness_in_region_, roi_, claimed_, K_, pose_, profile_);
           scorer.Score(seeds_[self], &fit[k]);
           dark[k] = fit_dark(seeds_[self]);
+          if (one_ball) {
+            SilhouetteScorer colour_scorer(ByColourAlone(), roi_, claimed_, K_, pose_, profile_);
+            colour_scorer.CountShadowZone();
+            colour_scorer.Score(seeds_[self], &by_colour[k]);
+          }
         }
         size_t worse = fit[0] >= fit[1] ? j : i;
-        if (gap < r_ && options_.same_ball_colour_ballness > 0) {
-          // Closer than a radius, the two are fits of one ball. The ball-ness counts the
-          // ball's shadow as ball and can favour a fit that slid into it; by colour alone
-          // the shadow is cloth (options.same_ball_colour_ballness).
-          double by_colour[2];
-          std::vector<cv::Point2d> rest;
-          for (size_t m = 0; m < seeds_.size(); ++m)
-            if (m != i && m != j) rest.push_back(seeds_[m]);
-          Claim(rest, rest.size(), rest.size());
-          SilhouetteScorer colour_scorer(ByColourAlone(), roi_, claimed_, K_, pose_, profile_);
-          colour_scorer.CountShadowZone();
-          colour_scorer.Score(seeds_[i], &by_colour[0]);
-          colour_scorer.Score(seeds_[j], &by_colour[1]);
-          if (std::max(by_colour[0], by_colour[1]) >= options_.same_ball_colour_ballness)
-            worse = by_colour[0] >= by_colour[1] ? j : i;
-        }
+        if (one_ball && std::max(by_colour[0], by_colour[1]) >= options_.same_ball_colour_ballness)
+          worse = by_colour[0] >= by_colour[1] ? j : i;
         const size_t better = worse == i ? j : i;
         const int w = worse == i ? 0 : 1;
         const bool other_colour =

@@ -126,6 +126,11 @@ PoolScene BenchScene(int frame, uint64_t seed = 7, bool nine_foot = false) {
   return scene;
 }
 
+// `scene` rendered as the benchmark renders frame `frame` of its set `seed` (its noise).
+PoolView RenderAsBench(const PoolScene& scene, int frame, uint64_t seed) {
+  return testdata::RenderPoolView(scene, seed * 100003 + static_cast<uint64_t>(frame));
+}
+
 BenchFrame RenderBenchFrame(int frame, uint64_t seed = 7, double scale = 1, bool nine_foot = false,
                             bool cue_stick = false, const cv::Vec3d& light_rgb = {1, 1, 1},
                             bool srgb = false) {
@@ -138,7 +143,7 @@ BenchFrame RenderBenchFrame(int frame, uint64_t seed = 7, double scale = 1, bool
   testdata::ScalePoolCamera(&out.scene, scale);
   out.scene.light_rgb = light_rgb;
   out.scene.srgb_tone = srgb;
-  out.view = testdata::RenderPoolView(out.scene, seed * 100003 + frame);
+  out.view = RenderAsBench(out.scene, frame, seed);
   return out;
 }
 
@@ -151,11 +156,7 @@ double ErrorOf(const testdata::PoolScore& score, int number) {
 // Frame `frame` of the benchmark's set `seed` rendered sRGB-encoded (texfree-bench-pool
 // --srgb), as a phone's picture is.
 BenchFrame SrgbBenchFrame(int frame, uint64_t seed = 7) {
-  BenchFrame out;
-  out.scene = BenchScene(frame, seed);
-  out.scene.srgb_tone = true;
-  out.view = testdata::RenderPoolView(out.scene, seed * 100003 + frame);
-  return out;
+  return RenderBenchFrame(frame, seed, 1, false, false, {1, 1, 1}, /*srgb=*/true);
 }
 
 // For each (seed, frame) of the benchmark's sets rendered sRGB: the separated ball numbered
@@ -1563,7 +1564,7 @@ BenchFrame RenderBenchView(const BenchViewCase& c, PoolTableProfile* profile) {
   out.scene = BenchScene(c.frame, c.seed);
   if (c.cloth_rgb) out.scene.table.cloth_rgb = *c.cloth_rgb;
   out.scene.srgb_tone = c.srgb;
-  out.view = testdata::RenderPoolView(out.scene, c.seed * 100003 + c.frame);
+  out.view = RenderAsBench(out.scene, c.frame, c.seed);
   *profile = ProfileFor(out.scene.table);
   if (c.cloth_rgb)
     profile->cloth_bgr = cv::Vec3b(cv::saturate_cast<uchar>((*c.cloth_rgb)[2]),
