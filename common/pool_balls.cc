@@ -1115,6 +1115,21 @@ constexpr double kLumaSnapRadii = 0.15;
 // this many of them.
 constexpr double kNearHalfFrom = 0.18;
 constexpr size_t kMinNearHalfPixels = 5;
+// AddBallsOfTheClothsHue (PoolBallOptions::cloth_hue_ball_dark_share): a highlight is a
+// blob of pixels this many times as bright as the cloth (B + G + R; the cloth and the
+// shade along a cushion hold none) and at most this share of a ball's apparent area (not
+// a white ball's lit top).
+constexpr double kClothHueHighlight = 1.3;
+constexpr double kClothHueMaxHighlight = 0.5;
+// Its ball is seen already when, in the disc of one apparent radius around it, this share
+// of a ball's area is ball by colour, or this share ball at all (by colour or darkness).
+constexpr double kClothHueBallShare = 0.35;
+constexpr double kClothHueSeenShare = 0.5;
+// Otherwise the darker pixels within this many apparent radii of it are its ball's: the
+// highlight lies within about half a radius of the centre, towards the lamps, and a wider
+// reach takes in the shadow under the ball (1.4: 59 + 62 balls over 10 mm on the twenty
+// sRGB sets, 1.0: 55 + 64, 1.2: 57 + 58; without the rule 53 + 64).
+constexpr double kClothHueReach = 1.2;
 // A ball's body for whether it is darker than the cloth (RefineOutlines): its coloured
 // pixels and its grey ones under this share of the cloth's brightness, when they are at
 // least this share of its pixels. Over the twenty benchmark sets rendered sRGB, balls over
@@ -1159,6 +1174,12 @@ absl::Status PoolBallOptions::Validate() const {
     return absl::InvalidArgumentError("ball_angle_soft_deg must be in (0, ball_angle_deg)");
   if (!(ball_chroma_distance > 0.1 && ball_chroma_distance < 2))
     return absl::InvalidArgumentError("ball_chroma_distance must be in (0.1, 2)");
+  if (!(cloth_hue_ball_dark_share == 0 ||
+        (cloth_hue_ball_dark_share > dark_fraction + 0.1 && cloth_hue_ball_dark_share < 1)))
+    return absl::InvalidArgumentError(absl::StrCat(
+        "cloth_hue_ball_dark_share must be 0 (off) or above dark_fraction + 0.1 and under 1 "
+        "(a share of the cloth's brightness), got ",
+        cloth_hue_ball_dark_share));
   if (!(bright_fraction_srgb == 0 || (bright_fraction_srgb >= 1.2 && bright_fraction_srgb <= 4)))
     return absl::InvalidArgumentError(absl::StrCat(
         "bright_fraction_srgb must be 0 (off) or in [1.2, 4] (a multiple of the cloth's "
@@ -1749,6 +1770,9 @@ class BallFinder {
   // The picture read through a light blur, the search region and its ball-ness, the ball
   // pixels without the cue stick's (mask_); false when no pixel of the table can be read.
   bool FindBallPixels(const cv::Rect& valid);
+  // PoolBallOptions::cloth_hue_ball_dark_share: the darker pixels of blobs that are too
+  // little ball by colour to be a ball, yet hold some, added to `ballness`.
+  void AddBallsOfTheClothsHue(const cv::Mat& shade, cv::Mat* ballness) const;
   // One seed per expected ball of each blob (touching balls split at distance maxima),
   // and the fragments of a small ball taken together.
   void SeedBlobs(double* ball_size_ratio);
@@ -1953,6 +1977,7 @@ bool BallFinder::FindBallPixels(const cv::Rect& valid) {
   AddDarkness(bgr_, roi_, cloth_, options_, shade, &ballness);
   if (options_.pixel_encoding == PixelEncoding::kSrgb && options_.bright_fraction_srgb > 0)
     AddBrightness(bgr_, roi_, cloth_, options_.bright_fraction_srgb, &ballness);
+  if (options_.cloth_hue_ball_dark_share > 0) AddBallsOfTheClothsHue(shade, &ballness);
   mask_.create(roi_.size(), CV_8UC1);
   for (int y = 0; y < roi_.height; ++y) {
     const float* b = ballness.ptr<float>(y);
@@ -2423,6 +2448,63 @@ void BallFinder::SplitHiddenBalls() {
   }
 }
 
+void BallFinder::AddBallsOfTheClothsHue(const cv::Mat& shade, cv::Mat* ballness) const {
+  const float share = static_cast<float>(options_.cloth_hue_ball_dark_share);
+  constexpr float kSoft = 0.1f;  // the darkness is soft over this share below `share`
+  const float highlight_sum = static_cast<float>(kClothHueHighlight * cloth_sum_);
+  cv::Mat highlight = cv::Mat::zeros(roi_.size(), CV_8UC1);
+  for (int y = 0; y < roi_.height; ++y) {
+    const cv::Vec3b* p = bgr_.ptr<cv::Vec3b>(y + roi_.y) + roi_.x;
+    const uchar* in = region_.ptr<uchar>(y);
+    uchar* h = highlight.ptr<uchar>(y);
+    for (int x = 0; x < roi_.width; ++x)
+      h[x] = in[x] && static_cast<float>(p[x][0]) + p[x][1] + p[x][2] >= highlight_sum ? 255 : 0;
+  }
+  thread_local cv::Mat labels;  // kept per thread, as StickPixels' labels
+  cv::Mat stats, centroids;
+  const int n = ConnectedComponentsWithStats(highlight, 8, &labels, &stats, &centroids);
+  const cv::Mat before = ballness->clone();  // each highlight judged on the map as it was
+  for (int k = 1; k < n; ++k) {
+    const cv::Point2d c(centroids.at<double>(k, 0), centroids.at<double>(k, 1));  // roi pixels
+    cv::Point2d xy;
+    if (!BackProjectToPlane(pose_, K_, c + cv::Point2d(roi_.x, roi_.y), r_, &xy)) continue;
+    const double r_px = ApparentRadiusPx(pose_, K_, xy, r_);
+    const double ball_area = kPi * r_px * r_px;
+    // A highlight, not a white or lit ball's whole top.
+    if (stats.at<int>(k, cv::CC_STAT_AREA) > kClothHueMaxHighlight * ball_area) continue;
+    const double reach = kClothHueReach * r_px;
+    const cv::Rect box = cv::Rect(cvFloor(c.x - reach), cvFloor(c.y - reach), 2 * cvCeil(reach) + 2,
+                                  2 * cvCeil(reach) + 2) &
+                         cv::Rect(0, 0, roi_.width, roi_.height);
+    // The ball this highlight is on is seen already when the disc of its apparent radius
+    // around it is a good part ball, by colour or by darkness.
+    int colour = 0, any = 0;
+    for (int y = box.y; y < box.y + box.height; ++y)
+      for (int x = box.x; x < box.x + box.width; ++x) {
+        if (std::hypot(x - c.x, y - c.y) > r_px || labels.at<int>(y, x) == k) continue;
+        colour += colour_only_.at<float>(y, x) > 0.5f;
+        any += before.at<float>(y, x) > 0.5f;
+      }
+    if (colour >= kClothHueBallShare * ball_area || any >= kClothHueSeenShare * ball_area) continue;
+    for (int y = box.y; y < box.y + box.height; ++y) {
+      const cv::Vec3b* p = bgr_.ptr<cv::Vec3b>(y + roi_.y) + roi_.x;
+      const float* lit = shade.empty() ? nullptr : shade.ptr<float>(y);
+      const uchar* in = region_.ptr<uchar>(y);
+      float* b = ballness->ptr<float>(y);
+      for (int x = box.x; x < box.x + box.width; ++x) {
+        if (!in[x] || std::hypot(x - c.x, y - c.y) > reach) continue;
+        const float level = lit ? std::min(lit[x], cloth_sum_) : cloth_sum_;
+        const float fraction = (static_cast<float>(p[x][0]) + p[x][1] + p[x][2]) / level;
+        const float d = fraction >= share ? 0.f
+                        : fraction <= share - kSoft
+                            ? 1.f
+                            : static_cast<float>(SmoothStep((share - fraction) / kSoft));
+        b[x] = std::max(b[x], d);
+      }
+    }
+  }
+}
+
 void BallFinder::RefineOutlines() {
   // Sub-pixel pass on the edge: the ball's outline is where its colour distance from the
   // cloth around it falls fastest (for any symmetric blur, JPEG smear or shading of the
@@ -2736,6 +2818,7 @@ void BallFinder::RefineOutlines() {
         levels.thin_outer_band = dark_ball;
         const cv::Point2d on_rim =
             edge.FitToRim(seeds_[i], distance, levels, std::max(3.0, 0.6 * r_px), &used);
+
         // Kept when enough rim was found, unless it leaves the silhouette half cloth where
         // the edge pass's was not: the ball would then be dropped as not a ball at all
         // (on the 9-ft set two separated balls were lost that way). Under half ball is

@@ -44,6 +44,16 @@ struct PoolBallOptions {
   // Linear pictures are left out: at 1.6 there, red seed 11 named 5 balls more but placed
   // 5 more over 10 mm. 0 turns this off.
   double bright_fraction_srgb = 1.6;
+  // A ball of nearly the cloth's hue and darker than it (a dark teal-green 6 on green
+  // cloth): its body is 0.45-0.85 of the cloth's brightness and within the noise of the
+  // cloth's chromaticity, so only its highlight was ball and the ball was lost. Around a
+  // highlight (a small blob 1.3 times as bright as the cloth) whose ball is not seen
+  // already (under a third of the disc of its apparent radius ball by colour, under half
+  // ball at all), the pixels under this share of the cloth's brightness (as lit there,
+  // CushionShade) within 1.2 apparent radii are ball. texfree-bench-pool --ball-set second
+  // (seeds 7-17 and 43-59, sRGB): located 3,762 -> 3,791 of 3,840, separated named 2,463
+  // -> 2,487 of 2,498, over 10 mm 85 -> 73. 0 turns this off.
+  double cloth_hue_ball_dark_share = 0.8;
   // Next to the cushions, where the cloth is darker than elsewhere (and on a cushion's face
   // that is itself as dark as a dark ball), a pixel is dark (ball) only when it is also
   // darker than this share of the cloth as lit there: a lamp not over the table's middle

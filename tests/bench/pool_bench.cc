@@ -121,16 +121,16 @@ double Mean(const std::vector<double>& v) {
 std::string CacheKey(uint64_t seed, bool nine_foot, bool clean, const std::string& cloth,
                      const std::string& rail, const std::string& light, double scale,
                      bool cue_stick, double motion_blur, const std::string& lamp_shift,
-                     double exposure, bool srgb, int frame) {
-  std::string key = "seed" + std::to_string(seed) + (nine_foot ? "_ninefoot" : "") +
-                    (clean ? "_clean" : "") + "_cloth_" + cloth +
-                    (rail == "wood" ? "" : "_rail_" + rail) +
-                    (light == "neutral" ? "" : "_light_" + light) + "_scale" +
-                    std::to_string(scale) + (cue_stick ? "_cuestick" : "") +
-                    (motion_blur > 0 ? "_motion" + std::to_string(motion_blur) : "") +
-                    (lamp_shift.empty() ? "" : "_lamps_" + lamp_shift) +
-                    (exposure == 1 ? "" : "_exposure" + std::to_string(exposure)) +
-                    (srgb ? "_srgb" : "") + "_f" + std::to_string(frame);
+                     double exposure, bool srgb, PoolBallSet ball_set, int frame) {
+  std::string key =
+      "seed" + std::to_string(seed) + (nine_foot ? "_ninefoot" : "") + (clean ? "_clean" : "") +
+      "_cloth_" + cloth + (rail == "wood" ? "" : "_rail_" + rail) +
+      (light == "neutral" ? "" : "_light_" + light) + "_scale" + std::to_string(scale) +
+      (cue_stick ? "_cuestick" : "") +
+      (motion_blur > 0 ? "_motion" + std::to_string(motion_blur) : "") +
+      (lamp_shift.empty() ? "" : "_lamps_" + lamp_shift) +
+      (exposure == 1 ? "" : "_exposure" + std::to_string(exposure)) + (srgb ? "_srgb" : "") +
+      (ball_set == PoolBallSet::kSecond ? "_balls_second" : "") + "_f" + std::to_string(frame);
   for (char& c : key)
     if (!std::isalnum(static_cast<unsigned char>(c)) && c != '.' && c != '-') c = '_';
   return key;
@@ -253,6 +253,12 @@ int main(int argc, char** argv) {
         cv::Vec3d rgb;
         return ParseLight(v, &rgb) ? std::string() : "expected neutral, warm, cool or R,G,B";
       });
+  std::string ball_set_name = "common";
+  app.add_option("--ball-set", ball_set_name,
+                 "The balls on the table: common (the default profile's colours) or second "
+                 "(another maker's set: a dark teal-green 6, a brown 7, a violet 4, a lighter "
+                 "blue 2, a red-orange 5; the profile keeps the common set's colours)")
+      ->check(CLI::IsMember({"common", "second"}));
   bool cloth_unknown = false;
   app.add_flag("--cloth-unknown", cloth_unknown,
                "Keep the profile's default cloth colour whatever the cloth (a user who did not "
@@ -307,6 +313,9 @@ int main(int argc, char** argv) {
   };
   ball_option("--ball-chroma-distance", &analyzer_options.balls.ball_chroma_distance,
               "A pixel whose chromaticity is this far from the cloth's is ball");
+  ball_option("--cloth-hue-ball-dark-share", &analyzer_options.balls.cloth_hue_ball_dark_share,
+              "Around a highlight whose ball is not seen otherwise (a dark ball of the cloth's "
+              "hue), the pixels under this share of the cloth's brightness are ball (0: off)");
   ball_option("--stick-opening-radius", &analyzer_options.balls.stick_opening_radius,
               "Cue-stick strips are what an opening with a disc of this many ball radii "
               "removes (0: nothing is a stick)");
@@ -410,6 +419,8 @@ int main(int argc, char** argv) {
     profile = PoolTableProfile();
     profile.cloth_bgr = cloth;
   }
+  const PoolBallSet ball_set =
+      ball_set_name == "second" ? PoolBallSet::kSecond : PoolBallSet::kCommon;
   profile.length_mm *= profile_table_scale;
   profile.width_mm *= profile_table_scale;
 
@@ -432,6 +443,7 @@ int main(int argc, char** argv) {
     ParseLight(light, &scene.light_rgb);  // checked by --light's validator
     scene.light_gain *= exposure;
     scene.srgb_tone = srgb;
+    scene.ball_set = ball_set;
     if (!lamp_shift.empty())  // checked by --lamp-shift's validator
       ParseLampShift(lamp_shift, &scene.lamp_shift_mm);
     if (motion_blur > 0)
@@ -445,7 +457,7 @@ int main(int argc, char** argv) {
     const PoolView view =
         CachedPoolView(cache,
                        CacheKey(seed, nine_foot, clean, cloth, rail, light, scale, cue_stick,
-                                motion_blur, lamp_shift, exposure, srgb, f),
+                                motion_blur, lamp_shift, exposure, srgb, ball_set, f),
                        scene, seed * 100003 + f);
     image_size = view.image.size();
     if (!save.empty()) {

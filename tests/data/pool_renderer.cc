@@ -135,7 +135,7 @@ class Scene {
       m.centre = {placement.x_mm, placement.y_mm, t_.ball_radius_mm};
       cv::Vec3d axis(Uniform(rng, -1, 1), Uniform(rng, -1, 1), Uniform(rng, -1, 1));
       m.axis = axis / std::max(1e-9, cv::norm(axis));
-      m.albedo = PoolBallRgb(placement.number);
+      m.albedo = PoolBallRgb(placement.number, scene.ball_set);
       balls_.push_back(m);
     }
     const int lamps = std::clamp(scene.lamps, 1, 3);
@@ -495,9 +495,9 @@ PoolTableSpec PoolTableSpec::NineFoot() {
   return t;
 }
 
-cv::Vec3d PoolBallRgb(int number) {
+cv::Vec3d PoolBallRgb(int number, PoolBallSet set) {
   // Common ball-set colours (RGB albedo).
-  static const cv::Vec3d kColours[] = {
+  static const cv::Vec3d kCommon[] = {
       {236, 232, 222},  // cue
       {250, 196, 20},   // 1 yellow
       {25, 60, 175},    // 2 blue
@@ -509,7 +509,20 @@ cv::Vec3d PoolBallRgb(int number) {
       {22, 22, 24},     // 8 black
       {250, 196, 20},   // 9 yellow stripe (on white)
   };
-  return kColours[std::clamp(number, 0, 9)];
+  static const cv::Vec3d kSecond[] = {
+      {240, 236, 226},  // cue
+      {255, 205, 0},    // 1 deeper yellow
+      {20, 80, 200},    // 2 lighter blue
+      {225, 40, 25},    // 3 red
+      {110, 40, 150},   // 4 violet
+      {255, 90, 10},    // 5 red-orange
+      {0, 95, 60},      // 6 dark teal-green
+      {140, 45, 25},    // 7 brown
+      {15, 15, 18},     // 8 black
+      {255, 205, 0},    // 9 deeper yellow stripe (on white)
+  };
+  const int k = std::clamp(number, 0, 9);
+  return set == PoolBallSet::kSecond ? kSecond[k] : kCommon[k];
 }
 
 PoolView RenderPoolView(const PoolScene& scene, uint64_t seed) {

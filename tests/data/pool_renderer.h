@@ -43,8 +43,14 @@ struct PoolTableSpec {
   static PoolTableSpec NineFoot();
 };
 
+// Which ball set is on the table. kCommon: the colours the default PoolTableProfile
+// holds. kSecond: another maker's set, not tuned on: a dark teal-green 6 (near a green
+// cloth's hue, darker than it), a brown 7, a violet 4, a lighter blue 2, a red-orange 5,
+// a deeper yellow 1 and 9.
+enum class PoolBallSet { kCommon, kSecond };
+
 // Reference albedo (RGB) of ball `number` (0 = cue, 9 = yellow stripe on white).
-cv::Vec3d PoolBallRgb(int number);
+cv::Vec3d PoolBallRgb(int number, PoolBallSet set = PoolBallSet::kCommon);
 
 struct PoolBallPlacement {
   int number = 0;  // 0 = cue, 1..9
@@ -77,6 +83,7 @@ struct PoolScene {
   PoolTableSpec table;
   std::optional<PoolCueStick> cue_stick;  // none: no stick in the scene
   std::vector<PoolBallPlacement> balls;
+  PoolBallSet ball_set = PoolBallSet::kCommon;
   PoolCamera camera;
   int lamps = 2;              // lamps above the long axis, 900 mm over the cloth
   // The lamps moved off that line (X, Y, Z in mm): a room's light not over the table's
