@@ -29,6 +29,12 @@ double SmoothStep(double x) {
   return x * x * (3 - 2 * x);
 }
 
+// A soft threshold: 0 at `edge`, rising smoothly to 1 at `edge + width` (width < 0: 1 below
+// the edge), 0 and 1 beyond.
+float SoftThreshold(float x, float edge, float width) {
+  return static_cast<float>(SmoothStep((x - edge) / width));
+}
+
 // Hue (degrees) and saturation of a BGR colour in the opponent-colour plane.
 void HueSaturation(const cv::Vec3f& bgr, double* hue, double* saturation, double* intensity) {
   const double b = bgr[0], g = bgr[1], r = bgr[2];
@@ -121,10 +127,7 @@ void AddDarkness(const cv::Mat& bgr, const cv::Rect& roi, const cv::Vec3f& cloth
       const bool shaded = lit && lit[x] < cloth_sum;
       const float dark_hi = shaded ? std::min(cloth_dark_hi, shade_share * lit[x]) : cloth_dark_hi;
       const float dark_lo = shaded ? dark_hi * lo_of_hi : cloth_dark_lo;
-      const float dark =
-          sum >= dark_hi   ? 0.f
-          : sum <= dark_lo ? 1.f
-                           : static_cast<float>(SmoothStep((dark_hi - sum) / (dark_hi - dark_lo)));
+      const float dark = SoftThreshold(sum, dark_hi, dark_lo - dark_hi);
       // In a cell in deep shade the colour of pixels about as dark as the cell is JPEG's
       // and the noise's: they are ball only by their darkness.
       if (shaded && lit[x] < kFullShade * cloth_sum && sum < kShadeColourFloor * lit[x])
@@ -149,10 +152,7 @@ void AddBrightness(const cv::Mat& bgr, const cv::Rect& roi, const cv::Vec3f& clo
     for (int x = 0; x < roi.width; ++x) {
       const float sum = static_cast<float>(p[x][0]) + p[x][1] + p[x][2];
       if (sum <= bright_lo) continue;
-      q[x] = std::max(
-          q[x], sum >= bright_hi
-                    ? 1.f
-                    : static_cast<float>(SmoothStep((sum - bright_lo) / (bright_hi - bright_lo))));
+      q[x] = std::max(q[x], SoftThreshold(sum, bright_lo, bright_hi - bright_lo));
     }
   }
 }
@@ -2463,9 +2463,15 @@ void BallFinder::AddBallsOfTheClothsHue(const cv::Mat& shade, cv::Mat* ballness)
   thread_local cv::Mat labels;  // kept per thread, as StickPixels' labels
   cv::Mat stats, centroids;
   const int n = ConnectedComponentsWithStats(highlight, 8, &labels, &stats, &centroids);
-  const cv::Mat before = ballness->clone();  // each highlight judged on the map as it was
+  // First every highlight is judged on the map as it is, then the unseen balls are added.
+  struct Unseen {
+    cv::Point2d centre;  // roi pixels
+    double reach;        // pixels
+    cv::Rect box;        // around the disc of `reach`, inside the roi
+  };
+  std::vector<Unseen> unseen;
   for (int k = 1; k < n; ++k) {
-    const cv::Point2d c(centroids.at<double>(k, 0), centroids.at<double>(k, 1));  // roi pixels
+    const cv::Point2d c(centroids.at<double>(k, 0), centroids.at<double>(k, 1));
     cv::Point2d xy;
     if (!BackProjectToPlane(pose_, K_, c + cv::Point2d(roi_.x, roi_.y), r_, &xy)) continue;
     const double r_px = ApparentRadiusPx(pose_, K_, xy, r_);
@@ -2483,26 +2489,24 @@ void BallFinder::AddBallsOfTheClothsHue(const cv::Mat& shade, cv::Mat* ballness)
       for (int x = box.x; x < box.x + box.width; ++x) {
         if (std::hypot(x - c.x, y - c.y) > r_px || labels.at<int>(y, x) == k) continue;
         colour += colour_only_.at<float>(y, x) > 0.5f;
-        any += before.at<float>(y, x) > 0.5f;
+        any += ballness->at<float>(y, x) > 0.5f;
       }
-    if (colour >= kClothHueBallShare * ball_area || any >= kClothHueSeenShare * ball_area) continue;
-    for (int y = box.y; y < box.y + box.height; ++y) {
+    if (colour < kClothHueBallShare * ball_area && any < kClothHueSeenShare * ball_area)
+      unseen.push_back({c, reach, box});
+  }
+  for (const Unseen& u : unseen)
+    for (int y = u.box.y; y < u.box.y + u.box.height; ++y) {
       const cv::Vec3b* p = bgr_.ptr<cv::Vec3b>(y + roi_.y) + roi_.x;
       const float* lit = shade.empty() ? nullptr : shade.ptr<float>(y);
       const uchar* in = region_.ptr<uchar>(y);
       float* b = ballness->ptr<float>(y);
-      for (int x = box.x; x < box.x + box.width; ++x) {
-        if (!in[x] || std::hypot(x - c.x, y - c.y) > reach) continue;
+      for (int x = u.box.x; x < u.box.x + u.box.width; ++x) {
+        if (!in[x] || std::hypot(x - u.centre.x, y - u.centre.y) > u.reach) continue;
         const float level = lit ? std::min(lit[x], cloth_sum_) : cloth_sum_;
         const float fraction = (static_cast<float>(p[x][0]) + p[x][1] + p[x][2]) / level;
-        const float d = fraction >= share ? 0.f
-                        : fraction <= share - kSoft
-                            ? 1.f
-                            : static_cast<float>(SmoothStep((share - fraction) / kSoft));
-        b[x] = std::max(b[x], d);
+        b[x] = std::max(b[x], SoftThreshold(fraction, share, -kSoft));
       }
     }
-  }
 }
 
 void BallFinder::RefineOutlines() {
@@ -2818,7 +2822,6 @@ void BallFinder::RefineOutlines() {
         levels.thin_outer_band = dark_ball;
         const cv::Point2d on_rim =
             edge.FitToRim(seeds_[i], distance, levels, std::max(3.0, 0.6 * r_px), &used);
-
         // Kept when enough rim was found, unless it leaves the silhouette half cloth where
         // the edge pass's was not: the ball would then be dropped as not a ball at all
         // (on the 9-ft set two separated balls were lost that way). Under half ball is

@@ -7,7 +7,8 @@
 //
 //   texfree-bench-pool [--frames 60] [--seed 7] [--nine-foot] [--cue-stick] [--save DIR]
 //   [--verbose]
-//                      [--clean] [--only FRAME] [--cache DIR]
+//                      [--clean] [--only FRAME] [--cache DIR] [--srgb]
+//                      [--ball-set common|second]
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <cctype>

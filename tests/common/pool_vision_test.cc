@@ -1588,18 +1588,18 @@ std::string CaseName(const BenchViewCase& c) {
          (c.ball_set == testdata::PoolBallSet::kSecond ? " second ball set" : "");
 }
 
-// A benchmark view analysed with the default options and with `without` (the change under
-// test turned off).
+// A benchmark view analysed with `with` (the default options unless given) and with
+// `without` (the change under test turned off).
 struct WithAndWithout {
   PoolView view;
   testdata::PoolScore with, without;
 };
 void AnalyzeWithAndWithout(const BenchViewCase& c, const PoolAnalyzerOptions& without,
-                           WithAndWithout* out) {
+                           WithAndWithout* out, const PoolAnalyzerOptions& with = {}) {
   PoolTableProfile profile;
   const auto [scene, view] = RenderBenchView(c, &profile);
   out->view = view;
-  auto scored = AnalyzeAndScore(scene, view, {}, &profile);
+  auto scored = AnalyzeAndScore(scene, view, with, &profile);
   ASSERT_TRUE(scored.ok()) << scored.status();
   out->with = scored->score;
   auto before = AnalyzeAndScore(scene, view, without, &profile);
@@ -1728,16 +1728,12 @@ TEST(PoolDarkBalls, OfTwoFitsOfOneBallTheOneMoreBallByColourIsKept) {
   // rule: the rule is judged without it.
   const BenchViewCase red{7, 8, true, cv::Vec3d(125, 30, 40)};
   SCOPED_TRACE(CaseName(red));
-  PoolTableProfile profile;
-  const auto [scene, view] = RenderBenchView(red, &profile);
   PoolAnalyzerOptions with_rule;
   with_rule.balls.cloth_hue_ball_dark_share = 0;
-  auto scored = AnalyzeAndScore(scene, view, with_rule, &profile);
-  ASSERT_TRUE(scored.ok()) << scored.status();
-  ExpectSeparatedBallNamed(scored->score, 7, 10.0);
-  auto slid = AnalyzeAndScore(scene, view, without, &profile);
-  ASSERT_TRUE(slid.ok()) << slid.status();
-  EXPECT_GT(ErrorOf(slid->score, 7), 12.0);
+  WithAndWithout scored;
+  ASSERT_NO_FATAL_FAILURE(AnalyzeWithAndWithout(red, without, &scored, with_rule));
+  ExpectSeparatedBallNamed(scored.with, 7, 10.0);
+  EXPECT_GT(ErrorOf(scored.without, 7), 12.0);
   ExpectRejected(&PoolBallOptions::same_ball_colour_ballness, {1.5, -0.1});
 }
 
