@@ -122,7 +122,8 @@ double Mean(const std::vector<double>& v) {
 std::string CacheKey(uint64_t seed, bool nine_foot, bool clean, const std::string& cloth,
                      const std::string& rail, const std::string& light, double scale,
                      bool cue_stick, double motion_blur, const std::string& lamp_shift,
-                     double exposure, bool srgb, PoolBallSet ball_set, int frame) {
+                     double exposure, bool srgb, PoolBallSet ball_set, double lamp_radius,
+                     double sharpen, int frame) {
   std::string key =
       "seed" + std::to_string(seed) + (nine_foot ? "_ninefoot" : "") + (clean ? "_clean" : "") +
       "_cloth_" + cloth + (rail == "wood" ? "" : "_rail_" + rail) +
@@ -131,7 +132,10 @@ std::string CacheKey(uint64_t seed, bool nine_foot, bool clean, const std::strin
       (motion_blur > 0 ? "_motion" + std::to_string(motion_blur) : "") +
       (lamp_shift.empty() ? "" : "_lamps_" + lamp_shift) +
       (exposure == 1 ? "" : "_exposure" + std::to_string(exposure)) + (srgb ? "_srgb" : "") +
-      (ball_set == PoolBallSet::kSecond ? "_balls_second" : "") + "_f" + std::to_string(frame);
+      (ball_set == PoolBallSet::kSecond ? "_balls_second" : "") +
+      (lamp_radius == PoolScene().lamp_radius_mm ? ""
+                                                 : "_lampradius" + std::to_string(lamp_radius)) +
+      (sharpen > 0 ? "_sharpen" + std::to_string(sharpen) : "") + "_f" + std::to_string(frame);
   for (char& c : key)
     if (!std::isalnum(static_cast<unsigned char>(c)) && c != '.' && c != '-') c = '_';
   return key;
@@ -307,6 +311,16 @@ int main(int argc, char** argv) {
                    ? std::string()
                    : "expected X,Y,Z in mm, the lamps kept over the cloth (Z > -800)";
       });
+  double lamp_radius = PoolScene().lamp_radius_mm;
+  app.add_option("--lamp-radius", lamp_radius,
+                 "Radius of each lamp in mm (70: a bare bulb's reflector; a billiard lamp's "
+                 "shade is 150-250): softer shadows and wider, dimmer highlights")
+      ->check(CLI::Range(10.0, 400.0));
+  double sharpen = 0;
+  app.add_option("--sharpen", sharpen,
+                 "A phone's sharpening of this amount (unsharp mask of 1 px at 640x480, after "
+                 "the noise): dark and light rings along every edge (0: none)")
+      ->check(CLI::Range(0.0, 3.0));
   PoolAnalyzerOptions analyzer_options;
   // The ball finder's options, each shown with its default.
   const auto ball_option = [&app](const char* name, double* value, const std::string& help) {
@@ -445,6 +459,8 @@ int main(int argc, char** argv) {
     scene.light_gain *= exposure;
     scene.srgb_tone = srgb;
     scene.ball_set = ball_set;
+    scene.lamp_radius_mm = lamp_radius;
+    scene.sharpen_amount = sharpen;
     if (!lamp_shift.empty())  // checked by --lamp-shift's validator
       ParseLampShift(lamp_shift, &scene.lamp_shift_mm);
     if (motion_blur > 0)
@@ -455,11 +471,11 @@ int main(int argc, char** argv) {
       scene.cue_stick = AimedCueStick(stick_rng, spec, scene.balls);
     }
     if (only >= 0 && f != only) continue;
-    const PoolView view =
-        CachedPoolView(cache,
-                       CacheKey(seed, nine_foot, clean, cloth, rail, light, scale, cue_stick,
-                                motion_blur, lamp_shift, exposure, srgb, ball_set, f),
-                       scene, seed * 100003 + f);
+    const PoolView view = CachedPoolView(
+        cache,
+        CacheKey(seed, nine_foot, clean, cloth, rail, light, scale, cue_stick, motion_blur,
+                 lamp_shift, exposure, srgb, ball_set, lamp_radius, sharpen, f),
+        scene, seed * 100003 + f);
     image_size = view.image.size();
     if (!save.empty()) {
       char name[64];

@@ -20,7 +20,9 @@ constexpr double kDeg = kPi / 180.0;
 constexpr double kFloorZ = -760;   // floor below the cloth
 constexpr double kApronDepth = 180;  // rail outer face height
 constexpr double kLampHeight = 900;
-constexpr double kLampRadius = 70;  // area light: soft shadows
+// The lamp radius the materials' shininess is given for (PoolScene::lamp_radius_mm's
+// default): a larger lamp widens the highlights from there.
+constexpr double kMaterialLampRadius = 70;
 constexpr int kSupersample = 3;
 
 double Unit(std::mt19937_64& rng) { return static_cast<double>(rng() >> 11) * 0x1.0p-53; }
@@ -299,7 +301,7 @@ double Scene::LampVisibility(const cv::Vec3d& p, const cv::Vec3d& lamp, int self
   const cv::Vec3d to_lamp = lamp - p;
   const double lamp_dist = cv::norm(to_lamp);
   const cv::Vec3d l = to_lamp / lamp_dist;
-  const double beta = std::atan(kLampRadius / lamp_dist);  // angular radius of the lamp
+  const double beta = std::atan(s_.lamp_radius_mm / lamp_dist);  // angular radius of the lamp
   double visible = 1;
   for (int i = 0; i < ball_count(); ++i) {
     if (i == self) continue;
@@ -318,7 +320,7 @@ double Scene::LampVisibility(const cv::Vec3d& p, const cv::Vec3d& lamp, int self
     if (on_stick) break;
     const double d = SegmentDistance(p, lamp, c.a, c.a + c.length * c.axis);
     const double to_stick = cv::norm(c.a + 0.5 * c.length * c.axis - p);
-    const double penumbra = std::max(1.0, kLampRadius * to_stick / lamp_dist);
+    const double penumbra = std::max(1.0, s_.lamp_radius_mm * to_stick / lamp_dist);
     visible *= SmoothStep((d - (c.radius - penumbra)) / (2 * penumbra));
   }
   return visible;
@@ -439,7 +441,16 @@ cv::Vec3d Scene::Shade(const Ray& ray, const Hit& hit) const {
     if (specular > 0) {
       cv::Vec3d half = l + view;
       half /= std::max(1e-9, cv::norm(half));
-      spec += lamp_power_ * vis * specular * std::pow(std::max(0.0, n.dot(half)), shininess);
+      // A lamp of angular radius b spreads the half vector by b^2 / 16 (variance per axis)
+      // over the lobe's 1 / shininess; the lobe keeps its energy (peak times width).
+      double lobe = shininess, peak = specular;
+      if (s_.lamp_radius_mm != kMaterialLampRadius) {
+        const double b = std::atan(s_.lamp_radius_mm / dist);
+        const double b0 = std::atan(kMaterialLampRadius / dist);
+        lobe = 1 / std::max(1e-6, 1 / shininess + (b * b - b0 * b0) / 16);
+        peak = specular * lobe / shininess;
+      }
+      spec += lamp_power_ * vis * peak * std::pow(std::max(0.0, n.dot(half)), lobe);
     }
   }
   const cv::Vec3d lit = albedo * diffuse + cv::Vec3d(spec, spec, spec);
@@ -617,6 +628,11 @@ PoolView RenderPoolView(const PoolScene& scene, uint64_t seed) {
     cv::RNG cvrng(rng());
     cvrng.fill(noise, cv::RNG::NORMAL, 0, scene.noise_sigma);
     image += noise;
+  }
+  if (scene.sharpen_amount > 0) {  // the phone's unsharp mask, noise and all
+    cv::Mat blurred;
+    cv::GaussianBlur(image, blurred, cv::Size(0, 0), scene.sharpen_sigma_px, 0, cv::BORDER_REFLECT);
+    image += scene.sharpen_amount * (image - blurred);
   }
   image.convertTo(view.image, CV_8UC3);
   if (scene.jpeg_quality > 0) {
@@ -811,6 +827,7 @@ void ScalePoolCamera(PoolScene* scene, double scale) {
   scene->camera.image_size = cv::Size(static_cast<int>(std::lround(size.width * scale)),
                                       static_cast<int>(std::lround(size.height * scale)));
   scene->blur_sigma *= scale;
+  scene->sharpen_sigma_px *= scale;
 }
 
 PoolScene RandomPoolScene(std::mt19937_64& rng, const PoolTableSpec& table, bool allow_touching) {

@@ -89,6 +89,9 @@ struct PoolScene {
   // The lamps moved off that line (X, Y, Z in mm): a room's light not over the table's
   // middle casts its shadows sideways.
   cv::Vec3d lamp_shift_mm{0, 0, 0};
+  // Radius of each lamp (a disc facing down): the shadows' penumbra and the highlights'
+  // width. A billiard lamp's shade is 300-500 mm across; 70 mm is a bare bulb's reflector.
+  double lamp_radius_mm = 70;
   double light_gain = 1.0;    // overall exposure
   // Colour the camera records the lamps' white as (RGB gains): what the camera's white
   // balance leaves of warm bar lamps or cool daylight (kWarmBarLamps, kDaylight).
@@ -107,6 +110,10 @@ struct PoolScene {
   double motion_blur_px = 0;
   double motion_blur_angle_deg = 0;
   double noise_sigma = 2.0;   // gray levels
+  // A phone's sharpening after its noise: img + amount * (img - Gaussian(img, sigma)),
+  // which rings dark and light along every edge. 0 = none.
+  double sharpen_amount = 0;
+  double sharpen_sigma_px = 1.0;
   int jpeg_quality = 90;      // 0 = no JPEG round trip
 };
 
