@@ -18,13 +18,20 @@ namespace {
 constexpr double kPi = 3.14159265358979323846;
 
 // 255 where the pixel's colour is within `angle_deg` of `ref` and brighter than
-// `min_sum` (B + G + R).
-cv::Mat AngleMask(const cv::Mat& bgr, const cv::Vec3f& ref, double angle_deg, double min_sum) {
+// `min_sum` (B + G + R). With `nearer_than_grey`, also only where the colour is nearer
+// (in angle) to `ref` than to grey: a wide cone about a cloth of little colour (a purple
+// 18 degrees from grey) takes in a grey floor's (21 degrees from that purple, 5 from grey).
+cv::Mat AngleMask(const cv::Mat& bgr, const cv::Vec3f& ref, double angle_deg, double min_sum,
+                  bool nearer_than_grey = false) {
   cv::Mat mask(bgr.size(), CV_8UC1);
   const double c = std::cos(angle_deg * kPi / 180);
   const float c2 = static_cast<float>(c * c);
-  const float ref_norm2 = ref.dot(ref);
+  const float ref_norm = std::sqrt(ref.dot(ref));
+  const float ref_norm2 = ref_norm * ref_norm;
   const float min_s = static_cast<float>(min_sum);
+  // Nearer to ref than to grey: cos(p, ref) > cos(p, grey), i.e.
+  // p . ref / |ref| > (b + g + r) / sqrt(3) (both sides times |p|).
+  const float grey_norm = std::sqrt(3.0f);
   for (int y = 0; y < bgr.rows; ++y) {
     const cv::Vec3b* p = bgr.ptr<cv::Vec3b>(y);
     uint8_t* m = mask.ptr<uint8_t>(y);
@@ -32,7 +39,9 @@ cv::Mat AngleMask(const cv::Mat& bgr, const cv::Vec3f& ref, double angle_deg, do
       const float b = p[x][0], g = p[x][1], r = p[x][2];
       const float dot = b * ref[0] + g * ref[1] + r * ref[2];
       const float n2 = b * b + g * g + r * r;
-      m[x] = (b + g + r >= min_s && dot > 0 && dot * dot >= c2 * n2 * ref_norm2) ? 255 : 0;
+      const bool in = b + g + r >= min_s && dot > 0 && dot * dot >= c2 * n2 * ref_norm2 &&
+                      (!nearer_than_grey || dot / ref_norm > (b + g + r) / grey_norm);
+      m[x] = in ? 255 : 0;
     }
   }
   return mask;
@@ -616,7 +625,7 @@ absl::StatusOr<PoolTableDetection> DetectPoolTableFrom(IdealView* view, const cv
   const cv::Mat& bgr = view->full();  // valid only where view->Require made it so
   // 1. Wide search for the cloth, then its colour measured on this image.
   int area = 0;
-  cv::Mat region = LargestRegion(AngleMask(small, seed, options.search_angle_deg, 45), &area);
+  cv::Mat region = LargestRegion(AngleMask(small, seed, options.search_angle_deg, 45, true), &area);
   const int min_area = static_cast<int>(options.min_cloth_fraction * small.total());
   if (area < min_area) {
     return absl::FailedPreconditionError(absl::StrCat(
