@@ -97,6 +97,13 @@ bool ParseLampShift(const std::string& text, cv::Vec3d* shift) {
   return true;
 }
 
+// --elevation's "LO,HI" (degrees) into lo and hi: false unless 10 <= LO <= HI <= 85.
+bool ParseElevation(const std::string& text, double* lo, double* hi) {
+  char tail = 0;
+  if (std::sscanf(text.c_str(), "%lf,%lf%c", lo, hi, &tail) != 2) return false;
+  return *lo >= 10 && *lo <= *hi && *hi <= 85;
+}
+
 double Percentile(std::vector<double> v, double q) {
   if (v.empty()) return 0;
   std::sort(v.begin(), v.end());
@@ -123,7 +130,7 @@ std::string CacheKey(uint64_t seed, bool nine_foot, bool clean, const std::strin
                      const std::string& rail, const std::string& light, double scale,
                      bool cue_stick, double motion_blur, const std::string& lamp_shift,
                      double exposure, bool srgb, PoolBallSet ball_set, double lamp_radius,
-                     double sharpen, int frame) {
+                     double sharpen, const std::string& elevation, int frame) {
   std::string key =
       "seed" + std::to_string(seed) + (nine_foot ? "_ninefoot" : "") + (clean ? "_clean" : "") +
       "_cloth_" + cloth + (rail == "wood" ? "" : "_rail_" + rail) +
@@ -135,7 +142,8 @@ std::string CacheKey(uint64_t seed, bool nine_foot, bool clean, const std::strin
       (ball_set == PoolBallSet::kSecond ? "_balls_second" : "") +
       (lamp_radius == PoolScene().lamp_radius_mm ? ""
                                                  : "_lampradius" + std::to_string(lamp_radius)) +
-      (sharpen > 0 ? "_sharpen" + std::to_string(sharpen) : "") + "_f" + std::to_string(frame);
+      (sharpen > 0 ? "_sharpen" + std::to_string(sharpen) : "") +
+      (elevation.empty() ? "" : "_elevation_" + elevation) + "_f" + std::to_string(frame);
   for (char& c : key)
     if (!std::isalnum(static_cast<unsigned char>(c)) && c != '.' && c != '-') c = '_';
   return key;
@@ -321,6 +329,16 @@ int main(int argc, char** argv) {
                  "A phone's sharpening of this amount (unsharp mask of 1 px at 640x480, after "
                  "the noise): dark and light rings along every edge (0: none)")
       ->check(CLI::Range(0.0, 3.0));
+  std::string elevation;
+  app.add_option("--elevation", elevation,
+                 "The camera's elevation range LO,HI in degrees (30,65): the same scenes seen "
+                 "from lower or higher (a player standing at the table's end looks down at "
+                 "20-30 degrees)")
+      ->check([](const std::string& v) {
+        double lo = 0, hi = 0;
+        return ParseElevation(v, &lo, &hi) ? std::string()
+                                           : "expected LO,HI in degrees, 10 <= LO <= HI <= 85";
+      });
   PoolAnalyzerOptions analyzer_options;
   // The ball finder's options, each shown with its default.
   const auto ball_option = [&app](const char* name, double* value, const std::string& help) {
@@ -447,8 +465,11 @@ int main(int argc, char** argv) {
       shot_times;
   std::string failures;
   cv::Size image_size;  // of the rendered frames
+  double min_elevation = 30, max_elevation = 65;
+  if (!elevation.empty())  // checked by --elevation's validator
+    ParseElevation(elevation, &min_elevation, &max_elevation);
   for (int f = 0; f < frames; ++f) {
-    PoolScene scene = RandomPoolScene(rng, spec);
+    PoolScene scene = RandomPoolScene(rng, spec, true, min_elevation, max_elevation);
     if (clean) {
       scene.blur_sigma = scene.noise_sigma = 0;
       scene.jpeg_quality = 0;
@@ -474,7 +495,7 @@ int main(int argc, char** argv) {
     const PoolView view = CachedPoolView(
         cache,
         CacheKey(seed, nine_foot, clean, cloth, rail, light, scale, cue_stick, motion_blur,
-                 lamp_shift, exposure, srgb, ball_set, lamp_radius, sharpen, f),
+                 lamp_shift, exposure, srgb, ball_set, lamp_radius, sharpen, elevation, f),
         scene, seed * 100003 + f);
     image_size = view.image.size();
     if (!save.empty()) {

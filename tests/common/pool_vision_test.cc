@@ -486,9 +486,9 @@ TEST(PoolClothColour, ClothOfAnotherColourThanTheProfileIsFound) {
 // A purple cloth, told to the profile, beside a grey floor. The purple is 18 degrees from
 // grey, the floor 21 degrees from the purple: the wide search for the cloth took the floor
 // in, and the table was "only part of the table is in view" (the benchmark's seeds 7 and
-// 11, --cloth 90,50,120: 1 table in 120 frames). Now a pixel nearer to grey than to the
-// cloth's colour is not cloth: the table within 1.5 px, and every ball but the purple 4 (of
-// the cloth's hue) located within 16 mm, the separated ones named.
+// 11, --cloth 90,50,120: 1 table in 120 frames). Now the search is made again without the
+// colours nearer to grey than to the cloth's: the table within 1.5 px, and every ball but
+// the purple 4 (of the cloth's hue) located within 16 mm, the separated ones named.
 TEST(PoolClothColour, PurpleClothBesideAGreyFloorIsFound) {
   for (const PoolViewSide side : {PoolViewSide::kLongNear, PoolViewSide::kShortLeft}) {
     SCOPED_TRACE(side == PoolViewSide::kLongNear ? "long side" : "short side");
