@@ -957,12 +957,15 @@ absl::StatusOr<PoolTableDetection> DetectPoolTable(IdealView* view, const cv::Ma
   // fit the profile's rectangle closely (the benchmark's tables measure up to 0.03, a brown
   // cloth taken together with its brown rails 0.09, which the search with the greys
   // refuses).
-  if (options.greyless_cloth_search) {
-    auto greyless = DetectPoolTableFrom(view, K, profile, options, profile_cloth, true);
-    if (greyless.ok() && greyless->rectangle_inconsistency <= kGreylessMaxInconsistency)
-      return greyless;
-  }
-  auto found = DetectPoolTableFrom(view, K, profile, options, profile_cloth);
+  const auto find_from = [&](const cv::Vec3f& seed) {
+    if (options.greyless_cloth_search) {
+      auto greyless = DetectPoolTableFrom(view, K, profile, options, seed, true);
+      if (greyless.ok() && greyless->rectangle_inconsistency <= kGreylessMaxInconsistency)
+        return greyless;
+    }
+    return DetectPoolTableFrom(view, K, profile, options, seed);
+  };
+  auto found = find_from(profile_cloth);
   if (found.ok() || options.other_cloth_colours == 0) return found;
   // A cloth of another colour than the profile's (blue, red): the image's own dominant
   // colours, each of which must still give a table of the profile's proportions. When none
@@ -970,7 +973,7 @@ absl::StatusOr<PoolTableDetection> DetectPoolTable(IdealView* view, const cv::Ma
   for (const cv::Vec3f& colour :
        DominantColours(small, options.min_cloth_fraction, options.other_cloth_colours)) {
     if (ColorAngleDeg(colour, profile_cloth) < options.search_angle_deg) continue;  // tried
-    auto other = DetectPoolTableFrom(view, K, profile, options, colour);
+    auto other = find_from(colour);
     if (!other.ok()) continue;
     other->cloth_not_profile_colour = true;
     return other;

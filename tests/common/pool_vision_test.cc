@@ -489,7 +489,8 @@ TEST(PoolClothColour, ClothOfAnotherColourThanTheProfileIsFound) {
 // 11, --cloth 90,50,120: 1 table in 120 frames). Now the cloth is searched first without the
 // colours nearer to grey than to its own (PoolTableOptions::greyless_cloth_search): the
 // table within 1.5 px, and every ball but the purple 4 (of the cloth's hue) located within
-// 16 mm, the separated ones named; with the greys, refused.
+// 16 mm, the separated ones named; with the greys, refused. Not told the cloth's colour,
+// the table is found in the picture's own purple the same way.
 TEST(PoolClothColour, PurpleClothBesideAGreyFloorIsFound) {
   for (const PoolViewSide side : {PoolViewSide::kLongNear, PoolViewSide::kShortLeft}) {
     SCOPED_TRACE(side == PoolViewSide::kLongNear ? "long side" : "short side");
@@ -521,6 +522,10 @@ TEST(PoolClothColour, PurpleClothBesideAGreyFloorIsFound) {
     auto before = AnalyzeAndScore(scene, view, with_greys, &profile);
     ASSERT_FALSE(before.ok());
     EXPECT_NE(before.status().message().find("only part of the table"), std::string::npos);
+    // Not told (the profile's default green): found in the picture's own purple.
+    auto untold = AnalyzeAndScore(scene, view);
+    ASSERT_TRUE(untold.ok()) << untold.status();
+    EXPECT_LT(untold->score.max_corner_error_px, 1.5);
   }
 }
 
