@@ -130,7 +130,7 @@ std::string CacheKey(uint64_t seed, bool nine_foot, bool clean, const std::strin
                      const std::string& rail, const std::string& light, double scale,
                      bool cue_stick, double motion_blur, const std::string& lamp_shift,
                      double exposure, bool srgb, PoolBallSet ball_set, double lamp_radius,
-                     double sharpen, const std::string& elevation, int frame) {
+                     double sharpen, const std::string& elevation, double max_roll, int frame) {
   std::string key =
       "seed" + std::to_string(seed) + (nine_foot ? "_ninefoot" : "") + (clean ? "_clean" : "") +
       "_cloth_" + cloth + (rail == "wood" ? "" : "_rail_" + rail) +
@@ -143,7 +143,8 @@ std::string CacheKey(uint64_t seed, bool nine_foot, bool clean, const std::strin
       (lamp_radius == PoolScene().lamp_radius_mm ? ""
                                                  : "_lampradius" + std::to_string(lamp_radius)) +
       (sharpen > 0 ? "_sharpen" + std::to_string(sharpen) : "") +
-      (elevation.empty() ? "" : "_elevation_" + elevation) + "_f" + std::to_string(frame);
+      (elevation.empty() ? "" : "_elevation_" + elevation) +
+      (max_roll == 6 ? "" : "_roll" + std::to_string(max_roll)) + "_f" + std::to_string(frame);
   for (char& c : key)
     if (!std::isalnum(static_cast<unsigned char>(c)) && c != '.' && c != '-') c = '_';
   return key;
@@ -339,6 +340,11 @@ int main(int argc, char** argv) {
         return ParseElevation(v, &lo, &hi) ? std::string()
                                            : "expected LO,HI in degrees, 10 <= LO <= HI <= 85";
       });
+  double max_roll = 6;
+  app.add_option("--max-roll", max_roll,
+                 "The camera's roll is drawn within this many degrees either way (6): a phone "
+                 "held crooked")
+      ->check(CLI::Range(0.0, 45.0));
   PoolAnalyzerOptions analyzer_options;
   // The ball finder's options, each shown with its default.
   const auto ball_option = [&app](const char* name, double* value, const std::string& help) {
@@ -472,7 +478,7 @@ int main(int argc, char** argv) {
   if (!elevation.empty())  // checked by --elevation's validator
     ParseElevation(elevation, &min_elevation, &max_elevation);
   for (int f = 0; f < frames; ++f) {
-    PoolScene scene = RandomPoolScene(rng, spec, true, min_elevation, max_elevation);
+    PoolScene scene = RandomPoolScene(rng, spec, true, min_elevation, max_elevation, max_roll);
     if (clean) {
       scene.blur_sigma = scene.noise_sigma = 0;
       scene.jpeg_quality = 0;
@@ -495,11 +501,12 @@ int main(int argc, char** argv) {
       scene.cue_stick = AimedCueStick(stick_rng, spec, scene.balls);
     }
     if (only >= 0 && f != only) continue;
-    const PoolView view = CachedPoolView(
-        cache,
-        CacheKey(seed, nine_foot, clean, cloth, rail, light, scale, cue_stick, motion_blur,
-                 lamp_shift, exposure, srgb, ball_set, lamp_radius, sharpen, elevation, f),
-        scene, seed * 100003 + f);
+    const PoolView view =
+        CachedPoolView(cache,
+                       CacheKey(seed, nine_foot, clean, cloth, rail, light, scale, cue_stick,
+                                motion_blur, lamp_shift, exposure, srgb, ball_set, lamp_radius,
+                                sharpen, elevation, max_roll, f),
+                       scene, seed * 100003 + f);
     image_size = view.image.size();
     if (!save.empty()) {
       char name[64];

@@ -831,14 +831,14 @@ void ScalePoolCamera(PoolScene* scene, double scale) {
 }
 
 PoolScene RandomPoolScene(std::mt19937_64& rng, const PoolTableSpec& table, bool allow_touching,
-                          double min_elevation_deg, double max_elevation_deg) {
+                          double min_elevation_deg, double max_elevation_deg, double max_roll_deg) {
   PoolScene scene;
   scene.table = table;
   scene.balls = RandomPoolLayout(rng, table, 6 + static_cast<int>(rng() % 5), allow_touching);
   const PoolViewSide side = static_cast<PoolViewSide>(rng() % 4);
-  scene.camera = FramedPoolCamera(table, side, Uniform(rng, min_elevation_deg, max_elevation_deg),
-                                  Uniform(rng, 55, 70), Uniform(rng, -20, 20), Uniform(rng, -6, 6),
-                                  Uniform(rng, 0.02, 0.1));
+  scene.camera = FramedPoolCamera(
+      table, side, Uniform(rng, min_elevation_deg, max_elevation_deg), Uniform(rng, 55, 70),
+      Uniform(rng, -20, 20), Uniform(rng, -max_roll_deg, max_roll_deg), Uniform(rng, 0.02, 0.1));
   scene.camera.k1 = Uniform(rng, -0.08, 0.05);
   scene.camera.k2 = Uniform(rng, -0.02, 0.02);
   scene.lamps = 1 + static_cast<int>(rng() % 3);

@@ -168,12 +168,13 @@ std::vector<PoolBallPlacement> RandomPoolLayout(std::mt19937_64& rng, const Pool
                                                 int count, bool allow_touching);
 
 // A random scene as the benchmark uses: random layout of 6..10 balls, random side,
-// elevation min_elevation_deg..max_elevation_deg (30..65), field of view 55..70, small
-// roll, slight distortion, 1..3 lamps, exposure, blur 0.3..1.0, noise 1..4, JPEG 70..95.
-// The elevation range changes only the elevation: the same draws make the same scenes.
+// elevation min_elevation_deg..max_elevation_deg (30..65), field of view 55..70, roll
+// within +-max_roll_deg (6), slight distortion, 1..3 lamps, exposure, blur 0.3..1.0, noise
+// 1..4, JPEG 70..95. The ranges change only the elevation and the roll: the same draws
+// make the same scenes.
 PoolScene RandomPoolScene(std::mt19937_64& rng, const PoolTableSpec& table,
                           bool allow_touching = true, double min_elevation_deg = 30,
-                          double max_elevation_deg = 65);
+                          double max_elevation_deg = 65, double max_roll_deg = 6);
 
 // A handheld camera's shake for one frame, from its own stream `stream_seed` (so the scene
 // is otherwise what it was): a smear of up to `max_px` pixels in any direction.
