@@ -124,31 +124,83 @@ double Mean(const std::vector<double>& v) {
   return v.empty() ? 0 : s / v.size();
 }
 
-// The options that change what is rendered, as parsed, as a file name stem (analysis
-// options left out).
-std::string CacheKey(uint64_t seed, bool nine_foot, bool clean, const std::string& cloth,
-                     const std::string& rail, const std::string& light, double scale,
-                     bool cue_stick, double motion_blur, const std::string& lamp_shift,
-                     double exposure, bool srgb, PoolBallSet ball_set, double lamp_radius,
-                     double sharpen, const std::string& elevation, double max_roll, int frame) {
-  std::string key =
-      "seed" + std::to_string(seed) + (nine_foot ? "_ninefoot" : "") + (clean ? "_clean" : "") +
-      "_cloth_" + cloth + (rail == "wood" ? "" : "_rail_" + rail) +
-      (light == "neutral" ? "" : "_light_" + light) + "_scale" + std::to_string(scale) +
-      (cue_stick ? "_cuestick" : "") +
-      (motion_blur > 0 ? "_motion" + std::to_string(motion_blur) : "") +
-      (lamp_shift.empty() ? "" : "_lamps_" + lamp_shift) +
-      (exposure == 1 ? "" : "_exposure" + std::to_string(exposure)) + (srgb ? "_srgb" : "") +
-      (ball_set == PoolBallSet::kSecond ? "_balls_second" : "") +
-      (lamp_radius == PoolScene().lamp_radius_mm ? ""
-                                                 : "_lampradius" + std::to_string(lamp_radius)) +
-      (sharpen > 0 ? "_sharpen" + std::to_string(sharpen) : "") +
-      (elevation.empty() ? "" : "_elevation_" + elevation) +
-      (max_roll == 6 ? "" : "_roll" + std::to_string(max_roll)) + "_f" + std::to_string(frame);
-  for (char& c : key)
-    if (!std::isalnum(static_cast<unsigned char>(c)) && c != '.' && c != '-') c = '_';
-  return key;
-}
+// The options that change what is rendered (analysis options left out), as parsed.
+struct RenderConditions {
+  bool nine_foot = false;
+  bool clean = false;
+  std::string cloth = "green";
+  std::string rail = "wood";
+  std::string light = "neutral";
+  std::string ball_set = "common";
+  double scale = 1;
+  bool cue_stick = false;
+  double motion_blur = 0;
+  std::string lamp_shift;
+  double exposure = 1;
+  bool srgb = false;
+  double lamp_radius = PoolScene().lamp_radius_mm;
+  double sharpen = 0;
+  std::string elevation;
+  double max_roll = 6;
+  std::string floor;
+
+  // As a file name stem; the renderer's defaults leave their part out, so that the views
+  // cached before a condition existed keep their names.
+  std::string CacheKey(uint64_t seed, int frame) const {
+    std::string key =
+        "seed" + std::to_string(seed) + (nine_foot ? "_ninefoot" : "") + (clean ? "_clean" : "") +
+        "_cloth_" + cloth + (rail == "wood" ? "" : "_rail_" + rail) +
+        (light == "neutral" ? "" : "_light_" + light) + "_scale" + std::to_string(scale) +
+        (cue_stick ? "_cuestick" : "") +
+        (motion_blur > 0 ? "_motion" + std::to_string(motion_blur) : "") +
+        (lamp_shift.empty() ? "" : "_lamps_" + lamp_shift) +
+        (exposure == 1 ? "" : "_exposure" + std::to_string(exposure)) + (srgb ? "_srgb" : "") +
+        (ball_set == "second" ? "_balls_second" : "") +
+        (lamp_radius == PoolScene().lamp_radius_mm ? ""
+                                                   : "_lampradius" + std::to_string(lamp_radius)) +
+        (sharpen > 0 ? "_sharpen" + std::to_string(sharpen) : "") +
+        (elevation.empty() ? "" : "_elevation_" + elevation) +
+        (max_roll == 6 ? "" : "_roll" + std::to_string(max_roll)) +
+        (floor.empty() ? "" : "_floor_" + floor) + "_f" + std::to_string(frame);
+    for (char& c : key)
+      if (!std::isalnum(static_cast<unsigned char>(c)) && c != '.' && c != '-') c = '_';
+    return key;
+  }
+
+  // Frame `frame` of the set `seed` (drawn from `rng`, the set's generator) under these
+  // conditions; every option was checked by its validator.
+  PoolScene Scene(std::mt19937_64& rng, const PoolTableSpec& spec, uint64_t seed, int frame) const {
+    double min_elevation = 30, max_elevation = 65;
+    if (!elevation.empty()) ParseElevation(elevation, &min_elevation, &max_elevation);
+    PoolScene scene = RandomPoolScene(rng, spec, true, min_elevation, max_elevation, max_roll);
+    if (clean) {
+      scene.blur_sigma = scene.noise_sigma = 0;
+      scene.jpeg_quality = 0;
+      scene.camera.k1 = scene.camera.k2 = 0;
+    }
+    ScalePoolCamera(&scene, scale);
+    ParseLight(light, &scene.light_rgb);
+    scene.light_gain *= exposure;
+    scene.srgb_tone = srgb;
+    scene.ball_set = ball_set == "second" ? PoolBallSet::kSecond : PoolBallSet::kCommon;
+    scene.lamp_radius_mm = lamp_radius;
+    scene.sharpen_amount = sharpen;
+    if (!floor.empty()) {
+      std::optional<cv::Vec3d> rgb;
+      ParseNamedRgb(floor, {}, &rgb);
+      scene.floor_rgb = *rgb;
+    }
+    if (!lamp_shift.empty()) ParseLampShift(lamp_shift, &scene.lamp_shift_mm);
+    if (motion_blur > 0)
+      DrawPoolShake(seed * 7907 + static_cast<uint64_t>(frame) + 0x5ba4e, motion_blur, &scene);
+    if (cue_stick) {
+      // Its own generator: the scenes stay those of the set without a stick.
+      std::mt19937_64 stick_rng(seed * 7919 + static_cast<uint64_t>(frame));
+      scene.cue_stick = AimedCueStick(stick_rng, spec, scene.balls);
+    }
+    return scene;
+  }
+};
 
 // Renders the view, or reads it back from `dir` (PNG + YAML) when an earlier run wrote it.
 PoolView CachedPoolView(const std::string& dir, const std::string& key, const PoolScene& scene,
@@ -219,11 +271,13 @@ int main(int argc, char** argv) {
   CLI::App app{"texfree-bench-pool: pool table analysis accuracy and speed"};
   int frames = 60;
   uint64_t seed = 7;
-  bool nine_foot = false, verbose = false;
+  RenderConditions render;
+  bool verbose = false;
   std::string save;
   app.add_option("--frames", frames, "Rendered photographs")->check(CLI::PositiveNumber);
   app.add_option("--seed", seed, "Seed of the rendered set");
-  app.add_flag("--nine-foot", nine_foot, "A 9-ft table instead of the 1330x700 mm bench table");
+  app.add_flag("--nine-foot", render.nine_foot,
+               "A 9-ft table instead of the 1330x700 mm bench table");
   app.add_option("--save", save, "Write each image and its ground truth to this folder");
   std::string cache;
   app.add_option("--cache", cache,
@@ -235,8 +289,8 @@ int main(int argc, char** argv) {
                  "With --verbose: print every ball off by more than this (mm; 8)");
   int only = -1;
   app.add_option("--only", only, "Analyse only this frame of the set (to look into one case)");
-  bool clean = false;
-  app.add_flag("--clean", clean, "No blur, noise, JPEG or lens distortion (the method's floor)");
+  app.add_flag("--clean", render.clean,
+               "No blur, noise, JPEG or lens distortion (the method's floor)");
   bool true_pose = false;
   app.add_flag("--true-pose", true_pose,
                "Find the balls with the true table pose (separates ball errors from pose errors)");
@@ -249,26 +303,22 @@ int main(int argc, char** argv) {
       return parse(v, &rgb) ? std::string() : expected;
     });
   };
-  std::string cloth = "green";
-  colour_option("--cloth", &cloth, ParseCloth,
+  colour_option("--cloth", &render.cloth, ParseCloth,
                 "Cloth colour: green (the renderer's), blue, red or R,G,B; the profile is told "
                 "the cloth colour, as table.json's cloth_color tells the server",
                 "expected green, blue, red or R,G,B");
-  std::string rail = "wood";
-  colour_option("--rail", &rail, ParseRail,
+  colour_option("--rail", &render.rail, ParseRail,
                 "Rail colour: wood (the renderer's), black, maple or R,G,B; the profile is not "
                 "told (it has no rail colour)",
                 "expected wood, black, maple or R,G,B");
-  std::string light = "neutral";
-  app.add_option("--light", light,
+  app.add_option("--light", render.light,
                  "Colour of the lamps as the camera records it: neutral, warm (bar lamps, half "
                  "corrected by white balance), cool (daylight) or R,G,B gains")
       ->check([](const std::string& v) {
         cv::Vec3d rgb;
         return ParseLight(v, &rgb) ? std::string() : "expected neutral, warm, cool or R,G,B";
       });
-  std::string ball_set_name = "common";
-  app.add_option("--ball-set", ball_set_name,
+  app.add_option("--ball-set", render.ball_set,
                  "The balls on the table: common (the default profile's colours) or second "
                  "(another maker's set: a dark teal-green 6, a brown 7, a violet 4, a lighter "
                  "blue 2, a red-orange 5; the profile keeps the common set's colours)")
@@ -277,13 +327,11 @@ int main(int argc, char** argv) {
   app.add_flag("--cloth-unknown", cloth_unknown,
                "Keep the profile's default cloth colour whatever the cloth (a user who did not "
                "set it)");
-  double scale = 1;
-  app.add_option("--scale", scale,
+  app.add_option("--scale", render.scale,
                  "Render at this many times 640x480 (the same views, blur scaled alike): a "
                  "camera of higher resolution")
       ->check(CLI::Range(0.5, 4.0));
-  double motion_blur = 0;
-  app.add_option("--motion-blur", motion_blur,
+  app.add_option("--motion-blur", render.motion_blur,
                  "A handheld camera's shake in every frame (live video): a smear of up to this "
                  "many pixels in a random direction, each frame's drawn from a stream of its own")
       ->check(CLI::Range(0.0, 20.0));
@@ -297,21 +345,17 @@ int main(int argc, char** argv) {
   app.add_flag("--nine-foot-profile", nine_foot_profile,
                "Analyse with the default 9-ft profile whatever the table (a user who gave no "
                "table.json)");
-  bool cue_stick = false;
-  app.add_flag("--cue-stick", cue_stick,
+  app.add_flag("--cue-stick", render.cue_stick,
                "A cue stick in every frame, aimed through the cue ball at another ball as a "
                "player holds it (the same scenes otherwise)");
-  double exposure = 1;
-  app.add_option("--exposure", exposure,
+  app.add_option("--exposure", render.exposure,
                  "Scale each frame's exposure by this (over 1: the lit balls and cloth clip, "
                  "as an overexposed phone picture; under 1: a dim, noisier picture)")
       ->check(CLI::Range(0.25, 4.0));
-  bool srgb = false;
-  app.add_flag("--srgb", srgb,
+  app.add_flag("--srgb", render.srgb,
                "Encode the pictures with the sRGB curve, as a phone does (lighter shading and "
                "shadows), instead of in proportion to the light");
-  std::string lamp_shift;
-  app.add_option("--lamp-shift", lamp_shift,
+  app.add_option("--lamp-shift", render.lamp_shift,
                  "Move the lamps by X,Y,Z mm from their line over the table's long axis: a "
                  "room's light off the table's middle, its shadows cast sideways")
       ->check([](const std::string& v) {
@@ -320,18 +364,15 @@ int main(int argc, char** argv) {
                    ? std::string()
                    : "expected X,Y,Z in mm, the lamps kept over the cloth (Z > -800)";
       });
-  double lamp_radius = PoolScene().lamp_radius_mm;
-  app.add_option("--lamp-radius", lamp_radius,
+  app.add_option("--lamp-radius", render.lamp_radius,
                  "Radius of each lamp in mm (70: a bare bulb's reflector; a billiard lamp's "
                  "shade is 150-250): softer shadows and wider, dimmer highlights")
       ->check(CLI::Range(10.0, 400.0));
-  double sharpen = 0;
-  app.add_option("--sharpen", sharpen,
+  app.add_option("--sharpen", render.sharpen,
                  "A phone's sharpening of this amount (unsharp mask of 1 px at 640x480, after "
                  "the noise): dark and light rings along every edge (0: none)")
       ->check(CLI::Range(0.0, 3.0));
-  std::string elevation;
-  app.add_option("--elevation", elevation,
+  app.add_option("--elevation", render.elevation,
                  "The camera's elevation range LO,HI in degrees (30,65): the same scenes seen "
                  "from lower or higher (a player standing at the table's end looks down at "
                  "20-30 degrees)")
@@ -340,11 +381,17 @@ int main(int argc, char** argv) {
         return ParseElevation(v, &lo, &hi) ? std::string()
                                            : "expected LO,HI in degrees, 10 <= LO <= HI <= 85";
       });
-  double max_roll = 6;
-  app.add_option("--max-roll", max_roll,
+  app.add_option("--max-roll", render.max_roll,
                  "The camera's roll is drawn within this many degrees either way (6): a phone "
                  "held crooked")
       ->check(CLI::Range(0.0, 45.0));
+  app.add_option("--floor", render.floor,
+                 "The floor's colour R,G,B (the renderer's warm grey tiles by default; a "
+                 "wooden floor is about 150,95,55, a red carpet 120,30,35)")
+      ->check([](const std::string& v) {
+        std::optional<cv::Vec3d> rgb;
+        return ParseNamedRgb(v, {}, &rgb) ? std::string() : "expected R,G,B";
+      });
   PoolAnalyzerOptions analyzer_options;
   // The ball finder's options, each shown with its default.
   const auto ball_option = [&app](const char* name, double* value, const std::string& help) {
@@ -433,17 +480,18 @@ int main(int argc, char** argv) {
   CLI11_PARSE(app, argc, argv);
   cv::setNumThreads(1);  // one core
   // The analysis is told how the renderer encodes its pictures, as a user's camera is known.
-  analyzer_options.balls.pixel_encoding = srgb ? PixelEncoding::kSrgb : PixelEncoding::kLinear;
+  analyzer_options.balls.pixel_encoding =
+      render.srgb ? PixelEncoding::kSrgb : PixelEncoding::kLinear;
   analyzer_options.table.pixel_encoding = analyzer_options.balls.pixel_encoding;
 
-  PoolTableSpec spec = nine_foot ? PoolTableSpec::NineFoot() : PoolTableSpec::Bench();
+  PoolTableSpec spec = render.nine_foot ? PoolTableSpec::NineFoot() : PoolTableSpec::Bench();
   std::optional<cv::Vec3d> cloth_rgb;
-  ParseCloth(cloth, &cloth_rgb);  // checked by --cloth's validator
+  ParseCloth(render.cloth, &cloth_rgb);  // checked by --cloth's validator
   if (cloth_rgb) spec.cloth_rgb = *cloth_rgb;
   std::optional<cv::Vec3d> rail_rgb;
-  ParseRail(rail, &rail_rgb);  // checked by --rail's validator
+  ParseRail(render.rail, &rail_rgb);  // checked by --rail's validator
   if (rail_rgb) spec.rail_rgb = *rail_rgb;
-  PoolTableProfile profile = nine_foot ? NineFootPoolProfile() : BenchPoolProfile();
+  PoolTableProfile profile = render.nine_foot ? NineFootPoolProfile() : BenchPoolProfile();
   profile.length_mm = spec.length_mm;
   profile.width_mm = spec.width_mm;
   profile.ball_radius_mm = spec.ball_radius_mm;
@@ -461,8 +509,6 @@ int main(int argc, char** argv) {
     profile = PoolTableProfile();
     profile.cloth_bgr = cloth;
   }
-  const PoolBallSet ball_set =
-      ball_set_name == "second" ? PoolBallSet::kSecond : PoolBallSet::kCommon;
   profile.length_mm *= profile_table_scale;
   profile.width_mm *= profile_table_scale;
 
@@ -474,39 +520,10 @@ int main(int argc, char** argv) {
       shot_times;
   std::string failures;
   cv::Size image_size;  // of the rendered frames
-  double min_elevation = 30, max_elevation = 65;
-  if (!elevation.empty())  // checked by --elevation's validator
-    ParseElevation(elevation, &min_elevation, &max_elevation);
   for (int f = 0; f < frames; ++f) {
-    PoolScene scene = RandomPoolScene(rng, spec, true, min_elevation, max_elevation, max_roll);
-    if (clean) {
-      scene.blur_sigma = scene.noise_sigma = 0;
-      scene.jpeg_quality = 0;
-      scene.camera.k1 = scene.camera.k2 = 0;
-    }
-    ScalePoolCamera(&scene, scale);
-    ParseLight(light, &scene.light_rgb);  // checked by --light's validator
-    scene.light_gain *= exposure;
-    scene.srgb_tone = srgb;
-    scene.ball_set = ball_set;
-    scene.lamp_radius_mm = lamp_radius;
-    scene.sharpen_amount = sharpen;
-    if (!lamp_shift.empty())  // checked by --lamp-shift's validator
-      ParseLampShift(lamp_shift, &scene.lamp_shift_mm);
-    if (motion_blur > 0)
-      DrawPoolShake(seed * 7907 + static_cast<uint64_t>(f) + 0x5ba4e, motion_blur, &scene);
-    if (cue_stick) {
-      // Its own generator: the scenes stay those of the set without a stick.
-      std::mt19937_64 stick_rng(seed * 7919 + static_cast<uint64_t>(f));
-      scene.cue_stick = AimedCueStick(stick_rng, spec, scene.balls);
-    }
+    const PoolScene scene = render.Scene(rng, spec, seed, f);
     if (only >= 0 && f != only) continue;
-    const PoolView view =
-        CachedPoolView(cache,
-                       CacheKey(seed, nine_foot, clean, cloth, rail, light, scale, cue_stick,
-                                motion_blur, lamp_shift, exposure, srgb, ball_set, lamp_radius,
-                                sharpen, elevation, max_roll, f),
-                       scene, seed * 100003 + f);
+    const PoolView view = CachedPoolView(cache, render.CacheKey(seed, f), scene, seed * 100003 + f);
     image_size = view.image.size();
     if (!save.empty()) {
       char name[64];
@@ -658,8 +675,8 @@ int main(int argc, char** argv) {
   std::printf(
       "\nPool analysis benchmark: %d frames of %dx%d, %s table (%.0f x %.0f mm, ball "
       "radius %.3f mm), seed %llu, one core\n\n",
-      frames, image_size.width, image_size.height, nine_foot ? "9-ft" : "bench", spec.length_mm,
-      spec.width_mm, spec.ball_radius_mm, static_cast<unsigned long long>(seed));
+      frames, image_size.width, image_size.height, render.nine_foot ? "9-ft" : "bench",
+      spec.length_mm, spec.width_mm, spec.ball_radius_mm, static_cast<unsigned long long>(seed));
   std::printf("| measure | value |\n|---|---|\n");
   std::printf("| table found | %d / %d frames |\n", found, frames);
   std::printf("| corner error (max per frame), median / p95 | %.2f / %.2f px |\n",

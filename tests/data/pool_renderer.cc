@@ -415,7 +415,7 @@ cv::Vec3d Scene::Shade(const Ray& ray, const Hit& hit) const {
     case Surface::kFloor: {
       const int tile = (static_cast<int>(std::floor(p[0] / 400)) +
                         static_cast<int>(std::floor(p[1] / 400))) & 1;
-      albedo = cv::Vec3d(128, 118, 104) * (tile ? 1.0 : 0.9) * (1 + 0.05 * Texture(p[0], p[1], 8));
+      albedo = s_.floor_rgb * (tile ? 1.0 : 0.9) * (1 + 0.05 * Texture(p[0], p[1], 8));
       break;
     }
   }

@@ -92,6 +92,9 @@ struct PoolScene {
   // Radius of each lamp (a disc facing down): the shadows' penumbra and the highlights'
   // width. A billiard lamp's shade is 300-500 mm across; 70 mm is a bare bulb's reflector.
   double lamp_radius_mm = 70;
+  // The floor's tiles (RGB albedo): a warm grey by default; a wooden floor is about
+  // (150, 95, 55), a red carpet (120, 30, 35).
+  cv::Vec3d floor_rgb{128, 118, 104};
   double light_gain = 1.0;    // overall exposure
   // Colour the camera records the lamps' white as (RGB gains): what the camera's white
   // balance leaves of warm bar lamps or cool daylight (kWarmBarLamps, kDaylight).
