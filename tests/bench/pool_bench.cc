@@ -327,20 +327,25 @@ int main(int argc, char** argv) {
   app.add_flag("--cloth-unknown", cloth_unknown,
                "Keep the profile's default cloth colour whatever the cloth (a user who did not "
                "set it)");
-  app.add_option("--scale", render.scale,
-                 "Render at this many times 640x480 (the same views, blur scaled alike): a "
-                 "camera of higher resolution")
-      ->check(CLI::Range(0.5, 4.0));
-  app.add_option("--motion-blur", render.motion_blur,
-                 "A handheld camera's shake in every frame (live video): a smear of up to this "
-                 "many pixels in a random direction, each frame's drawn from a stream of its own")
-      ->check(CLI::Range(0.0, 20.0));
+  // A number option checked against its range.
+  const auto ranged_option = [&app](const char* name, double* value, const std::string& help,
+                                    double lo, double hi) {
+    app.add_option(name, *value, help)->check(CLI::Range(lo, hi));
+  };
+  ranged_option("--scale", &render.scale,
+                "Render at this many times 640x480 (the same views, blur scaled alike): a "
+                "camera of higher resolution",
+                0.5, 4.0);
+  ranged_option("--motion-blur", &render.motion_blur,
+                "A handheld camera's shake in every frame (live video): a smear of up to this "
+                "many pixels in a random direction, each frame's drawn from a stream of its own",
+                0.0, 20.0);
   double profile_table_scale = 1;
-  app.add_option("--profile-table-scale", profile_table_scale,
-                 "Analyse with the profile of a table this many times as long and wide (the same "
-                 "balls and cushions): a user's wrong table.json, which the analysis's profile "
-                 "note should name")
-      ->check(CLI::Range(0.3, 3.0));
+  ranged_option("--profile-table-scale", &profile_table_scale,
+                "Analyse with the profile of a table this many times as long and wide (the same "
+                "balls and cushions): a user's wrong table.json, which the analysis's profile "
+                "note should name",
+                0.3, 3.0);
   bool nine_foot_profile = false;
   app.add_flag("--nine-foot-profile", nine_foot_profile,
                "Analyse with the default 9-ft profile whatever the table (a user who gave no "
@@ -348,10 +353,10 @@ int main(int argc, char** argv) {
   app.add_flag("--cue-stick", render.cue_stick,
                "A cue stick in every frame, aimed through the cue ball at another ball as a "
                "player holds it (the same scenes otherwise)");
-  app.add_option("--exposure", render.exposure,
-                 "Scale each frame's exposure by this (over 1: the lit balls and cloth clip, "
-                 "as an overexposed phone picture; under 1: a dim, noisier picture)")
-      ->check(CLI::Range(0.25, 4.0));
+  ranged_option("--exposure", &render.exposure,
+                "Scale each frame's exposure by this (over 1: the lit balls and cloth clip, "
+                "as an overexposed phone picture; under 1: a dim, noisier picture)",
+                0.25, 4.0);
   app.add_flag("--srgb", render.srgb,
                "Encode the pictures with the sRGB curve, as a phone does (lighter shading and "
                "shadows), instead of in proportion to the light");
@@ -364,14 +369,14 @@ int main(int argc, char** argv) {
                    ? std::string()
                    : "expected X,Y,Z in mm, the lamps kept over the cloth (Z > -800)";
       });
-  app.add_option("--lamp-radius", render.lamp_radius,
-                 "Radius of each lamp in mm (70: a bare bulb's reflector; a billiard lamp's "
-                 "shade is 150-250): softer shadows and wider, dimmer highlights")
-      ->check(CLI::Range(10.0, 400.0));
-  app.add_option("--sharpen", render.sharpen,
-                 "A phone's sharpening of this amount (unsharp mask of 1 px at 640x480, after "
-                 "the noise): dark and light rings along every edge (0: none)")
-      ->check(CLI::Range(0.0, 3.0));
+  ranged_option("--lamp-radius", &render.lamp_radius,
+                "Radius of each lamp in mm (70: a bare bulb's reflector; a billiard lamp's "
+                "shade is 150-250): softer shadows and wider, dimmer highlights",
+                10.0, 400.0);
+  ranged_option("--sharpen", &render.sharpen,
+                "A phone's sharpening of this amount (unsharp mask of 1 px at 640x480, after "
+                "the noise): dark and light rings along every edge (0: none)",
+                0.0, 3.0);
   app.add_option("--elevation", render.elevation,
                  "The camera's elevation range LO,HI in degrees (30,65): the same scenes seen "
                  "from lower or higher (a player standing at the table's end looks down at "
@@ -381,10 +386,10 @@ int main(int argc, char** argv) {
         return ParseElevation(v, &lo, &hi) ? std::string()
                                            : "expected LO,HI in degrees, 10 <= LO <= HI <= 85";
       });
-  app.add_option("--max-roll", render.max_roll,
-                 "The camera's roll is drawn within this many degrees either way (6): a phone "
-                 "held crooked")
-      ->check(CLI::Range(0.0, 45.0));
+  ranged_option("--max-roll", &render.max_roll,
+                "The camera's roll is drawn within this many degrees either way (6): a phone "
+                "held crooked",
+                0.0, 45.0);
   app.add_option("--floor", render.floor,
                  "The floor's colour R,G,B (the renderer's warm grey tiles by default; a "
                  "wooden floor is about 150,95,55, a red carpet 120,30,35)")
