@@ -18,20 +18,22 @@ namespace {
 constexpr double kPi = 3.14159265358979323846;
 
 // 255 where the pixel's colour is within `angle_deg` of `ref` and brighter than
-// `min_sum` (B + G + R). With `nearer_than_grey`, also only where the colour is nearer
-// (in angle) to `ref` than to grey: a wide cone about a cloth of little colour (a purple
-// 18 degrees from grey) takes in a grey floor's (21 degrees from that purple, 5 from grey).
+// `min_sum` (B + G + R), and nearer (in angle) to `ref` than to each of `rivals`: a wide
+// cone about a cloth of little colour (a purple 18 degrees from grey) takes in a grey
+// floor's (21 degrees from that purple, 5 from grey), and one about a burgundy a wooden
+// floor's (18 degrees apart).
 cv::Mat AngleMask(const cv::Mat& bgr, const cv::Vec3f& ref, double angle_deg, double min_sum,
-                  bool nearer_than_grey = false) {
+                  const std::vector<cv::Vec3f>& rivals = {}) {
   cv::Mat mask(bgr.size(), CV_8UC1);
   const double c = std::cos(angle_deg * kPi / 180);
   const float c2 = static_cast<float>(c * c);
-  const float ref_norm = std::sqrt(ref.dot(ref));
-  const float ref_norm2 = ref_norm * ref_norm;
+  const float ref_norm2 = ref.dot(ref);
   const float min_s = static_cast<float>(min_sum);
-  // Nearer to ref than to grey: cos(p, ref) > cos(p, grey), i.e.
-  // p . ref / |ref| > (b + g + r) / sqrt(3) (both sides times |p|).
-  const float grey_norm = std::sqrt(3.0f);
+  // Nearer to ref than to a rival: p . ref / |ref| > p . rival / |rival| (both cosines times
+  // |p|), i.e. p . (ref / |ref| - rival / |rival|) > 0.
+  std::vector<cv::Vec3f> planes;
+  for (const cv::Vec3f& rival : rivals)
+    planes.push_back(ref / std::sqrt(ref_norm2) - rival / std::sqrt(rival.dot(rival)));
   for (int y = 0; y < bgr.rows; ++y) {
     const cv::Vec3b* p = bgr.ptr<cv::Vec3b>(y);
     uint8_t* m = mask.ptr<uint8_t>(y);
@@ -39,8 +41,9 @@ cv::Mat AngleMask(const cv::Mat& bgr, const cv::Vec3f& ref, double angle_deg, do
       const float b = p[x][0], g = p[x][1], r = p[x][2];
       const float dot = b * ref[0] + g * ref[1] + r * ref[2];
       const float n2 = b * b + g * g + r * r;
-      const bool in = b + g + r >= min_s && dot > 0 && dot * dot >= c2 * n2 * ref_norm2 &&
-                      (!nearer_than_grey || dot / ref_norm > (b + g + r) / grey_norm);
+      bool in = b + g + r >= min_s && dot > 0 && dot * dot >= c2 * n2 * ref_norm2;
+      for (size_t k = 0; in && k < planes.size(); ++k)
+        in = b * planes[k][0] + g * planes[k][1] + r * planes[k][2] > 0;
       m[x] = in ? 255 : 0;
     }
   }
@@ -615,24 +618,24 @@ std::vector<cv::Vec3f> DominantColours(const cv::Mat& small, double min_fraction
   return colours;
 }
 
-// Largest rectangle inconsistency of a table found only without the greys (see
-// DetectPoolTable).
-constexpr double kGreylessMaxInconsistency = 0.05;
+// Largest rectangle inconsistency of a table found in the colours nearest to the cloth's
+// (see DetectPoolTable).
+constexpr double kNearestMaxInconsistency = 0.05;
 
 // The table found from a cloth colour `seed` (the wide search's centre): steps 1-8 below.
-// With `greyless`, the wide search leaves out colours nearer to grey than to the seed.
+// The wide search leaves out colours nearer to one of `rivals` than to the seed.
 absl::StatusOr<PoolTableDetection> DetectPoolTableFrom(IdealView* view, const cv::Matx33d& K,
                                                        const PoolTableProfile& profile,
                                                        const PoolTableOptions& options,
                                                        const cv::Vec3f& seed,
-                                                       bool greyless = false) {
+                                                       const std::vector<cv::Vec3f>& rivals = {}) {
   PoolTableDetection det;
   const cv::Mat& small = view->half();
   const cv::Mat& bgr = view->full();  // valid only where view->Require made it so
   // 1. Wide search for the cloth, then its colour measured on this image.
   int area = 0;
   cv::Mat region =
-      LargestRegion(AngleMask(small, seed, options.search_angle_deg, 45, greyless), &area);
+      LargestRegion(AngleMask(small, seed, options.search_angle_deg, 45, rivals), &area);
   const int min_area = static_cast<int>(options.min_cloth_fraction * small.total());
   if (area < min_area) {
     return absl::FailedPreconditionError(absl::StrCat(
@@ -953,15 +956,21 @@ absl::StatusOr<PoolTableDetection> DetectPoolTable(IdealView* view, const cv::Ma
   // fewer pixels); the sides are then refined on the full image.
   const cv::Mat& small = view->half();
   const cv::Vec3f profile_cloth(profile.cloth_bgr[0], profile.cloth_bgr[1], profile.cloth_bgr[2]);
-  // PoolTableOptions::greyless_cloth_search: first without the greys; a table so found must
-  // fit the profile's rectangle closely (the benchmark's tables measure up to 0.03, a brown
-  // cloth taken together with its brown rails 0.09, which the search with the greys
-  // refuses).
+  // PoolTableOptions::nearest_colour_cloth_search: first the colours nearer to the seed
+  // than to grey and to the picture's other dominant colours (those over cloth_angle_deg
+  // from it); a table so found must fit the profile's rectangle closely (the benchmark's
+  // tables measure up to 0.03, a brown cloth taken together with its brown rails 0.09,
+  // which the search over the whole cone refuses).
+  const std::vector<cv::Vec3f> dominant =
+      DominantColours(small, options.min_cloth_fraction, std::max(3, options.other_cloth_colours));
   const auto find_from = [&](const cv::Vec3f& seed) {
-    if (options.greyless_cloth_search) {
-      auto greyless = DetectPoolTableFrom(view, K, profile, options, seed, true);
-      if (greyless.ok() && greyless->rectangle_inconsistency <= kGreylessMaxInconsistency)
-        return greyless;
+    if (options.nearest_colour_cloth_search) {
+      std::vector<cv::Vec3f> rivals = {cv::Vec3f(1, 1, 1)};
+      for (const cv::Vec3f& colour : dominant)
+        if (ColorAngleDeg(colour, seed) > options.cloth_angle_deg) rivals.push_back(colour);
+      auto nearest = DetectPoolTableFrom(view, K, profile, options, seed, rivals);
+      if (nearest.ok() && nearest->rectangle_inconsistency <= kNearestMaxInconsistency)
+        return nearest;
     }
     return DetectPoolTableFrom(view, K, profile, options, seed);
   };
@@ -970,8 +979,9 @@ absl::StatusOr<PoolTableDetection> DetectPoolTable(IdealView* view, const cv::Ma
   // A cloth of another colour than the profile's (blue, red): the image's own dominant
   // colours, each of which must still give a table of the profile's proportions. When none
   // does, the profile colour's answer says what is wrong.
-  for (const cv::Vec3f& colour :
-       DominantColours(small, options.min_cloth_fraction, options.other_cloth_colours)) {
+  for (size_t i = 0; i < dominant.size() && static_cast<int>(i) < options.other_cloth_colours;
+       ++i) {
+    const cv::Vec3f& colour = dominant[i];
     if (ColorAngleDeg(colour, profile_cloth) < options.search_angle_deg) continue;  // tried
     auto other = find_from(colour);
     if (!other.ok()) continue;

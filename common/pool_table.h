@@ -24,14 +24,16 @@ struct PoolTableOptions {
   // First, wider pass that finds the cloth when the light changes its colour; the cloth
   // colour is then re-measured on the table itself.
   double search_angle_deg = 22;
-  // The wide pass leaves out colours nearer (in angle) to grey than to the cloth's: a
-  // cloth of little colour (a purple 18 degrees from grey) beside a grey floor (21 degrees
-  // from it) took the floor in, and the greys of the cloth's shade pulled its measured
-  // colour towards grey (on red cloth, shadows then read as balls). A table so found must
-  // fit the profile's rectangle closely (inconsistency at most 0.05; a brown cloth taken
-  // together with its brown rails measures 0.09); else the search is made with the greys.
-  // false: always with the greys (before round 63).
-  bool greyless_cloth_search = true;
+  // The wide pass takes only colours nearer (in angle) to the cloth's than to grey and to
+  // the picture's other dominant colours (hue peaks over cloth_angle_deg from it): a cloth
+  // of little colour (a purple 18 degrees from grey) beside a grey floor (21 degrees from
+  // it), or a burgundy on a wooden floor (18 degrees apart), took the floor in, and the
+  // greys of the cloth's shade pulled its measured colour towards grey (on red cloth,
+  // shadows then read as balls). A table so found must fit the profile's rectangle closely
+  // (inconsistency at most 0.05; a brown cloth taken together with its brown rails
+  // measures 0.09); else the whole cone is searched. false: the whole cone only (before
+  // round 63).
+  bool nearest_colour_cloth_search = true;
   // Pixels darker than this fraction of the cloth brightness are never cloth (their
   // colour angle is noise).
   double min_cloth_brightness = 0.3;

@@ -472,9 +472,10 @@ int main(int argc, char** argv) {
   app.add_flag("!--no-fit-separation", analyzer_options.balls.separate_overlapping_fits,
                "Leave fits closer than two radii where they are (PoolBallOptions::"
                "separate_overlapping_fits)");
-  app.add_flag("!--cloth-search-with-greys", analyzer_options.table.greyless_cloth_search,
-               "Search the cloth with the colours nearer to grey than to its own as well "
-               "(PoolTableOptions::greyless_cloth_search off, as before round 63)");
+  app.add_flag("!--whole-cloth-cone", analyzer_options.table.nearest_colour_cloth_search,
+               "Search the cloth in every colour within the wide angle of its own, also those "
+               "nearer to grey or to another dominant colour (PoolTableOptions::"
+               "nearest_colour_cloth_search off, as before round 63)");
   app.add_option("--cloth-close-fraction", analyzer_options.table.cloth_close_fraction,
                  "Gaps in the cloth region up to this share of the image's width are closed "
                  "before the table's outline is taken (0: the 3x3 closing alone)")

@@ -484,50 +484,67 @@ TEST(PoolClothColour, ClothOfAnotherColourThanTheProfileIsFound) {
 // into the image's border: "only part of the table" then also says that the floor may have
 // the cloth's colour, since the whole table is in view. (A cloth of nearly no colour is
 // refused by the profile: PoolProfile.ValidateSaysWhatIsWrong.)
-// A purple cloth, told to the profile, beside a grey floor. The purple is 18 degrees from
-// grey, the floor 21 degrees from the purple: the wide search for the cloth took the floor
-// in, and the table was "only part of the table is in view" (the benchmark's seeds 7 and
-// 11, --cloth 90,50,120: 1 table in 120 frames). Now the cloth is searched first without the
-// colours nearer to grey than to its own (PoolTableOptions::greyless_cloth_search): the
-// table within 1.5 px, and every ball but the purple 4 (of the cloth's hue) located within
-// 16 mm, the separated ones named; with the greys, refused. Not told the cloth's colour,
-// the table is found in the picture's own purple the same way.
-TEST(PoolClothColour, PurpleClothBesideAGreyFloorIsFound) {
-  for (const PoolViewSide side : {PoolViewSide::kLongNear, PoolViewSide::kShortLeft}) {
-    SCOPED_TRACE(side == PoolViewSide::kLongNear ? "long side" : "short side");
-    PoolScene scene = Scene(side, 45, 8);
-    scene.srgb_tone = true;
-    scene.table.cloth_rgb = {90, 50, 120};
-    PoolTableProfile profile = ProfileFor(scene.table);
-    profile.cloth_bgr = {120, 50, 90};
-    const PoolView view = testdata::RenderPoolView(scene, 1357);
-    auto scored = AnalyzeAndScore(scene, view, {}, &profile);
-    ASSERT_TRUE(scored.ok()) << scored.status();
-    const testdata::PoolScore& score = scored->score;
-    EXPECT_LT(score.max_corner_error_px, 1.5);
-    EXPECT_EQ(score.false_balls, 0);
-    int separated = 0, named = 0;
-    for (const auto& m : score.matches) {
-      if (m.truth_number == 4) continue;
-      EXPECT_GE(m.estimated_index, 0) << "ball " << m.truth_number << " not located";
-      if (m.estimated_index >= 0) {
-        EXPECT_LT(m.error_mm, 16.0) << "ball " << m.truth_number;
+// A cloth beside a floor of nearly its colour: a purple (told to the profile) 18 degrees
+// from grey beside the renderer's grey floor 21 degrees from it, and a burgundy 18 degrees
+// from a wooden floor. The wide search for the cloth took the floor in, and the table was
+// "only part of the table is in view" (the benchmark's seeds 7 and 11: purple 1 table in 120
+// frames, burgundy on wood none). Now the wide search takes only the colours nearer to the
+// cloth's than to grey and to the picture's other dominant colours
+// (PoolTableOptions::nearest_colour_cloth_search): the table within 1.5 px, and every ball
+// but those of the cloth's hue located within 16 mm, the separated ones named; over the
+// whole cone, refused. Not told the cloth's colour, the table is found in the picture's own
+// the same way.
+TEST(PoolClothColour, ClothBesideAFloorOfNearlyItsColourIsFound) {
+  struct Case {
+    const char* name;
+    cv::Vec3d cloth_rgb;
+    std::optional<cv::Vec3d> floor_rgb;
+    std::vector<int> of_the_cloth_hue;
+  };
+  const Case cases[] = {
+      {"purple beside a grey floor", {90, 50, 120}, std::nullopt, {4}},
+      {"burgundy on a wooden floor", {125, 30, 40}, cv::Vec3d(150, 95, 55), {3, 7}}};
+  for (const Case& c : cases)
+    for (const PoolViewSide side : {PoolViewSide::kLongNear, PoolViewSide::kShortLeft}) {
+      SCOPED_TRACE(std::string(c.name) +
+                   (side == PoolViewSide::kLongNear ? ", long side" : ", short side"));
+      PoolScene scene = Scene(side, 45, 8);
+      scene.srgb_tone = true;
+      scene.table.cloth_rgb = c.cloth_rgb;
+      if (c.floor_rgb) scene.floor_rgb = *c.floor_rgb;
+      PoolTableProfile profile = ProfileFor(scene.table);
+      profile.cloth_bgr = cv::Vec3b(cv::saturate_cast<uchar>(c.cloth_rgb[2]),
+                                    cv::saturate_cast<uchar>(c.cloth_rgb[1]),
+                                    cv::saturate_cast<uchar>(c.cloth_rgb[0]));
+      const PoolView view = testdata::RenderPoolView(scene, 1357);
+      auto scored = AnalyzeAndScore(scene, view, {}, &profile);
+      ASSERT_TRUE(scored.ok()) << scored.status();
+      const testdata::PoolScore& score = scored->score;
+      EXPECT_LT(score.max_corner_error_px, 1.5);
+      EXPECT_EQ(score.false_balls, 0);
+      int separated = 0, named = 0;
+      for (const auto& m : score.matches) {
+        if (std::count(c.of_the_cloth_hue.begin(), c.of_the_cloth_hue.end(), m.truth_number))
+          continue;
+        EXPECT_GE(m.estimated_index, 0) << "ball " << m.truth_number << " not located";
+        if (m.estimated_index >= 0) {
+          EXPECT_LT(m.error_mm, 16.0) << "ball " << m.truth_number;
+        }
+        separated += m.separated;
+        named += m.separated && m.estimated_number == m.truth_number;
       }
-      separated += m.separated;
-      named += m.separated && m.estimated_number == m.truth_number;
+      EXPECT_GE(separated, 6);
+      EXPECT_GE(named, separated - 1);
+      PoolAnalyzerOptions whole_cone;
+      whole_cone.table.nearest_colour_cloth_search = false;
+      auto before = AnalyzeAndScore(scene, view, whole_cone, &profile);
+      ASSERT_FALSE(before.ok());
+      EXPECT_NE(before.status().message().find("only part of the table"), std::string::npos);
+      // Not told (the profile's default green): found in the picture's own colour.
+      auto untold = AnalyzeAndScore(scene, view);
+      ASSERT_TRUE(untold.ok()) << untold.status();
+      EXPECT_LT(untold->score.max_corner_error_px, 1.5);
     }
-    EXPECT_GE(separated, 7);
-    EXPECT_GE(named, separated - 1);
-    PoolAnalyzerOptions with_greys;
-    with_greys.table.greyless_cloth_search = false;
-    auto before = AnalyzeAndScore(scene, view, with_greys, &profile);
-    ASSERT_FALSE(before.ok());
-    EXPECT_NE(before.status().message().find("only part of the table"), std::string::npos);
-    // Not told (the profile's default green): found in the picture's own purple.
-    auto untold = AnalyzeAndScore(scene, view);
-    ASSERT_TRUE(untold.ok()) << untold.status();
-    EXPECT_LT(untold->score.max_corner_error_px, 1.5);
-  }
 }
 
 TEST(PoolErrors, ClothOfTheFloorsColourIsRefusedWithTheReason) {
@@ -1706,8 +1723,9 @@ void ExpectEveryBallNamedButNotWithout(const std::vector<BenchViewCase>& cases,
 // lost. Pixels of an sRGB picture over PoolBallOptions::bright_fraction_srgb of the cloth's
 // brightness are ball. Seed 7's set on the benchmark's red cloth (--cloth red --srgb),
 // frames 10, 15, 17, 23 and 37: the separated 3 is named within 10 mm; without the rule it
-// is not found in frames 15, 17 and 23 (frames 10 and 37 find it without the rule too
-// since the cloth's colour is measured without the greys, round 63).
+// is not found, or found over 20 mm off, in frames 15, 17 and 23 (frames 10 and 37 find it
+// without the rule too since the cloth's colour is measured in the colours nearest its
+// own, round 63).
 TEST(PoolClothColour, LightBallOfTheClothsHueIsFoundByItsBrightness) {
   PoolAnalyzerOptions without;
   without.balls.bright_fraction_srgb = 0;
@@ -1718,7 +1736,8 @@ TEST(PoolClothColour, LightBallOfTheClothsHueIsFoundByItsBrightness) {
     ASSERT_NO_FATAL_FAILURE(AnalyzeWithAndWithout(red, without, &scored));
     ExpectSeparatedBallNamed(scored.with, 3, 10.0);
     if (frame != 10 && frame != 37) {
-      EXPECT_LT(ErrorOf(scored.without, 3), 0) << "the 3 found without the rule";
+      const double without_mm = ErrorOf(scored.without, 3);
+      EXPECT_TRUE(without_mm < 0 || without_mm > 20) << "the 3 placed without the rule";
     }
   }
   ExpectRejected(&PoolBallOptions::bright_fraction_srgb, {1.0, 5, -1});
@@ -1807,7 +1826,8 @@ TEST(PoolDarkBalls, OfTwoFitsOfOneBallTheOneMoreBallByColourIsKept) {
   SCOPED_TRACE(CaseName(red));
   PoolAnalyzerOptions with_rule, red_without = without;
   with_rule.balls.cloth_hue_ball_dark_share = 0;
-  with_rule.table.greyless_cloth_search = red_without.table.greyless_cloth_search = false;
+  with_rule.table.nearest_colour_cloth_search = red_without.table.nearest_colour_cloth_search =
+      false;
   WithAndWithout scored;
   ASSERT_NO_FATAL_FAILURE(AnalyzeWithAndWithout(red, red_without, &scored, with_rule));
   ExpectSeparatedBallNamed(scored.with, 7, 10.0);
@@ -2226,7 +2246,7 @@ TEST(PoolTablePose, AShortSideIsNotCrowdedOutByNearCopiesOfTheLongSides) {
 TEST(PoolTablePose, CueStickOverTheClothLeavesTheTableFound) {
   PoolAnalyzerOptions one_pixel_gaps;
   one_pixel_gaps.table.cloth_close_fraction = 0;
-  one_pixel_gaps.table.greyless_cloth_search = false;
+  one_pixel_gaps.table.nearest_colour_cloth_search = false;
   for (const auto& [seed, frame] : {std::pair<uint64_t, int>{19, 25}, {7, 41}, {11, 38}}) {
     SCOPED_TRACE("seed " + std::to_string(seed) + " frame " + std::to_string(frame));
     const auto [scene, view] =
