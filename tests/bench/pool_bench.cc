@@ -397,6 +397,11 @@ int main(int argc, char** argv) {
         std::optional<cv::Vec3d> rgb;
         return ParseNamedRgb(v, {}, &rgb) ? std::string() : "expected R,G,B";
       });
+  double focal_scale = 1;
+  ranged_option("--focal-scale", &focal_scale,
+                "Tell the analysis a focal length this many times the camera's (a phone's "
+                "intrinsics guessed from its field of view, not calibrated)",
+                0.5, 2.0);
   PoolAnalyzerOptions analyzer_options;
   // The ball finder's options, each shown with its default.
   const auto ball_option = [&app](const char* name, double* value, const std::string& help) {
@@ -538,6 +543,8 @@ int main(int argc, char** argv) {
     }
     CameraModel camera;
     camera.K = view.camera_matrix;
+    camera.K(0, 0) *= focal_scale;  // a user's focal length, off by this factor
+    camera.K(1, 1) *= focal_scale;
     camera.distortion = view.distortion;
     camera.size = view.image.size();
     auto analyzer = PoolAnalyzer::Create(profile, camera, analyzer_options);
