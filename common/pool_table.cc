@@ -961,8 +961,10 @@ absl::StatusOr<PoolTableDetection> DetectPoolTable(IdealView* view, const cv::Ma
   // from it); a table so found must fit the profile's rectangle closely (the benchmark's
   // tables measure up to 0.03, a brown cloth taken together with its brown rails 0.09,
   // which the search over the whole cone refuses).
-  const std::vector<cv::Vec3f> dominant =
-      DominantColours(small, options.min_cloth_fraction, std::max(3, options.other_cloth_colours));
+  std::vector<cv::Vec3f> dominant;
+  if (options.nearest_colour_cloth_search || options.other_cloth_colours > 0)
+    dominant = DominantColours(small, options.min_cloth_fraction,
+                               std::max(3, options.other_cloth_colours));
   const auto find_from = [&](const cv::Vec3f& seed) {
     if (options.nearest_colour_cloth_search) {
       std::vector<cv::Vec3f> rivals = {cv::Vec3f(1, 1, 1)};
