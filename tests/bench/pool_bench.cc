@@ -369,10 +369,11 @@ int main(int argc, char** argv) {
                    ? std::string()
                    : "expected X,Y,Z in mm, the lamps kept over the cloth (Z > -800)";
       });
-  ranged_option("--lamp-radius", &render.lamp_radius,
-                "Radius of each lamp in mm (70: a bare bulb's reflector; a billiard lamp's "
-                "shade is 150-250): softer shadows and wider, dimmer highlights",
-                10.0, 400.0);
+  ranged_option(
+      "--lamp-radius", &render.lamp_radius,
+      "Radius of each lamp in mm (70: a bare bulb's reflector; a billiard lamp's "
+      "shade is 300-500 across, a radius of 150-250): softer shadows and wider, dimmer highlights",
+      10.0, 400.0);
   ranged_option("--sharpen", &render.sharpen,
                 "A phone's sharpening of this amount (unsharp mask of 1 px at 640x480, after "
                 "the noise): dark and light rings along every edge (0: none)",

@@ -306,7 +306,7 @@ TEST(PoolShake, HandheldShakeKeepsEveryBallFoundAndNamed) {
 }
 
 // A phone sharpens its pictures (dark and light rings along every edge, the noise too),
-// and a billiard lamp's shade is 150-250 mm across, not a bulb's 70 mm (softer shadows,
+// and a billiard lamp's shade is 150-250 mm in radius, not a bulb's 70 mm (softer shadows,
 // wider and dimmer highlights). Both on an sRGB picture from a long and a short side: every
 // ball within 12 mm, no false ball, the separated balls named (the benchmark on seeds 7-19,
 // sRGB: --sharpen 1 15 balls over 10 mm of 2,352 against 19, --lamp-radius 200 25).
