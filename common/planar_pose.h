@@ -2,6 +2,7 @@
 // refinement.
 #pragma once
 
+#include <array>
 #include <opencv2/core.hpp>
 #include <optional>
 #include <vector>
@@ -69,6 +70,16 @@ absl::StatusOr<PlanarPose> RefinePlanarPose(const std::vector<cv::Point2f> &plan
 // The homography plane -> pixels of a pose: K [r1 r2 t], normalised to H(2,2)
 // = 1.
 cv::Matx33d HomographyFromPose(const PlanarPose &pose, const cv::Matx33d &K);
+
+// The focal length (pixels, square pixels) under which `corners` (ideal pixels, in the
+// order (0,0), (width,0), (width,height), (0,height) of a rectangle of those sides) are a
+// rectangle seen by a camera with this principal point: the homography's first two
+// columns, through K^-1, orthogonal and of equal length, solved for 1/f^2 in least
+// squares. nullopt when the view leaves it unfixed (both vanishing points at infinity, a
+// rectangle seen square on) or the solution is not a real focal length.
+std::optional<double> FocalLengthFromRectangle(const std::array<cv::Point2d, 4> &corners,
+                                               const cv::Point2d &principal_point, double width,
+                                               double height);
 
 // Applies a homography to a point.
 cv::Point2d ApplyHomography(const cv::Matx33d &H, const cv::Point2d &p);

@@ -881,6 +881,8 @@ absl::StatusOr<PoolTableDetection> DetectPoolTableFrom(IdealView* view, const cv
                      "); check the table profile and the camera intrinsics"));
   }
   det.rectangle_inconsistency = best_inconsistency;
+  det.corner_focal_px =
+      FocalLengthFromRectangle(best_order, {K(0, 2), K(1, 2)}, L + 2 * cw, W + 2 * cw).value_or(0);
   std::vector<cv::Point2f> plane_points(plane.begin(), plane.end()), pixels;
   for (const auto& p : best_order) pixels.emplace_back(p);
   CameraModel ideal;

@@ -79,6 +79,10 @@ struct PoolTableDetection {
   bool cloth_not_profile_colour = false;
   bool long_side_view = true;  // camera stands at a long side
   double rectangle_inconsistency = 0;
+  // The focal length (ideal pixels) under which the four corners as measured (before the
+  // pose's reprojection) are the profile's rectangle (FocalLengthFromRectangle); 0 when
+  // the view leaves it unfixed.
+  double corner_focal_px = 0;
   cv::Mat cloth_mask;  // CV_8U, 255 = cloth (largest region), at half resolution
 };
 

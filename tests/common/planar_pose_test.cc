@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 #include <opencv2/calib3d.hpp>
 #include <random>
@@ -120,6 +121,42 @@ TEST(PlanarPoseTest, HomographyFromPoseRoundTrip) {
     EXPECT_LT(cv::norm(pose->t - truth.t), 1e-6 * cv::norm(truth.t));
     EXPECT_LT(MaxAbs(HomographyFromPose(*pose, kK) - H), 1e-6 * MaxAbs(H));
   }
+}
+
+// The focal length from a rectangle of known sides seen by exact synthetic cameras: found
+// to 1e-6 from exact corners under tilts, azimuths and rolls; within 3% with 0.25 px of
+// noise on the corners; unfixed (nullopt) for a rectangle seen square on.
+TEST(PlanarPoseTest, FocalLengthFromARectangleOfKnownSides) {
+  const double width = 1330, height = 700;
+  const auto corners_of = [&](const PlanarPose &pose, double noise_px, std::mt19937 *rng) {
+    std::normal_distribution<double> noise(0, noise_px);
+    std::array<cv::Point2d, 4> corners;
+    const cv::Point2d plane[4] = {{0, 0}, {width, 0}, {width, height}, {0, height}};
+    for (int i = 0; i < 4; ++i) {
+      const cv::Vec3d x = pose.R * cv::Vec3d(plane[i].x, plane[i].y, 0) + pose.t;
+      corners[i] = {kK(0, 0) * x[0] / x[2] + kK(0, 2) + (noise_px > 0 ? noise(*rng) : 0),
+                    kK(1, 1) * x[1] / x[2] + kK(1, 2) + (noise_px > 0 ? noise(*rng) : 0)};
+    }
+    return corners;
+  };
+  const cv::Point2d principal(kK(0, 2), kK(1, 2));
+  std::mt19937 rng(5);
+  for (double tilt : {30.0, 45.0, 60.0})
+    for (double azimuth : {10.0, 35.0, 70.0})
+      for (double roll : {0.0, 8.0}) {
+        SCOPED_TRACE(testing::Message()
+                     << "tilt " << tilt << " azimuth " << azimuth << " roll " << roll);
+        const PlanarPose pose = Camera(tilt, azimuth, roll, 2500, {width / 2, height / 2});
+        auto f = FocalLengthFromRectangle(corners_of(pose, 0, &rng), principal, width, height);
+        ASSERT_TRUE(f.has_value());
+        EXPECT_NEAR(*f / kK(0, 0), 1.0, 1e-6);
+        auto noisy =
+            FocalLengthFromRectangle(corners_of(pose, 0.25, &rng), principal, width, height);
+        ASSERT_TRUE(noisy.has_value());
+        EXPECT_NEAR(*noisy / kK(0, 0), 1.0, 0.03);
+      }
+  const PlanarPose square_on = Camera(0, 0, 0, 2500, {width / 2, height / 2});
+  EXPECT_FALSE(FocalLengthFromRectangle(corners_of(square_on, 0, &rng), principal, width, height));
 }
 
 TEST(PlanarPoseTest, PoseFromHomographyRejectsDegenerate) {

@@ -613,6 +613,43 @@ TEST(PoolProfileNote, AProfileOfAnotherTableIsNamedAndTheRightOneIsNot) {
 
 // Balls 1.6 times as large as the profile's on a table of the profile's size: the
 // ball-size ratio alone names it.
+// Intrinsics whose focal length is 10% off (a guess from the field of view): the note
+// names the focal length the table's corners say, within 3% of the camera's, and how far
+// the intrinsics' is from it. 2% off (within what one frame's corners fix): no focal length
+// named.
+TEST(PoolProfileNote, AFocalLengthFarOffIsNamedWithTheCornersOne) {
+  for (const PoolViewSide side : {PoolViewSide::kLongNear, PoolViewSide::kShortLeft}) {
+    SCOPED_TRACE(side == PoolViewSide::kLongNear ? "long side" : "short side");
+    const PoolScene scene = Scene(side, 45, 8);
+    const PoolView view = testdata::RenderPoolView(scene, 4242);
+    const double true_focal = view.camera_matrix(0, 0);
+    for (const double scale : {1.1, 0.9, 1.02}) {
+      SCOPED_TRACE(scale);
+      CameraModel camera = CameraOf(view);
+      camera.K(0, 0) *= scale;
+      camera.K(1, 1) *= scale;
+      auto analyzer = PoolAnalyzer::Create(ProfileFor(scene.table), camera, ForLinearRender());
+      ASSERT_TRUE(analyzer.ok()) << analyzer.status();
+      auto analysis = analyzer->Analyze(view.image);
+      ASSERT_TRUE(analysis.ok()) << analysis.status();
+      const std::string& note = analysis->profile_note;
+      const size_t at = note.find("a focal length of about ");
+      if (scale == 1.02) {
+        EXPECT_EQ(at, std::string::npos) << note;
+        continue;
+      }
+      ASSERT_NE(at, std::string::npos) << note;
+      const double said = std::stod(note.substr(at + std::strlen("a focal length of about ")));
+      EXPECT_NEAR(said / true_focal, 1.0, 0.03) << note;
+      EXPECT_NE(note.find(scale > 1 ? "shorter than the intrinsics'"
+                                    : "longer than the "
+                                      "intrinsics'"),
+                std::string::npos)
+          << note;
+    }
+  }
+}
+
 TEST(PoolProfileNote, BallsLargerThanTheProfilesAreNamed) {
   PoolScene scene = Scene(PoolViewSide::kLongNear, 50);
   const PoolTableProfile profile = ProfileFor(scene.table);
