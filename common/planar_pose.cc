@@ -247,16 +247,14 @@ cv::Matx33d HomographyFromPose(const PlanarPose &pose, const cv::Matx33d &K) {
 std::optional<double> FocalLengthFromRectangle(const std::array<cv::Point2d, 4> &corners,
                                                const cv::Point2d &principal_point, double width,
                                                double height) {
-  std::vector<cv::Point2d> plane = {{0, 0}, {width, 0}, {width, height}, {0, height}}, pixels;
-  for (const cv::Point2d &c : corners) pixels.push_back(c - principal_point);
-  const cv::Mat Hm =
-      cv::getPerspectiveTransform(std::vector<cv::Point2f>(plane.begin(), plane.end()),
-                                  std::vector<cv::Point2f>(pixels.begin(), pixels.end()));
-  if (Hm.empty()) return std::nullopt;
-  const cv::Matx33d H(Hm);
-  // With w = 1 / f^2 and h1, h2 the columns: h1 . h2 = 0 and |h1| = |h2| through K^-1:
-  //   (h1x h2x + h1y h2y) w + h1z h2z = 0
-  //   (h1x^2 + h1y^2 - h2x^2 - h2y^2) w + h1z^2 - h2z^2 = 0
+  const float w = static_cast<float>(width), h = static_cast<float>(height);
+  const cv::Point2f plane[4] = {{0, 0}, {w, 0}, {w, h}, {0, h}};
+  cv::Point2f pixels[4];
+  for (int i = 0; i < 4; ++i) pixels[i] = cv::Point2f(corners[i] - principal_point);
+  const cv::Matx33d H = cv::getPerspectiveTransform(plane, pixels);
+  // With h1, h2 the columns: h1 . h2 = 0 and |h1| = |h2| through K^-1, linear in 1 / f^2:
+  //   (h1x h2x + h1y h2y) / f^2 + h1z h2z = 0
+  //   (h1x^2 + h1y^2 - h2x^2 - h2y^2) / f^2 + h1z^2 - h2z^2 = 0
   // Each row is scaled to the size of its terms so that both weigh alike.
   const cv::Vec3d h1(H(0, 0), H(1, 0), H(2, 0)), h2(H(0, 1), H(1, 1), H(2, 1));
   const double xy1 = h1[0] * h1[0] + h1[1] * h1[1], xy2 = h2[0] * h2[0] + h2[1] * h2[1];
@@ -267,10 +265,10 @@ std::optional<double> FocalLengthFromRectangle(const std::array<cv::Point2d, 4> 
   const double A1 = a1 / s1, B1 = b1 / s1, A2 = a2 / s2, B2 = b2 / s2;
   const double AA = A1 * A1 + A2 * A2;
   if (!(AA > 0)) return std::nullopt;
-  // Both vanishing points at infinity (h1z = h2z = 0) leave w = 0: not fixed.
-  const double w = -(A1 * B1 + A2 * B2) / AA;
-  if (!(w > 0) || !std::isfinite(w)) return std::nullopt;
-  return 1 / std::sqrt(w);
+  // Both vanishing points at infinity (h1z = h2z = 0) leave 1 / f^2 = 0: not fixed.
+  const double inv_f2 = -(A1 * B1 + A2 * B2) / AA;
+  if (!(inv_f2 > 0) || !std::isfinite(inv_f2)) return std::nullopt;
+  return 1 / std::sqrt(inv_f2);
 }
 
 cv::Point2d ApplyHomography(const cv::Matx33d &H, const cv::Point2d &p) {

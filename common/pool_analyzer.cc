@@ -13,13 +13,13 @@ namespace texfree {
 
 namespace {
 
+// Relative focal length error a note names (see ProfileNote).
+constexpr double kNamedFocalError = 0.03;
+
 // PoolAnalysis::profile_note for a table and its balls measured against `profile`.
 // `focal_ratio`: the focal length the table's corners say (FocalLengthFromRectangle, the
 // profile's sides taken as right) over the intrinsics', 0 when unfixed; `focal_px` the
 // intrinsics' focal length in the picture's pixels.
-// Relative focal length error a note names (see ProfileNote).
-constexpr double kNamedFocalError = 0.03;
-
 std::string ProfileNote(const PoolTableProfile& profile, const PoolAnalyzerOptions& options,
                         double rectangle_inconsistency, double ball_size_ratio, double focal_ratio,
                         double focal_px) {

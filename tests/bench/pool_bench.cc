@@ -141,7 +141,8 @@ struct RenderConditions {
   double lamp_radius = PoolScene().lamp_radius_mm;
   double sharpen = 0;
   std::string elevation;
-  double max_roll = 6;
+  static constexpr double kRendererMaxRoll = 6;  // RandomPoolScene's default
+  double max_roll = kRendererMaxRoll;
   std::string floor;
 
   // As a file name stem; the renderer's defaults leave their part out, so that the views
@@ -160,7 +161,7 @@ struct RenderConditions {
                                                    : "_lampradius" + std::to_string(lamp_radius)) +
         (sharpen > 0 ? "_sharpen" + std::to_string(sharpen) : "") +
         (elevation.empty() ? "" : "_elevation_" + elevation) +
-        (max_roll == 6 ? "" : "_roll" + std::to_string(max_roll)) +
+        (max_roll == kRendererMaxRoll ? "" : "_roll" + std::to_string(max_roll)) +
         (floor.empty() ? "" : "_floor_" + floor) + "_f" + std::to_string(frame);
     for (char& c : key)
       if (!std::isalnum(static_cast<unsigned char>(c)) && c != '.' && c != '-') c = '_';
